@@ -1,0 +1,173 @@
+#pragma once
+/**
+ * @file vehicle_model.hpp
+ * @brief A vehicle's description as the dynamics uses it: bodies, wheels or tracks and
+ *        their joints from the URDF, and the parameters URDF cannot hold (suspension,
+ *        steering, drivetrain, brakes) from config/vehicles/<model>.yaml. Everything is
+ *        validated at load; a bad file throws ConfigError naming the file and the key.
+ */
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace avsp
+{
+namespace dynamics
+{
+/// A vehicle description that cannot be used; what() names the file and key/link/joint.
+class ConfigError : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class DriveType
+{
+  kAckermann,  ///< steered front wheels (steering joints), driven axles
+  kSkidSteer,  ///< no steering joints; steering becomes a left/right speed difference
+  kTracked     ///< two tracks; steering becomes a left/right sprocket speed difference
+};
+
+enum class Differential
+{
+  kOpen,
+  kLocked
+};
+
+/// A URDF link that carries mass.
+struct Body
+{
+  std::string link;
+  double mass;                           ///< kg, > 0
+  Eigen::Vector3d principal_inertia;     ///< kg m^2, eigenvalues of the inertia tensor
+  Eigen::Vector3d rest_position;         ///< m, link origin in base_link with all joints at 0
+};
+
+/// A road wheel of a wheeled vehicle, with its suspension and (optional) steering joints.
+struct WheelSpec
+{
+  std::string name;               ///< e.g. front_left
+  std::string spin_joint;         ///< continuous joint about the wheel axle (URDF y)
+  std::string suspension_joint;   ///< prismatic joint along base z
+  std::string steering_joint;     ///< revolute joint about z; empty if not steered
+  std::string link;               ///< the wheel link (child of spin_joint)
+  bool driven;
+  double radius;                  ///< m, from the wheel link's collision cylinder
+  double width;                   ///< m, from the wheel link's collision cylinder
+  double suspension_lower;        ///< m, URDF joint lower limit (< 0), along base z
+  double suspension_upper;        ///< m, URDF joint upper limit (> 0), along base z
+  Eigen::Vector3d rest_position;  ///< m, wheel centre in base_link with all joints at 0
+};
+
+/// One road wheel of a track on its torsion-bar arm.
+struct RoadWheelSpec
+{
+  std::string arm_joint;          ///< revolute joint about y (torsion bar)
+  std::string spin_joint;         ///< continuous joint about y
+  std::string link;               ///< the road wheel link
+  double radius;                  ///< m
+  double width;                   ///< m
+  Eigen::Vector3d rest_position;  ///< m, wheel centre in base_link
+};
+
+/// One side's track running gear.
+struct TrackSpec
+{
+  std::string side;                        ///< left | right
+  std::string sprocket_joint;
+  std::string idler_joint;
+  double sprocket_radius;                  ///< m, URDF sprocket cylinder radius
+  double idler_radius;                     ///< m
+  std::vector<RoadWheelSpec> road_wheels;  ///< front to rear
+  /// m, ground contact length: first to last road wheel centre along x.
+  double contactLength() const;
+};
+
+/// Track shoe parameters shared by both sides (MODELS.md T10).
+struct TrackParameters
+{
+  double pitch = 0.0;        ///< m
+  int sprocket_teeth = 0;    ///< N
+  double shoe_width = 0.0;   ///< m
+  /// m, track speed per sprocket rad/s: p N / (2 pi) (T10).
+  double effectiveSprocketRadius() const;
+};
+
+struct SuspensionSpec  ///< wheeled: linear spring-damper per wheel
+{
+  double stiffness = 0.0;           ///< N/m
+  double damping = 0.0;             ///< N s/m
+  double preload_deflection = 0.0;  ///< m
+};
+
+struct TorsionSuspensionSpec  ///< tracked: torsion bar per road arm
+{
+  double torsion_stiffness = 0.0;   ///< N m/rad
+  double torsion_damping = 0.0;     ///< N m s/rad
+  double preload_angle = 0.0;       ///< rad
+};
+
+struct SteeringSpec
+{
+  double max_angle = 0.0;  ///< rad, road-wheel angle at full lock (ackermann only)
+  double max_rate = 0.0;   ///< rad/s
+};
+
+struct DrivetrainSpec
+{
+  double engine_max_torque = 0.0;  ///< N m
+  double engine_max_power = 0.0;   ///< W
+  double gear_ratio = 0.0;         ///< engine : wheel (or sprocket)
+  double efficiency = 0.0;         ///< (0, 1]
+  double max_speed = 0.0;          ///< m/s
+  std::map<std::string, Differential> differentials;  ///< front/rear/center or left/right
+};
+
+struct BrakeSpec
+{
+  double max_torque = 0.0;  ///< N m per wheel (or sprocket)
+};
+
+/// Everything the dynamics needs to build one vehicle.
+struct VehicleModel
+{
+  std::string model;        ///< e.g. fed_alpha
+  DriveType drive_type;
+  std::string yaml_path;
+  std::string urdf_path;    ///< resolved, absolute or relative to the working directory
+  std::vector<Body> bodies;
+  double total_mass = 0.0;  ///< kg, sum of bodies
+  std::vector<WheelSpec> wheels;  ///< wheeled vehicles
+  std::vector<TrackSpec> tracks;  ///< tracked vehicles: left then right
+  TrackParameters track;
+  SuspensionSpec suspension;
+  TorsionSuspensionSpec torsion;
+  SteeringSpec steering;
+  DrivetrainSpec drivetrain;
+  BrakeSpec brakes;
+  std::map<std::string, Eigen::Vector3d> sensor_mounts;  ///< lidar/radar/gps/imu, m in base_link
+
+  /// m, front-axle x minus rear-axle x (wheeled), or track contact length (tracked).
+  double wheelbase() const;
+  /// m, left-right distance between wheel (or track) centres.
+  double trackWidth() const;
+};
+
+/// Sensor mount links every vehicle URDF must have, attached by fixed joints.
+const std::vector<std::string>& requiredSensorLinks();
+
+/**
+ * @brief Loads config/vehicles/<model>.yaml and the URDF it names, and validates both.
+ * @param yaml_path the vehicle's YAML file; its `urdf` key is relative to this file's folder
+ * @return the validated model
+ * @throw ConfigError naming the file and the key, link or joint at fault and why
+ */
+VehicleModel loadVehicleModel(const std::string& yaml_path);
+
+const char* toString(DriveType type);
+
+}  // namespace dynamics
+}  // namespace avsp

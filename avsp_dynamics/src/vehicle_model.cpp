@@ -1,0 +1,590 @@
+#include "avsp_dynamics/vehicle_model.hpp"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <urdf_model/model.h>
+#include <urdf_parser/urdf_parser.h>
+#include <yaml-cpp/yaml.h>
+
+namespace avsp
+{
+namespace dynamics
+{
+namespace
+{
+/// A YAML map being read, with the file and key path needed for error messages.
+class Section
+{
+public:
+  Section(YAML::Node node, std::string file, std::string path)
+    : node_(std::move(node)), file_(std::move(file)), path_(std::move(path))
+  {
+  }
+
+  [[noreturn]] void fail(const std::string& key, const std::string& reason) const
+  {
+    std::ostringstream msg;
+    msg << file_ << ": key '" << qualified(key) << "'";
+    const YAML::Node at = (!key.empty() && node_.IsMap() && node_[key]) ? node_[key] : node_;
+    if (at.Mark().line >= 0)
+      msg << " (line " << at.Mark().line + 1 << ")";
+    msg << ": " << reason;
+    throw ConfigError(msg.str());
+  }
+
+  std::string qualified(const std::string& key) const
+  {
+    if (path_.empty())
+      return key;
+    return key.empty() ? path_ : path_ + "." + key;
+  }
+
+  /// Rejects keys not in `allowed` (typos must not become silent defaults).
+  void allowOnly(const std::set<std::string>& allowed) const
+  {
+    for (const auto& kv : node_)
+    {
+      const std::string key = kv.first.as<std::string>();
+      if (!allowed.count(key))
+      {
+        std::string known;
+        for (const auto& k : allowed)
+          known += (known.empty() ? "" : ", ") + k;
+        fail(key, "unknown key (known here: " + known + ")");
+      }
+    }
+  }
+
+  YAML::Node require(const std::string& key) const
+  {
+    const YAML::Node value = node_[key];
+    if (!value || value.IsNull())
+      fail(key, "missing");
+    return value;
+  }
+
+  std::string string(const std::string& key) const
+  {
+    const YAML::Node value = require(key);
+    if (!value.IsScalar())
+      fail(key, "must be a string");
+    return value.Scalar();
+  }
+
+  double number(const std::string& key) const
+  {
+    const YAML::Node value = require(key);
+    double out = 0.0;
+    if (!value.IsScalar() || !YAML::convert<double>::decode(value, out))
+      fail(key, "must be a number, got '" + (value.IsScalar() ? value.Scalar() : std::string("a non-scalar")) + "'");
+    if (!std::isfinite(out))
+      fail(key, "must be finite");
+    return out;
+  }
+
+  double positive(const std::string& key) const
+  {
+    const double v = number(key);
+    if (!(v > 0.0))
+      fail(key, "must be > 0, got " + std::to_string(v));
+    return v;
+  }
+
+  double nonNegative(const std::string& key) const
+  {
+    const double v = number(key);
+    if (v < 0.0)
+      fail(key, "must be >= 0, got " + std::to_string(v));
+    return v;
+  }
+
+  bool boolean(const std::string& key) const
+  {
+    const YAML::Node value = require(key);
+    bool out = false;
+    if (!value.IsScalar() || !YAML::convert<bool>::decode(value, out))
+      fail(key, "must be true or false");
+    return out;
+  }
+
+  int positiveInt(const std::string& key) const
+  {
+    const YAML::Node value = require(key);
+    int out = 0;
+    if (!value.IsScalar() || !YAML::convert<int>::decode(value, out) || out <= 0)
+      fail(key, "must be a whole number > 0");
+    return out;
+  }
+
+  Section map(const std::string& key) const
+  {
+    const YAML::Node value = require(key);
+    if (!value.IsMap())
+      fail(key, "must be a map");
+    return Section(value, file_, qualified(key));
+  }
+
+  std::vector<Section> sequence(const std::string& key) const
+  {
+    const YAML::Node value = require(key);
+    if (!value.IsSequence() || value.size() == 0)
+      fail(key, "must be a non-empty list");
+    std::vector<Section> out;
+    for (std::size_t k = 0; k < value.size(); ++k)
+    {
+      const std::string item = qualified(key) + "[" + std::to_string(k) + "]";
+      if (!value[k].IsMap())
+        Section(value[k], file_, item).fail("", "must be a map");
+      out.emplace_back(value[k], file_, item);
+    }
+    return out;
+  }
+
+  const YAML::Node& node() const { return node_; }
+
+private:
+  YAML::Node node_;
+  std::string file_;
+  std::string path_;
+};
+
+std::string directoryOf(const std::string& path)
+{
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? std::string(".") : path.substr(0, slash);
+}
+
+Eigen::Isometry3d toIsometry(const urdf::Pose& p)
+{
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translate(Eigen::Vector3d(p.position.x, p.position.y, p.position.z));
+  t.rotate(Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z));
+  return t;
+}
+
+/// Reads and checks the URDF: root, masses, inertias, sensor mounts.
+class UrdfChecker
+{
+public:
+  UrdfChecker(std::string path, const std::string& yaml_file) : path_(std::move(path))
+  {
+    model_ = urdf::parseURDFFile(path_);
+    if (!model_)
+      throw ConfigError(yaml_file + ": key 'urdf': '" + path_ + "' is missing or is not a valid URDF");
+    if (!model_->getRoot() || model_->getRoot()->name != "base_link")
+      fail("root link must be 'base_link'");
+  }
+
+  [[noreturn]] void fail(const std::string& reason) const { throw ConfigError(path_ + ": " + reason); }
+
+  /// Pose of a link's origin in base_link with every joint at 0.
+  Eigen::Isometry3d restPose(const std::string& link_name) const
+  {
+    urdf::LinkConstSharedPtr link = model_->getLink(link_name);
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    while (link && link->parent_joint)
+    {
+      pose = toIsometry(link->parent_joint->parent_to_joint_origin_transform) * pose;
+      link = model_->getLink(link->parent_joint->parent_link_name);
+    }
+    return pose;
+  }
+
+  std::vector<Body> bodies() const
+  {
+    std::vector<Body> out;
+    for (const auto& kv : model_->links_)
+    {
+      const urdf::LinkSharedPtr& link = kv.second;
+      if (!link->inertial)
+        continue;
+      const urdf::Inertial& in = *link->inertial;
+      if (!std::isfinite(in.mass) || !(in.mass > 0.0))
+        fail("link '" + link->name + "': mass must be > 0, got " + std::to_string(in.mass));
+      Eigen::Matrix3d inertia;
+      inertia << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+      if (!inertia.allFinite())
+        fail("link '" + link->name + "': inertia must be finite");
+      const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
+      // Physical inertia tensors are positive definite and obey the triangle inequality.
+      if (!(ev.minCoeff() > 0.0))
+        fail("link '" + link->name + "': inertia must be positive definite");
+      const double tol = 1e-9 * ev.maxCoeff();
+      if (ev(0) + ev(1) < ev(2) - tol || ev(0) + ev(2) < ev(1) - tol || ev(1) + ev(2) < ev(0) - tol)
+        fail("link '" + link->name + "': principal inertias violate the triangle inequality");
+      out.push_back(Body{ link->name, in.mass, ev, restPose(link->name).translation() });
+    }
+    if (out.empty())
+      fail("no link has an <inertial>: the vehicle has no mass");
+    return out;
+  }
+
+  urdf::JointConstSharedPtr joint(const Section& s, const std::string& key, int type, const char* type_name,
+                                  const Eigen::Vector3d& axis) const
+  {
+    const std::string name = s.string(key);
+    const urdf::JointConstSharedPtr j = model_->getJoint(name);
+    if (!j)
+      s.fail(key, "joint '" + name + "' is not in " + path_);
+    if (j->type != type)
+      s.fail(key, "joint '" + name + "' must be " + type_name + " in " + path_);
+    const Eigen::Vector3d a(j->axis.x, j->axis.y, j->axis.z);
+    if (type != urdf::Joint::FIXED && std::abs(std::abs(a.normalized().dot(axis)) - 1.0) > 1e-6)
+    {
+      std::ostringstream why;
+      why << "joint '" << name << "' axis must be along (" << axis.transpose() << ") in " << path_;
+      s.fail(key, why.str());
+    }
+    return j;
+  }
+
+  /// Radius and width of the child link's collision cylinder.
+  void cylinder(const Section& s, const std::string& key, const urdf::JointConstSharedPtr& j, double& radius,
+                double& width) const
+  {
+    const urdf::LinkConstSharedPtr link = model_->getLink(j->child_link_name);
+    if (!link->collision || !link->collision->geometry || link->collision->geometry->type != urdf::Geometry::CYLINDER)
+      s.fail(key, "link '" + link->name + "' needs a <collision> cylinder (wheel radius and width) in " + path_);
+    const auto* cyl = static_cast<const urdf::Cylinder*>(link->collision->geometry.get());
+    radius = cyl->radius;
+    width = cyl->length;
+    if (!(radius > 0.0) || !(width > 0.0))
+      s.fail(key, "link '" + link->name + "' cylinder radius and length must be > 0 in " + path_);
+    if (!link->inertial)
+      s.fail(key, "link '" + link->name + "' needs an <inertial> (a wheel has mass) in " + path_);
+  }
+
+  std::map<std::string, Eigen::Vector3d> sensorMounts() const
+  {
+    std::map<std::string, Eigen::Vector3d> out;
+    for (const std::string& name : requiredSensorLinks())
+    {
+      const urdf::LinkConstSharedPtr link = model_->getLink(name);
+      if (!link)
+        fail("sensor mount link '" + name + "' is missing");
+      if (!link->parent_joint || link->parent_joint->type != urdf::Joint::FIXED)
+        fail("sensor mount link '" + name + "' must hang from a fixed joint");
+      out[name] = restPose(name).translation();
+    }
+    return out;
+  }
+
+  const urdf::ModelInterface& model() const { return *model_; }
+
+private:
+  std::string path_;
+  urdf::ModelInterfaceSharedPtr model_;
+};
+
+Differential differential(const Section& s, const std::string& key)
+{
+  const std::string v = s.string(key);
+  if (v == "open")
+    return Differential::kOpen;
+  if (v == "locked")
+    return Differential::kLocked;
+  s.fail(key, "must be 'open' or 'locked', got '" + v + "'");
+}
+
+void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
+{
+  for (const Section& w : root.sequence("wheels"))
+  {
+    w.allowOnly({ "name", "spin_joint", "suspension_joint", "steering_joint", "driven" });
+    WheelSpec spec;
+    spec.name = w.string("name");
+    const auto spin = urdf.joint(w, "spin_joint", urdf::Joint::CONTINUOUS, "continuous", Eigen::Vector3d::UnitY());
+    spec.spin_joint = spin->name;
+    spec.link = spin->child_link_name;
+    urdf.cylinder(w, "spin_joint", spin, spec.radius, spec.width);
+    const auto susp =
+        urdf.joint(w, "suspension_joint", urdf::Joint::PRISMATIC, "prismatic", Eigen::Vector3d::UnitZ());
+    spec.suspension_joint = susp->name;
+    if (!susp->limits || !(susp->limits->lower < 0.0 && susp->limits->upper > 0.0))
+      w.fail("suspension_joint", "joint '" + susp->name + "' needs limits with lower < 0 < upper (travel, m)");
+    spec.suspension_lower = susp->limits->lower;
+    spec.suspension_upper = susp->limits->upper;
+    if (w.node()["steering_joint"])
+    {
+      const auto steer =
+          urdf.joint(w, "steering_joint", urdf::Joint::REVOLUTE, "revolute", Eigen::Vector3d::UnitZ());
+      spec.steering_joint = steer->name;
+    }
+    spec.driven = w.boolean("driven");
+    spec.rest_position = urdf.restPose(spec.link).translation();
+    m.wheels.push_back(spec);
+  }
+}
+
+void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
+{
+  std::set<std::string> sides;
+  for (const Section& t : root.sequence("tracks"))
+  {
+    t.allowOnly({ "side", "sprocket_joint", "idler_joint", "road_wheels" });
+    TrackSpec spec;
+    spec.side = t.string("side");
+    if (spec.side != "left" && spec.side != "right")
+      t.fail("side", "must be 'left' or 'right', got '" + spec.side + "'");
+    if (!sides.insert(spec.side).second)
+      t.fail("side", "'" + spec.side + "' is listed twice");
+    double width = 0.0;
+    const auto sprocket =
+        urdf.joint(t, "sprocket_joint", urdf::Joint::CONTINUOUS, "continuous", Eigen::Vector3d::UnitY());
+    spec.sprocket_joint = sprocket->name;
+    urdf.cylinder(t, "sprocket_joint", sprocket, spec.sprocket_radius, width);
+    const auto idler = urdf.joint(t, "idler_joint", urdf::Joint::CONTINUOUS, "continuous", Eigen::Vector3d::UnitY());
+    spec.idler_joint = idler->name;
+    urdf.cylinder(t, "idler_joint", idler, spec.idler_radius, width);
+    for (const Section& r : t.sequence("road_wheels"))
+    {
+      r.allowOnly({ "arm_joint", "spin_joint" });
+      RoadWheelSpec wheel;
+      const auto arm = urdf.joint(r, "arm_joint", urdf::Joint::REVOLUTE, "revolute", Eigen::Vector3d::UnitY());
+      wheel.arm_joint = arm->name;
+      const auto spin = urdf.joint(r, "spin_joint", urdf::Joint::CONTINUOUS, "continuous", Eigen::Vector3d::UnitY());
+      wheel.spin_joint = spin->name;
+      if (spin->parent_link_name != arm->child_link_name)
+        r.fail("spin_joint", "joint '" + spin->name + "' must hang from the arm link '" + arm->child_link_name + "'");
+      wheel.link = spin->child_link_name;
+      urdf.cylinder(r, "spin_joint", spin, wheel.radius, wheel.width);
+      wheel.rest_position = urdf.restPose(wheel.link).translation();
+      spec.road_wheels.push_back(wheel);
+    }
+    if (spec.road_wheels.size() < 2)
+      t.fail("road_wheels", "a track needs at least 2 road wheels");
+    m.tracks.push_back(spec);
+  }
+  if (sides.size() != 2)
+    root.fail("tracks", "needs exactly one 'left' and one 'right' track");
+  // Left first, then right, whatever the file's order.
+  if (m.tracks.front().side != "left")
+    std::swap(m.tracks.front(), m.tracks.back());
+
+  const Section track = root.map("track");
+  track.allowOnly({ "pitch", "sprocket_teeth", "shoe_width" });
+  m.track.pitch = track.positive("pitch");
+  m.track.sprocket_teeth = track.positiveInt("sprocket_teeth");
+  m.track.shoe_width = track.positive("shoe_width");
+  // T10 turns sprocket speed into track speed with p N / 2 pi; the URDF sprocket must agree.
+  for (const TrackSpec& t : m.tracks)
+  {
+    const double r = m.track.effectiveSprocketRadius();
+    if (std::abs(r - t.sprocket_radius) > 0.05 * t.sprocket_radius)
+    {
+      std::ostringstream why;
+      why << "pitch * sprocket_teeth / (2 pi) = " << r << " m differs by more than 5% from the URDF sprocket radius "
+          << t.sprocket_radius << " m of '" << t.sprocket_joint << "'";
+      track.fail("sprocket_teeth", why.str());
+    }
+  }
+}
+
+void readDrivetrain(const Section& root, VehicleModel& m)
+{
+  const Section d = root.map("drivetrain");
+  d.allowOnly({ "engine_max_torque", "engine_max_power", "gear_ratio", "efficiency", "max_speed", "differentials" });
+  m.drivetrain.engine_max_torque = d.positive("engine_max_torque");
+  m.drivetrain.engine_max_power = d.positive("engine_max_power");
+  m.drivetrain.gear_ratio = d.positive("gear_ratio");
+  m.drivetrain.efficiency = d.positive("efficiency");
+  if (m.drivetrain.efficiency > 1.0)
+    d.fail("efficiency", "must be in (0, 1]");
+  m.drivetrain.max_speed = d.positive("max_speed");
+  const Section diffs = d.map("differentials");
+  const std::set<std::string> names = m.drive_type == DriveType::kAckermann ?
+                                          std::set<std::string>{ "front", "rear", "center" } :
+                                          std::set<std::string>{ "left", "right" };
+  diffs.allowOnly(names);
+  for (const std::string& n : names)
+    m.drivetrain.differentials[n] = differential(diffs, n);
+}
+}  // namespace
+
+const std::vector<std::string>& requiredSensorLinks()
+{
+  static const std::vector<std::string> links{ "lidar", "radar", "gps", "imu" };
+  return links;
+}
+
+const char* toString(DriveType type)
+{
+  switch (type)
+  {
+    case DriveType::kAckermann:
+      return "ackermann";
+    case DriveType::kSkidSteer:
+      return "skid_steer";
+    case DriveType::kTracked:
+      return "tracked";
+  }
+  return "?";
+}
+
+double TrackSpec::contactLength() const
+{
+  if (road_wheels.empty())
+    return 0.0;
+  return road_wheels.front().rest_position.x() - road_wheels.back().rest_position.x();
+}
+
+double TrackParameters::effectiveSprocketRadius() const
+{
+  return pitch * sprocket_teeth / (2.0 * M_PI);
+}
+
+double VehicleModel::wheelbase() const
+{
+  if (drive_type == DriveType::kTracked)
+    return tracks.empty() ? 0.0 : tracks.front().contactLength();
+  double max_x = -1e300, min_x = 1e300;
+  for (const WheelSpec& w : wheels)
+  {
+    max_x = std::max(max_x, w.rest_position.x());
+    min_x = std::min(min_x, w.rest_position.x());
+  }
+  return wheels.empty() ? 0.0 : max_x - min_x;
+}
+
+double VehicleModel::trackWidth() const
+{
+  if (drive_type == DriveType::kTracked)
+  {
+    if (tracks.size() != 2)
+      return 0.0;
+    return tracks[0].road_wheels.front().rest_position.y() - tracks[1].road_wheels.front().rest_position.y();
+  }
+  double max_y = -1e300, min_y = 1e300;
+  for (const WheelSpec& w : wheels)
+  {
+    max_y = std::max(max_y, w.rest_position.y());
+    min_y = std::min(min_y, w.rest_position.y());
+  }
+  return wheels.empty() ? 0.0 : max_y - min_y;
+}
+
+VehicleModel loadVehicleModel(const std::string& yaml_path)
+{
+  YAML::Node doc;
+  try
+  {
+    doc = YAML::LoadFile(yaml_path);
+  }
+  catch (const YAML::BadFile&)
+  {
+    throw ConfigError(yaml_path + ": cannot open the file");
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw ConfigError(yaml_path + ": line " + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  if (!doc.IsMap())
+    throw ConfigError(yaml_path + ": the top level must be a map of keys");
+  const Section root(doc, yaml_path, "");
+
+  try
+  {
+    VehicleModel m;
+    m.yaml_path = yaml_path;
+    m.model = root.string("model");
+    const std::string drive = root.string("drive_type");
+    if (drive == "ackermann")
+    {
+      m.drive_type = DriveType::kAckermann;
+      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes" });
+    }
+    else if (drive == "skid_steer")
+    {
+      m.drive_type = DriveType::kSkidSteer;
+      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "drivetrain", "brakes" });
+    }
+    else if (drive == "tracked")
+    {
+      m.drive_type = DriveType::kTracked;
+      root.allowOnly({ "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes" });
+    }
+    else
+    {
+      root.fail("drive_type", "must be ackermann, skid_steer or tracked, got '" + drive + "'");
+    }
+
+    const std::string urdf_rel = root.string("urdf");
+    m.urdf_path = (!urdf_rel.empty() && urdf_rel[0] == '/') ? urdf_rel : directoryOf(yaml_path) + "/" + urdf_rel;
+    const UrdfChecker urdf(m.urdf_path, yaml_path);
+    m.bodies = urdf.bodies();
+    for (const Body& b : m.bodies)
+      m.total_mass += b.mass;
+    m.sensor_mounts = urdf.sensorMounts();
+
+    if (m.drive_type == DriveType::kTracked)
+    {
+      readTracks(root, urdf, m);
+      const Section s = root.map("suspension");
+      s.allowOnly({ "torsion_stiffness", "torsion_damping", "preload_angle" });
+      m.torsion.torsion_stiffness = s.positive("torsion_stiffness");
+      m.torsion.torsion_damping = s.nonNegative("torsion_damping");
+      m.torsion.preload_angle = s.nonNegative("preload_angle");
+    }
+    else
+    {
+      readWheels(root, urdf, m);
+      const Section s = root.map("suspension");
+      s.allowOnly({ "stiffness", "damping", "preload_deflection" });
+      m.suspension.stiffness = s.positive("stiffness");
+      m.suspension.damping = s.nonNegative("damping");
+      m.suspension.preload_deflection = s.nonNegative("preload_deflection");
+      for (const WheelSpec& w : m.wheels)
+      {
+        if (m.suspension.preload_deflection > w.suspension_upper - w.suspension_lower)
+          s.fail("preload_deflection", "exceeds the suspension travel of joint '" + w.suspension_joint + "'");
+      }
+      bool any_steered = false, any_driven = false;
+      for (const WheelSpec& w : m.wheels)
+      {
+        any_steered = any_steered || !w.steering_joint.empty();
+        any_driven = any_driven || w.driven;
+      }
+      if (!any_driven)
+        root.fail("wheels", "no wheel is driven");
+      if (m.drive_type == DriveType::kAckermann)
+      {
+        if (!any_steered)
+          root.fail("wheels", "an ackermann vehicle needs at least one steering_joint");
+        const Section st = root.map("steering");
+        st.allowOnly({ "max_angle", "max_rate" });
+        m.steering.max_angle = st.positive("max_angle");
+        m.steering.max_rate = st.positive("max_rate");
+        for (const WheelSpec& w : m.wheels)
+        {
+          if (w.steering_joint.empty())
+            continue;
+          const auto j = urdf.model().getJoint(w.steering_joint);
+          if (!j->limits || m.steering.max_angle > std::min(-j->limits->lower, j->limits->upper) + 1e-9)
+            st.fail("max_angle", "exceeds the limits of joint '" + w.steering_joint + "' in " + m.urdf_path);
+        }
+      }
+      else if (any_steered)
+      {
+        root.fail("wheels", "a skid_steer vehicle steers by wheel speed; remove steering_joint");
+      }
+    }
+
+    readDrivetrain(root, m);
+    const Section b = root.map("brakes");
+    b.allowOnly({ "max_torque" });
+    m.brakes.max_torque = b.positive("max_torque");
+    return m;
+  }
+  catch (const YAML::Exception& e)
+  {
+    // yaml-cpp throws for shapes Section does not anticipate (e.g. a key that is a list).
+    throw ConfigError(yaml_path + ": line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+}
+
+}  // namespace dynamics
+}  // namespace avsp
