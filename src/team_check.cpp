@@ -115,7 +115,7 @@ int main(int argc, char** argv)
     for (const auto& [link, position] : expected)
     {
       std::string error;
-      while (!buffer.canTransform(prefix + "base_link", prefix + link, ros::Time(0), &error) && ros::ok() &&
+      while (!buffer.canTransform(prefix + "base_link", prefix + link, ros::Time(0)) && ros::ok() &&
              ros::WallTime::now() < deadline)
         ros::WallDuration(0.05).sleep();  // waiting for data to arrive, bounded by ~timeout
       if (!buffer.canTransform(prefix + "base_link", prefix + link, ros::Time(0), &error))

@@ -49,7 +49,7 @@ case "$cmd" in
     if [ $gui = 1 ]; then do_setup tools/debian-packages.txt tools/debian-packages-gui.txt; else do_setup tools/debian-packages.txt; fi
     do_build
     step "run the demo (scripts/run_demo.sh)"
-    set +u; . install/setup.bash; set -u
+    set +u; . install/setup.sh; set -u
     AVSP_GUI=$gui bash scripts/run_demo.sh || fail "demo run (exit code $?)"
     step "demo finished successfully" ;;
   test)
@@ -64,7 +64,7 @@ case "$cmd" in
   screenshot)
     do_setup tools/debian-packages.txt tools/debian-packages-gui.txt; do_build
     step "RViz screenshot under Xvfb (scripts/rviz_screenshot.sh)"
-    set +u; . install/setup.bash; set -u
+    set +u; . install/setup.sh; set -u
     bash scripts/rviz_screenshot.sh results/rviz_team.png || fail "RViz screenshot" ;;
   ""|-h|--help|help)
     usage ;;
