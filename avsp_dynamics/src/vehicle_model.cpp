@@ -280,6 +280,20 @@ private:
   urdf::ModelInterfaceSharedPtr model_;
 };
 
+/// m, max minus min of the wheels' rest positions along base axis `axis` (0 = x, 1 = y).
+double wheelSpread(const std::vector<WheelSpec>& wheels, int axis)
+{
+  if (wheels.empty())
+    return 0.0;
+  double lo = wheels.front().rest_position(axis), hi = lo;
+  for (const WheelSpec& w : wheels)
+  {
+    lo = std::min(lo, w.rest_position(axis));
+    hi = std::max(hi, w.rest_position(axis));
+  }
+  return hi - lo;
+}
+
 Differential differential(const Section& s, const std::string& key)
 {
   const std::string v = s.string(key);
@@ -441,13 +455,7 @@ double VehicleModel::wheelbase() const
 {
   if (drive_type == DriveType::kTracked)
     return tracks.empty() ? 0.0 : tracks.front().contactLength();
-  double max_x = -1e300, min_x = 1e300;
-  for (const WheelSpec& w : wheels)
-  {
-    max_x = std::max(max_x, w.rest_position.x());
-    min_x = std::min(min_x, w.rest_position.x());
-  }
-  return wheels.empty() ? 0.0 : max_x - min_x;
+  return wheelSpread(wheels, 0);
 }
 
 double VehicleModel::trackWidth() const
@@ -458,13 +466,7 @@ double VehicleModel::trackWidth() const
       return 0.0;
     return tracks[0].road_wheels.front().rest_position.y() - tracks[1].road_wheels.front().rest_position.y();
   }
-  double max_y = -1e300, min_y = 1e300;
-  for (const WheelSpec& w : wheels)
-  {
-    max_y = std::max(max_y, w.rest_position.y());
-    min_y = std::min(min_y, w.rest_position.y());
-  }
-  return wheels.empty() ? 0.0 : max_y - min_y;
+  return wheelSpread(wheels, 1);
 }
 
 VehicleModel loadVehicleModel(const std::string& yaml_path)

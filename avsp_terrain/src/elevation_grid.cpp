@@ -59,6 +59,18 @@ bool ElevationGrid::locate(double x, double y, CellIndex& cell, double& u, doubl
   return true;
 }
 
+bool ElevationGrid::patchAt(double x, double y, Patch& p) const
+{
+  CellIndex c{};
+  if (!locate(x, y, c, p.u, p.v))
+    return false;
+  p.h00 = heights_[c.j * columns_ + c.i];
+  p.h10 = heights_[c.j * columns_ + c.i + 1];
+  p.h01 = heights_[(c.j + 1) * columns_ + c.i];
+  p.h11 = heights_[(c.j + 1) * columns_ + c.i + 1];
+  return true;
+}
+
 std::optional<CellIndex> ElevationGrid::cellAt(double x, double y) const
 {
   CellIndex cell{};
@@ -77,30 +89,20 @@ double ElevationGrid::pointHeight(std::size_t i, std::size_t j) const
 
 std::optional<double> ElevationGrid::height(double x, double y) const
 {
-  CellIndex c{};
-  double u = 0.0, v = 0.0;
-  if (!locate(x, y, c, u, v))
+  Patch p{};
+  if (!patchAt(x, y, p))
     return std::nullopt;
-  const double h00 = heights_[c.j * columns_ + c.i];
-  const double h10 = heights_[c.j * columns_ + c.i + 1];
-  const double h01 = heights_[(c.j + 1) * columns_ + c.i];
-  const double h11 = heights_[(c.j + 1) * columns_ + c.i + 1];
-  return (1 - u) * (1 - v) * h00 + u * (1 - v) * h10 + (1 - u) * v * h01 + u * v * h11;
+  return (1 - p.u) * (1 - p.v) * p.h00 + p.u * (1 - p.v) * p.h10 + (1 - p.u) * p.v * p.h01 + p.u * p.v * p.h11;
 }
 
 std::optional<Eigen::Vector3d> ElevationGrid::normal(double x, double y) const
 {
-  CellIndex c{};
-  double u = 0.0, v = 0.0;
-  if (!locate(x, y, c, u, v))
+  Patch p{};
+  if (!patchAt(x, y, p))
     return std::nullopt;
-  const double h00 = heights_[c.j * columns_ + c.i];
-  const double h10 = heights_[c.j * columns_ + c.i + 1];
-  const double h01 = heights_[(c.j + 1) * columns_ + c.i];
-  const double h11 = heights_[(c.j + 1) * columns_ + c.i + 1];
   // Partial derivatives of the bilinear patch, per metre.
-  const double dhdx = ((1 - v) * (h10 - h00) + v * (h11 - h01)) / dx_;
-  const double dhdy = ((1 - u) * (h01 - h00) + u * (h11 - h10)) / dy_;
+  const double dhdx = ((1 - p.v) * (p.h10 - p.h00) + p.v * (p.h11 - p.h01)) / dx_;
+  const double dhdy = ((1 - p.u) * (p.h01 - p.h00) + p.u * (p.h11 - p.h10)) / dy_;
   return Eigen::Vector3d(-dhdx, -dhdy, 1.0).normalized();
 }
 

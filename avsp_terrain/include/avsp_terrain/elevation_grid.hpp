@@ -74,8 +74,16 @@ public:
   std::size_t rows() const { return rows_; }
 
 private:
+  /// A cell's corner heights (h_ij at grid point (i, j) of the cell) and (u, v) in [0, 1].
+  struct Patch
+  {
+    double h00, h10, h01, h11, u, v;
+  };
+
   /// Cell and the fractional position (u, v) in [0, 1] inside it.
   bool locate(double x, double y, CellIndex& cell, double& u, double& v) const;
+  /// The patch under (x, y); false outside the grid.
+  bool patchAt(double x, double y, Patch& p) const;
 
   double origin_x_;
   double origin_y_;
