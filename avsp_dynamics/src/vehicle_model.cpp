@@ -10,147 +10,16 @@
 #include <urdf_parser/urdf_parser.h>
 #include <yaml-cpp/yaml.h>
 
+#include <avsp_terrain/yaml_section.hpp>
+
 namespace avsp
 {
 namespace dynamics
 {
 namespace
 {
-/// A YAML map being read, with the file and key path needed for error messages.
-class Section
-{
-public:
-  Section(YAML::Node node, std::string file, std::string path)
-    : node_(std::move(node)), file_(std::move(file)), path_(std::move(path))
-  {
-  }
-
-  [[noreturn]] void fail(const std::string& key, const std::string& reason) const
-  {
-    std::ostringstream msg;
-    msg << file_ << ": key '" << qualified(key) << "'";
-    const YAML::Node at = (!key.empty() && node_.IsMap() && node_[key]) ? node_[key] : node_;
-    if (at.Mark().line >= 0)
-      msg << " (line " << at.Mark().line + 1 << ")";
-    msg << ": " << reason;
-    throw ConfigError(msg.str());
-  }
-
-  std::string qualified(const std::string& key) const
-  {
-    if (path_.empty())
-      return key;
-    return key.empty() ? path_ : path_ + "." + key;
-  }
-
-  /// Rejects keys not in `allowed` (typos must not become silent defaults).
-  void allowOnly(const std::set<std::string>& allowed) const
-  {
-    for (const auto& kv : node_)
-    {
-      const std::string key = kv.first.as<std::string>();
-      if (!allowed.count(key))
-      {
-        std::string known;
-        for (const auto& k : allowed)
-          known += (known.empty() ? "" : ", ") + k;
-        fail(key, "unknown key (known here: " + known + ")");
-      }
-    }
-  }
-
-  YAML::Node require(const std::string& key) const
-  {
-    const YAML::Node value = node_[key];
-    if (!value || value.IsNull())
-      fail(key, "missing");
-    return value;
-  }
-
-  std::string string(const std::string& key) const
-  {
-    const YAML::Node value = require(key);
-    if (!value.IsScalar())
-      fail(key, "must be a string");
-    return value.Scalar();
-  }
-
-  double number(const std::string& key) const
-  {
-    const YAML::Node value = require(key);
-    double out = 0.0;
-    if (!value.IsScalar() || !YAML::convert<double>::decode(value, out))
-      fail(key, "must be a number, got '" + (value.IsScalar() ? value.Scalar() : std::string("a non-scalar")) + "'");
-    if (!std::isfinite(out))
-      fail(key, "must be finite");
-    return out;
-  }
-
-  double positive(const std::string& key) const
-  {
-    const double v = number(key);
-    if (!(v > 0.0))
-      fail(key, "must be > 0, got " + std::to_string(v));
-    return v;
-  }
-
-  double nonNegative(const std::string& key) const
-  {
-    const double v = number(key);
-    if (v < 0.0)
-      fail(key, "must be >= 0, got " + std::to_string(v));
-    return v;
-  }
-
-  bool boolean(const std::string& key) const
-  {
-    const YAML::Node value = require(key);
-    bool out = false;
-    if (!value.IsScalar() || !YAML::convert<bool>::decode(value, out))
-      fail(key, "must be true or false");
-    return out;
-  }
-
-  int positiveInt(const std::string& key) const
-  {
-    const YAML::Node value = require(key);
-    int out = 0;
-    if (!value.IsScalar() || !YAML::convert<int>::decode(value, out) || out <= 0)
-      fail(key, "must be a whole number > 0");
-    return out;
-  }
-
-  Section map(const std::string& key) const
-  {
-    const YAML::Node value = require(key);
-    if (!value.IsMap())
-      fail(key, "must be a map");
-    return Section(value, file_, qualified(key));
-  }
-
-  std::vector<Section> sequence(const std::string& key) const
-  {
-    const YAML::Node value = require(key);
-    if (!value.IsSequence() || value.size() == 0)
-      fail(key, "must be a non-empty list");
-    std::vector<Section> out;
-    for (std::size_t k = 0; k < value.size(); ++k)
-    {
-      const std::string item = qualified(key) + "[" + std::to_string(k) + "]";
-      if (!value[k].IsMap())
-        Section(value[k], file_, item).fail("", "must be a map");
-      out.emplace_back(value[k], file_, item);
-    }
-    return out;
-  }
-
-  const YAML::Node& node() const { return node_; }
-
-private:
-  YAML::Node node_;
-  std::string file_;
-  std::string path_;
-};
+/// YAML map reader whose errors are ConfigErrors naming the file and key.
+using Section = avsp::terrain::YamlSection<ConfigError>;
 
 std::string directoryOf(const std::string& path)
 {
@@ -471,22 +340,7 @@ double VehicleModel::trackWidth() const
 
 VehicleModel loadVehicleModel(const std::string& yaml_path)
 {
-  YAML::Node doc;
-  try
-  {
-    doc = YAML::LoadFile(yaml_path);
-  }
-  catch (const YAML::BadFile&)
-  {
-    throw ConfigError(yaml_path + ": cannot open the file");
-  }
-  catch (const YAML::Exception& e)
-  {
-    throw ConfigError(yaml_path + ": line " + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
-  }
-  if (!doc.IsMap())
-    throw ConfigError(yaml_path + ": the top level must be a map of keys");
-  const Section root(doc, yaml_path, "");
+  const Section root = avsp::terrain::loadYamlFile<ConfigError>(yaml_path);
 
   try
   {

@@ -1,0 +1,92 @@
+#pragma once
+/**
+ * @file soil.hpp
+ * @brief Soil parameters (simple terramechanics model T2-T12 and Bekker-Wong-Janosi T13)
+ *        and the soil library loaded from config/soils.yaml.
+ */
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace avsp
+{
+namespace terrain
+{
+/// A soil library file that cannot be used; what() names the file and the key.
+class SoilError : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Which pressure-sinkage law a soil's contacts use.
+enum class SinkageModel
+{
+  kSimple,  ///< compaction + elastic + flow (MODELS.md T2-T6)
+  kBekker   ///< p = (k_c / b + k_phi) z^n (MODELS.md T13)
+};
+
+/// Hydrostatic compression curve rho(sigma) of the simple model (T2), piecewise linear.
+class CompressionCurve
+{
+public:
+  CompressionCurve() = default;
+  /// @param points (sigma Pa, rho kg/m^3), sigma strictly increasing from 0, rho non-decreasing, > 0
+  /// @throw std::invalid_argument when that does not hold
+  explicit CompressionCurve(std::vector<std::pair<double, double>> points);
+  /// kg/m^3 at normal stress sigma (Pa); held at the last value beyond the table.
+  double density(double sigma) const;
+  const std::vector<std::pair<double, double>>& points() const { return points_; }
+
+private:
+  std::vector<std::pair<double, double>> points_;
+};
+
+/// Everything the contact model needs to know about one soil, in SI units.
+struct SoilParameters
+{
+  std::string name;
+  std::string source;           ///< where the published values come from
+  SinkageModel model = SinkageModel::kSimple;
+  // Simple model (T2-T6, T12).
+  double h0 = 0.0;              ///< m, depth to the hard layer
+  double rho0 = 0.0;            ///< kg/m^3, initial bulk density
+  CompressionCurve compression; ///< rho(sigma)
+  double elastic_e = 0.0;       ///< 1/Pa (T3)
+  double b1 = 0.0;              ///< m/Pa, bearing flow factor (T4)
+  double b2 = 0.0;              ///< 1/Pa, shearing flow factor (T4)
+  double rolling_resistance = 0.0;  ///< f (T12)
+  // Strength (T7).
+  double cohesion = 0.0;        ///< c, Pa
+  double friction_angle = 0.0;  ///< phi, rad
+  double shear_modulus = 0.0;   ///< K, m (Janosi-Hanamoto)
+  // Bekker-Wong (T13).
+  double n = 0.0;               ///< sinkage exponent
+  double k_c = 0.0;             ///< N/m^(n+1)
+  double k_phi = 0.0;           ///< N/m^(n+2)
+};
+
+/// The soils of config/soils.yaml by name.
+class SoilLibrary
+{
+public:
+  /**
+   * @brief Loads and validates a soil library file.
+   * @throw SoilError naming the file and the key (e.g. "soils.mud.strength.cohesion_kpa")
+   */
+  static SoilLibrary load(const std::string& path);
+
+  /// @throw SoilError if there is no soil of that name
+  const SoilParameters& get(const std::string& name) const;
+  bool contains(const std::string& name) const { return soils_.count(name) > 0; }
+  std::vector<std::string> names() const;
+
+private:
+  std::map<std::string, SoilParameters> soils_;
+  std::string path_;
+};
+
+}  // namespace terrain
+}  // namespace avsp
