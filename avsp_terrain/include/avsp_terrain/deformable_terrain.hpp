@@ -1,0 +1,128 @@
+#pragma once
+/**
+ * @file deformable_terrain.hpp
+ * @brief Terrain that ruts: base heights (ElevationGrid) plus per-point deformation
+ *        (MODELS.md T2-T6) stored sparsely in tiles allocated only where running gear has
+ *        touched, and the rigid-wheel soil contact (T7-T12) that deforms it.
+ */
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "avsp_terrain/elevation_grid.hpp"
+#include "avsp_terrain/soil.hpp"
+
+namespace avsp
+{
+namespace terrain
+{
+/// A rigid wheel touching the ground (upright: axle horizontal, perpendicular to heading).
+struct WheelPatch
+{
+  Eigen::Vector3d centre;    ///< m, wheel centre in map
+  double radius = 0.0;       ///< m
+  double width = 0.0;        ///< m
+  double heading = 0.0;      ///< rad, direction the wheel rolls towards, from map x (CCW)
+  double spin_rate = 0.0;    ///< rad/s, positive rolls the wheel forward
+  Eigen::Vector3d velocity;  ///< m/s, velocity of the wheel centre in map
+};
+
+/// What the soil does to one wheel this step. Forces act on the wheel, in the wheel frame
+/// (longitudinal along heading, lateral to its left, normal up).
+struct ContactForces
+{
+  double normal_force = 0.0;        ///< N
+  double longitudinal_force = 0.0;  ///< N, traction (T7, T11), + pushes forward
+  double lateral_force = 0.0;       ///< N, + pushes to the left
+  double resistance_force = 0.0;    ///< N, bulldozing + rolling (T12), opposes motion (>= 0)
+  double sinkage = 0.0;             ///< m, deepest point below the undeformed surface (incl. elastic)
+  double elastic_sinkage = 0.0;     ///< m, largest elastic part under the wheel (recovers on unloading)
+  double slip = 0.0;                ///< T8, [-1, 1]
+  double slip_angle = 0.0;          ///< rad
+  int contact_points = 0;           ///< grid points under load
+};
+
+/// Deformation of one grid point (what a rut remembers).
+struct PointDeformation
+{
+  float plastic = 0.f;    ///< m, z_p (T2), only grows
+  float displaced = 0.f;  ///< m, z_f - z_n (T4, T5): soil pushed away minus soil received
+  float sigma_max = 0.f;  ///< Pa, largest normal stress seen (governs T2 and T4's b1 term)
+};
+
+/**
+ * @brief Elevation grid + one soil + sparse deformation state + wheel contact.
+ *
+ * Height of a point = base - z_p - (z_f - z_n); while loaded also - z_e (T3, T6).
+ * Tiles of kTileSize x kTileSize points are allocated the first time a point in them
+ * deforms; untouched terrain costs its base heights plus one pointer per tile (a dense
+ * directory: 8 B per 64 points, so lookups are an index, not a hash).
+ */
+class DeformableTerrain
+{
+public:
+  static constexpr int kTileSize = 8;
+
+  struct Options
+  {
+    bool transport = true;  ///< T5 on: flowed soil arrives at neighbours (berms); off: z_n = 0
+  };
+
+  DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options);
+
+  /// Deformed (unloaded) height at (x, y), bilinear, m; nullopt outside the grid.
+  std::optional<double> height(double x, double y) const;
+
+  /// Deformed (unloaded) height of grid point (i, j), m.
+  double pointHeight(std::size_t i, std::size_t j) const;
+
+  /// Deformation of grid point (i, j) (zeros where never touched).
+  PointDeformation deformation(std::size_t i, std::size_t j) const;
+
+  /**
+   * @brief Soil contact of a rigid wheel for one step of length dt (s).
+   * @param deform true: the step's compaction and flow become permanent (ruts); false: a
+   *        probe that leaves the terrain as it was
+   */
+  ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform);
+
+  /// m^3: soil volume that left points by flow so far, and volume that arrived by transport.
+  double flowedVolume() const { return flowed_volume_; }
+  double arrivedVolume() const { return arrived_volume_; }
+
+  /// Points whose deformation is not all zero, and bytes held by the deformation tiles.
+  std::size_t deformedPoints() const;
+  std::size_t deformationBytes() const;
+  /// Bytes of the tile directory: fixed per grid (8 B per kTileSize^2 points).
+  std::size_t directoryBytes() const;
+
+  const ElevationGrid& base() const { return base_; }
+  const SoilParameters& soil() const { return soil_; }
+
+private:
+  using Tile = std::array<PointDeformation, kTileSize * kTileSize>;
+
+  const PointDeformation* find(std::size_t i, std::size_t j) const;
+  std::size_t tileIndex(std::size_t i, std::size_t j) const { return (j / kTileSize) * tiles_x_ + i / kTileSize; }
+  PointDeformation& touch(std::size_t i, std::size_t j);
+  /// Normal stress (Pa) at which the point absorbs `penetration` (m) of new deformation.
+  double stressForPenetration(const PointDeformation& state, double penetration) const;
+  /// Extra sinkage (m) the point takes under stress sigma (Pa): T2 + T4 (b1) + T3 increments.
+  double extraSinkage(const PointDeformation& state, double sigma) const;
+  void spreadToNeighbours(std::size_t i, std::size_t j, double volume);
+
+  ElevationGrid base_;
+  SoilParameters soil_;
+  Options options_;
+  std::size_t tiles_x_;
+  std::vector<std::unique_ptr<Tile>> tiles_;  ///< tile directory, row-major, null = untouched
+  std::size_t allocated_tiles_ = 0;
+  double flowed_volume_ = 0.0;
+  double arrived_volume_ = 0.0;
+};
+
+}  // namespace terrain
+}  // namespace avsp

@@ -1,0 +1,178 @@
+// Deformable terrain: probes leave no trace, elastic sinkage recovers and compaction stays
+// (T2, T3, T6), flowed soil is conserved and forms berms with transport on and vanishes
+// with it off (T4, T5), and the contact force grows with sinkage.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "avsp_terrain/deformable_terrain.hpp"
+#include "avsp_terrain/terramechanics.hpp"
+
+using namespace avsp::terrain;
+
+namespace
+{
+const SoilLibrary& library()
+{
+  static const SoilLibrary lib = SoilLibrary::load(std::string(AVSP_CONFIG_DIR) + "/soils.yaml");
+  return lib;
+}
+
+/// Flat ground at z = 0: n x n points at `cell` m, origin at (0, 0).
+DeformableTerrain flat(const std::string& soil, bool transport, std::size_t n = 120, double cell = 0.05)
+{
+  return DeformableTerrain(ElevationGrid(0, 0, cell, cell, n, n, std::vector<float>(n * n, 0.f)), library().get(soil),
+                           DeformableTerrain::Options{ transport });
+}
+
+WheelPatch wheelAt(double x, double y, double bottom_z, double radius = 0.35, double width = 0.25)
+{
+  WheelPatch w;
+  w.centre = Eigen::Vector3d(x, y, bottom_z + radius);
+  w.radius = radius;
+  w.width = width;
+  w.velocity = Eigen::Vector3d::Zero();
+  return w;
+}
+
+/// Sum over points of (z_f - z_n) * A: the volume that left minus what arrived, m^3.
+double netDisplacedVolume(const DeformableTerrain& t)
+{
+  double sum = 0.0;
+  for (std::size_t j = 0; j < t.base().rows(); ++j)
+    for (std::size_t i = 0; i < t.base().columns(); ++i)
+      sum += t.deformation(i, j).displaced;
+  return sum * t.base().dx() * t.base().dy();
+}
+}  // namespace
+
+TEST(DeformableTerrain, ProbeLeavesNoTrace)
+{
+  DeformableTerrain t = flat("sandy_loam", true);
+  const ContactForces f = t.wheelContact(wheelAt(3.0, 3.0, -0.03), 0.001, false);
+  EXPECT_GT(f.normal_force, 0.0);
+  EXPECT_GT(f.contact_points, 0);
+  EXPECT_EQ(t.deformedPoints(), 0u);
+  EXPECT_DOUBLE_EQ(*t.height(3.0, 3.0), 0.0);
+}
+
+TEST(DeformableTerrain, NormalForceGrowsWithSinkage)
+{
+  DeformableTerrain t = flat("clay", true);
+  double previous = 0.0;
+  for (const double depth : { 0.005, 0.01, 0.02, 0.04 })
+  {
+    const double force = t.wheelContact(wheelAt(3.0, 3.0, -depth), 0.001, false).normal_force;
+    EXPECT_GT(force, previous) << depth;
+    previous = force;
+  }
+  // Above the ground: no contact at all.
+  EXPECT_EQ(t.wheelContact(wheelAt(3.0, 3.0, 0.001), 0.001, false).contact_points, 0);
+}
+
+TEST(DeformableTerrain, ElasticRecoversPlasticStays)
+{
+  DeformableTerrain t = flat("sandy_loam", false);
+  const double depth = 0.03;
+  const ContactForces loaded = t.wheelContact(wheelAt(3.0, 3.0, -depth), 0.001, true);
+  ASSERT_GT(loaded.elastic_sinkage, 1e-5);
+  // The point under the wheel's bottom (x = 3.0 -> i = 60, y = 3.0 -> j = 60).
+  const PointDeformation d = t.deformation(60, 60);
+  EXPECT_GT(d.plastic, 0.f);
+  EXPECT_NEAR(d.plastic, plasticSinkage(t.soil(), d.sigma_max), 1e-7);  // T2 at the largest stress
+  // Unloaded, the surface sits at the permanent deformation only: z_e is gone (T6).
+  const double unloaded_depth = -t.pointHeight(60, 60);
+  EXPECT_NEAR(unloaded_depth, d.plastic + d.displaced, 1e-9);
+  // While loaded it was deformed by the full penetration: permanent + elastic.
+  EXPECT_NEAR(depth, unloaded_depth + elasticSinkage(t.soil(), d.sigma_max, 0.0), 1e-6);
+  // Lifting the wheel and pressing again less deeply does not undo the compaction.
+  t.wheelContact(wheelAt(3.0, 3.0, -0.5 * unloaded_depth), 0.001, true);
+  EXPECT_FLOAT_EQ(t.deformation(60, 60).plastic, d.plastic);
+}
+
+namespace
+{
+/// A slipping wheel driven 2 m along +x through the middle of the patch, 1 ms steps.
+void driveThrough(DeformableTerrain& t)
+{
+  const double depth = 0.04, speed = 1.0, dt = 0.002;
+  for (double x = 1.0; x < 3.0; x += speed * dt)
+  {
+    WheelPatch w = wheelAt(x, 3.0, -depth);
+    w.velocity = Eigen::Vector3d(speed, 0, 0);
+    w.spin_rate = 1.3 * speed / w.radius;  // 23 % slip: shearing flow (T4's b2 term)
+    t.wheelContact(w, dt, true);
+  }
+}
+}  // namespace
+
+TEST(DeformableTerrain, TransportConservesVolumeAndRaisesBerms)
+{
+  DeformableTerrain t = flat("mud", true);
+  driveThrough(t);
+  ASSERT_GT(t.flowedVolume(), 1e-4);
+  // T5: what left equals what arrived, so the net displaced volume is zero.
+  EXPECT_NEAR(t.arrivedVolume(), t.flowedVolume(), 1e-9 * t.flowedVolume());
+  EXPECT_LT(std::abs(netDisplacedVolume(t)), 1e-6 * t.flowedVolume());
+  // Berms: beside the rut (|y - 3| just beyond the half width) the ground rose.
+  double berm = -1.0, rut = 1.0;
+  for (std::size_t i = 30; i < 50; ++i)
+  {
+    for (std::size_t j = 0; j < t.base().rows(); ++j)
+    {
+      const double y = j * t.base().dy();
+      if (std::abs(y - 3.0) > 0.14)
+        berm = std::max(berm, t.pointHeight(i, j));
+      rut = std::min(rut, t.pointHeight(i, j));
+    }
+  }
+  EXPECT_GT(berm, 1e-4) << "no berm beside the rut";
+  EXPECT_LT(rut, -0.01) << "no rut";
+}
+
+TEST(DeformableTerrain, NoTransportNoBerms)
+{
+  DeformableTerrain t = flat("mud", false);
+  driveThrough(t);
+  ASSERT_GT(t.flowedVolume(), 1e-4);
+  EXPECT_EQ(t.arrivedVolume(), 0.0);
+  // All flowed soil is gone (z_n = 0): the net displaced volume is the flowed volume ...
+  EXPECT_NEAR(netDisplacedVolume(t), t.flowedVolume(), 1e-6 * t.flowedVolume());
+  // ... and nothing rose anywhere.
+  for (std::size_t j = 0; j < t.base().rows(); ++j)
+    for (std::size_t i = 0; i < t.base().columns(); ++i)
+      ASSERT_LE(t.pointHeight(i, j), 0.0) << i << "," << j;
+}
+
+TEST(DeformableTerrain, DrivingWheelGetsTractionAndResistance)
+{
+  DeformableTerrain t = flat("sandy_loam", true);
+  WheelPatch w = wheelAt(3.0, 3.0, -0.03);
+  w.velocity = Eigen::Vector3d(1.0, 0, 0);
+  w.spin_rate = 1.25 / w.radius;  // slip 0.2
+  const ContactForces f = t.wheelContact(w, 0.001, false);
+  EXPECT_NEAR(f.slip, 0.2, 1e-12);
+  EXPECT_GT(f.longitudinal_force, 0.0);
+  EXPECT_GT(f.resistance_force, 0.0);
+  EXPECT_NEAR(f.lateral_force, 0.0, 1e-9);
+  // Traction cannot exceed the Mohr-Coulomb envelope over the contact (T7 with j -> inf).
+  const double area = t.base().dx() * t.base().dy() * f.contact_points;
+  EXPECT_LT(f.longitudinal_force, area * t.soil().cohesion + f.normal_force * std::tan(t.soil().friction_angle));
+  // Braking reverses it; sliding sideways gives a restoring lateral force.
+  w.spin_rate = 0.8 / w.radius;
+  EXPECT_LT(t.wheelContact(w, 0.001, false).longitudinal_force, 0.0);
+  w.spin_rate = 1.0 / w.radius;
+  w.velocity = Eigen::Vector3d(1.0, 0.2, 0);
+  EXPECT_LT(t.wheelContact(w, 0.001, false).lateral_force, 0.0);
+}
+
+TEST(DeformableTerrain, StateOnlyWhereTouched)
+{
+  DeformableTerrain t = flat("clay", true, 400, 0.1);
+  EXPECT_EQ(t.deformationBytes(), t.deformationBytes());
+  const std::size_t empty = t.deformationBytes();
+  t.wheelContact(wheelAt(20.0, 20.0, -0.03), 0.001, true);
+  EXPECT_GT(t.deformedPoints(), 0u);
+  // A single wheel print touches a handful of 8x8 tiles, not the 160,000-point grid.
+  EXPECT_LT(t.deformationBytes() - empty, 20u * 1024u);
+}
