@@ -1,0 +1,76 @@
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "avsp_terrain/terrain_objects.hpp"
+
+using namespace avsp::terrain;
+
+namespace
+{
+TerrainObject object(ObjectType type, double x, double y, double length, double width, double strength,
+                     double yaw = 0.0)
+{
+  TerrainObject o;
+  o.type = type;
+  o.x = x;
+  o.y = y;
+  o.length = length;
+  o.width = width;
+  o.height = 2.0;
+  o.strength = strength;
+  o.yaw = yaw;
+  return o;
+}
+}  // namespace
+
+TEST(ObjectSet, RegionQueryFindsExactlyTheOverlappingFootprints)
+{
+  ObjectSet set(5.0);
+  const auto rock = set.add(object(ObjectType::kRock, 1.0, 1.0, 1.0, 1.0, INFINITY));
+  const auto fence = set.add(object(ObjectType::kFence, 20.0, 0.0, 30.0, 0.1, 2000.0));  // spans 5..35 m in x
+  const auto shrub = set.add(object(ObjectType::kShrub, 50.0, 50.0, 1.0, 1.0, 800.0));
+  EXPECT_EQ(set.query(0.0, 0.0, 2.0, 2.0), (std::vector<std::uint32_t>{ rock }));
+  // A box far from the fence's centre but over its far end still finds it.
+  EXPECT_EQ(set.query(33.0, -1.0, 34.0, 1.0), (std::vector<std::uint32_t>{ fence }));
+  EXPECT_EQ(set.query(0.0, -1.0, 60.0, 60.0), (std::vector<std::uint32_t>{ rock, fence, shrub }));
+  EXPECT_TRUE(set.query(60.0, 60.0, 70.0, 70.0).empty());
+}
+
+TEST(ObjectSet, PointInsideRotatedFootprint)
+{
+  ObjectSet set;
+  // A 4 m x 1 m barrier rotated 90 deg: it extends along y.
+  const auto id = set.add(object(ObjectType::kBarrier, 0.0, 0.0, 4.0, 1.0, INFINITY, M_PI / 2));
+  EXPECT_EQ(set.at(0.0, 1.9), (std::vector<std::uint32_t>{ id }));
+  EXPECT_TRUE(set.at(1.9, 0.0).empty());
+}
+
+TEST(ObjectSet, ToppleableFallsAndStaysRigidNever)
+{
+  ObjectSet set;
+  const auto pole = set.add(object(ObjectType::kPole, 0, 0, 0.2, 0.2, 3000.0));
+  const auto building = set.add(object(ObjectType::kBuilding, 10, 10, 8, 6, INFINITY));
+  EXPECT_FALSE(set.push(pole, 2999.0, 0.0));
+  EXPECT_FALSE(set.get(pole).toppled);
+  EXPECT_TRUE(set.push(pole, 3000.0, 1.0));
+  EXPECT_TRUE(set.get(pole).toppled);
+  EXPECT_DOUBLE_EQ(set.get(pole).fall_direction, 1.0);
+  EXPECT_FALSE(set.push(pole, 1e9, 2.0));  // already down: stays as it fell
+  EXPECT_DOUBLE_EQ(set.get(pole).fall_direction, 1.0);
+  EXPECT_FALSE(set.push(building, 1e12, 0.0));
+  EXPECT_FALSE(set.get(building).toppled);
+  EXPECT_THROW(set.push(99, 1.0, 0.0), std::out_of_range);
+}
+
+TEST(ObjectSet, RejectsBadObjects)
+{
+  ObjectSet set;
+  EXPECT_THROW(set.add(object(ObjectType::kRock, 0, 0, 0.0, 1.0, INFINITY)), std::invalid_argument);
+  EXPECT_THROW(set.add(object(ObjectType::kRock, NAN, 0, 1.0, 1.0, INFINITY)), std::invalid_argument);
+  EXPECT_THROW(set.add(object(ObjectType::kShrub, 0, 0, 1.0, 1.0, -5.0)), std::invalid_argument);
+  EXPECT_THROW(ObjectSet(0.0), std::invalid_argument);
+  EXPECT_EQ(objectTypeFromString("fence"), ObjectType::kFence);
+  EXPECT_THROW(objectTypeFromString("tank"), std::invalid_argument);
+}
