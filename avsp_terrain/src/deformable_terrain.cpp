@@ -308,6 +308,22 @@ std::size_t DeformableTerrain::deformationBytes() const
   return allocated_tiles_ * sizeof(Tile);
 }
 
+std::vector<std::pair<std::size_t, std::size_t>> DeformableTerrain::statefulPoints() const
+{
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (std::size_t t = 0; t < tiles_.size(); ++t)
+  {
+    if (!tiles_[t])
+      continue;
+    const std::size_t i0 = (t % tiles_x_) * kTileSize, j0 = (t / tiles_x_) * kTileSize;
+    for (std::size_t b = 0; b < kTileSize; ++b)
+      for (std::size_t a = 0; a < kTileSize; ++a)
+        if (i0 + a < base_.columns() && j0 + b < base_.rows())
+          out.emplace_back(i0 + a, j0 + b);
+  }
+  return out;
+}
+
 std::size_t DeformableTerrain::directoryBytes() const
 {
   return tiles_.size() * sizeof(std::unique_ptr<Tile>);

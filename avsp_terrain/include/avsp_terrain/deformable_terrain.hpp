@@ -99,6 +99,20 @@ public:
   /// Bytes of the tile directory: fixed per grid (8 B per kTileSize^2 points).
   std::size_t directoryBytes() const;
 
+  /// Grid points (i, j) that carry state (all points of allocated tiles), in row-major tile
+  /// order then row-major within the tile: what a save must write to restore bit-exactly.
+  std::vector<std::pair<std::size_t, std::size_t>> statefulPoints() const;
+
+  /// Restores one point's deformation (loading a saved terrain).
+  void setDeformation(std::size_t i, std::size_t j, const PointDeformation& d) { touch(i, j) = d; }
+  /// Restores the flow accounting (loading a saved terrain).
+  void setVolumes(double flowed, double arrived)
+  {
+    flowed_volume_ = flowed;
+    arrived_volume_ = arrived;
+  }
+  const Options& options() const { return options_; }
+
   const ElevationGrid& base() const { return base_; }
   const SoilParameters& soil() const { return soil_; }
 

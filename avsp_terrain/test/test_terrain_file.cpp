@@ -1,0 +1,189 @@
+// Save and load a deformed terrain with its objects bit-exactly; bad files name the file.
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "avsp_terrain/terrain_file.hpp"
+
+using namespace avsp::terrain;
+
+namespace
+{
+const SoilLibrary& library()
+{
+  static const SoilLibrary lib = SoilLibrary::load(std::string(AVSP_CONFIG_DIR) + "/soils.yaml");
+  return lib;
+}
+
+std::string scratchPath()
+{
+  char name[] = "/tmp/avsp_terrain_file_XXXXXX";
+  const int fd = mkstemp(name);
+  close(fd);
+  return name;
+}
+
+/// A rutted patch of mud (with transport, so some points also received soil) and objects,
+/// one of them toppled.
+void makeScene(DeformableTerrain& t, ObjectSet& objects)
+{
+  for (double x = 1.0; x < 2.5; x += 0.004)
+  {
+    WheelPatch w;
+    w.radius = 0.35;
+    w.width = 0.25;
+    w.centre = Eigen::Vector3d(x, 2.0, 0.35 - 0.04);
+    w.velocity = Eigen::Vector3d(1.0, 0.0, 0.0);
+    w.spin_rate = 1.3 / 0.35;
+    t.wheelContact(w, 0.004, true);
+  }
+  TerrainObject shrub;
+  shrub.type = ObjectType::kShrub;
+  shrub.x = 3.0;
+  shrub.y = 3.0;
+  shrub.length = shrub.width = 0.8;
+  shrub.height = 1.2;
+  shrub.strength = 900.0;
+  objects.push(objects.add(shrub), 1000.0, 0.7);
+  TerrainObject rock = shrub;
+  rock.type = ObjectType::kRock;
+  rock.x = 0.5;
+  rock.strength = std::numeric_limits<double>::infinity();
+  objects.add(rock);
+}
+
+std::vector<char> bytesOf(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+}  // namespace
+
+TEST(TerrainFile, RoundTripIsBitExactIncludingToppledObjects)
+{
+  const std::size_t n = 100;
+  std::vector<float> h(n * n);
+  for (std::size_t k = 0; k < h.size(); ++k)
+    h[k] = 0.01f * static_cast<float>(k % 37);
+  DeformableTerrain t(ElevationGrid(0, 0, 0.05, 0.05, n, n, h), library().get("mud"), DeformableTerrain::Options{ true });
+  ObjectSet objects;
+  makeScene(t, objects);
+  ASSERT_GT(t.deformedPoints(), 100u);
+  ASSERT_GT(t.arrivedVolume(), 0.0);
+
+  const std::string path = scratchPath();
+  saveTerrain(path, t, objects);
+  const LoadedTerrain back = loadTerrain(path, library());
+  for (std::size_t j = 0; j < n; ++j)
+  {
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      const PointDeformation a = t.deformation(i, j), b = back.terrain.deformation(i, j);
+      ASSERT_EQ(std::memcmp(&a, &b, sizeof(a)), 0) << i << "," << j;
+      ASSERT_EQ(t.base().pointHeight(i, j), back.terrain.base().pointHeight(i, j));
+    }
+  }
+  EXPECT_EQ(back.terrain.flowedVolume(), t.flowedVolume());
+  EXPECT_EQ(back.terrain.arrivedVolume(), t.arrivedVolume());
+  EXPECT_EQ(back.terrain.soil().name, "mud");
+  EXPECT_TRUE(back.terrain.options().transport);
+  ASSERT_EQ(back.objects.size(), 2u);
+  EXPECT_TRUE(back.objects.get(0).toppled);
+  EXPECT_EQ(back.objects.get(0).fall_direction, 0.7);
+  EXPECT_FALSE(back.objects.get(1).toppled);
+  EXPECT_EQ(back.objects.get(1).strength, std::numeric_limits<double>::infinity());
+  // Saving what was loaded gives the same bytes: nothing is lost or reordered.
+  const std::string again = scratchPath();
+  saveTerrain(again, back.terrain, back.objects);
+  EXPECT_EQ(bytesOf(path), bytesOf(again));
+  std::remove(path.c_str());
+  std::remove(again.c_str());
+}
+
+TEST(TerrainFile, ResumingOnSavedRutsDrivesTheSame)
+{
+  // The same wheel pass after save+load gives the same forces as on the original.
+  const std::size_t n = 80;
+  DeformableTerrain t(ElevationGrid(0, 0, 0.05, 0.05, n, n, std::vector<float>(n * n, 0.f)), library().get("clay"),
+                      DeformableTerrain::Options{ true });
+  ObjectSet objects;
+  makeScene(t, objects);
+  const std::string path = scratchPath();
+  saveTerrain(path, t, objects);
+  LoadedTerrain back = loadTerrain(path, library());
+  WheelPatch w;
+  w.radius = 0.35;
+  w.width = 0.25;
+  w.centre = Eigen::Vector3d(1.8, 2.0, 0.35 - 0.06);
+  w.velocity = Eigen::Vector3d(1.0, 0.0, 0.0);
+  w.spin_rate = 1.2 / 0.35;
+  const ContactForces a = t.wheelContact(w, 0.01, true);
+  const ContactForces b = back.terrain.wheelContact(w, 0.01, true);
+  EXPECT_EQ(a.normal_force, b.normal_force);
+  EXPECT_EQ(a.longitudinal_force, b.longitudinal_force);
+  EXPECT_EQ(t.pointHeight(36, 40), back.terrain.pointHeight(36, 40));
+  std::remove(path.c_str());
+}
+
+TEST(TerrainFile, BadFilesNameTheFileAndReason)
+{
+  const std::size_t n = 20;
+  DeformableTerrain t(ElevationGrid(0, 0, 0.1, 0.1, n, n, std::vector<float>(n * n, 1.f)), library().get("clay"),
+                      DeformableTerrain::Options{ false });
+  ObjectSet objects;
+  const std::string path = scratchPath();
+  saveTerrain(path, t, objects);
+  const std::vector<char> good = bytesOf(path);
+  const auto expectError = [&](const std::vector<char>& bytes, const char* reason) {
+    std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), bytes.size());
+    try
+    {
+      loadTerrain(path, library());
+      ADD_FAILURE() << "loaded: " << reason;
+    }
+    catch (const TerrainFileError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << e.what();
+    }
+  };
+  expectError(std::vector<char>(good.begin(), good.begin() + good.size() / 2), "checksum");
+  std::vector<char> flipped = good;
+  flipped[100] ^= 0x10;
+  expectError(flipped, "checksum");
+  std::vector<char> magic = good;
+  magic[0] = 'X';
+  expectError(magic, "not an AVSP terrain file");
+  std::vector<char> version = good;
+  version[8] = 7;
+  expectError(version, "version 7");
+  expectError({}, "not an AVSP terrain file");
+  std::remove(path.c_str());
+  EXPECT_THROW(loadTerrain("/nonexistent/terrain.avsp", library()), TerrainFileError);
+}
+
+TEST(TerrainFile, UnknownSoilIsNamed)
+{
+  const std::size_t n = 10;
+  SoilParameters lava = library().get("clay");
+  lava.name = "lava";
+  DeformableTerrain t(ElevationGrid(0, 0, 0.1, 0.1, n, n, std::vector<float>(n * n, 0.f)), lava,
+                      DeformableTerrain::Options{ false });
+  const std::string path = scratchPath();
+  saveTerrain(path, t, ObjectSet());
+  try
+  {
+    loadTerrain(path, library());
+    ADD_FAILURE() << "loaded a terrain whose soil is not in the library";
+  }
+  catch (const TerrainFileError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("soil 'lava'"), std::string::npos) << e.what();
+  }
+  std::remove(path.c_str());
+}
