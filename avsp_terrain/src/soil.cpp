@@ -46,7 +46,7 @@ using Section = YamlSection<SoilError>;
 
 SoilParameters readSoil(const Section& s, const std::string& name)
 {
-  s.allowOnly({ "source", "model", "simple", "strength", "bekker" });
+  s.allowOnly({ "source", "model", "simple", "strength", "bekker", "moisture" });
   SoilParameters p;
   p.name = name;
   p.source = s.string("source");
@@ -105,6 +105,39 @@ SoilParameters readSoil(const Section& s, const std::string& name)
   p.k_phi = 1e3 * bekker.nonNegative("k_phi_kn");
   if (!(p.k_c > 0.0 || p.k_phi > 0.0))
     bekker.fail("k_phi_kn", "k_c and k_phi cannot both be 0 (the soil would carry no load)");
+
+  const Section m = s.map("moisture");
+  m.allowOnly({ "initial", "dry", "saturated", "wetting_per_mm", "drying_time_constant_h", "table" });
+  MoistureSpec& spec = p.moisture;
+  spec.initial = m.nonNegative("initial");
+  spec.dry = m.nonNegative("dry");
+  spec.saturated = m.positive("saturated");
+  if (spec.dry > spec.saturated || spec.initial > spec.saturated)
+    m.fail("saturated", "must be at least 'dry' and 'initial'");
+  spec.wetting_per_mm = m.nonNegative("wetting_per_mm");
+  spec.drying_time_constant = 3600.0 * m.positive("drying_time_constant_h");
+  const YAML::Node table = m.require("table");
+  if (!table.IsSequence())
+    m.fail("table", "must be a list (empty when moisture does not change the soil)");
+  const std::vector<Section> rows = table.size() > 0 ? m.sequence("table") : std::vector<Section>{};
+  for (std::size_t k = 0; k < rows.size(); ++k)
+  {
+    const Section& r = rows[k];
+    r.allowOnly({ "moisture", "cohesion_kpa", "friction_angle_deg", "n", "k_c_kn", "k_phi_kn" });
+    MoistureRow mr;
+    mr.moisture = r.nonNegative("moisture");
+    if (mr.moisture == spec.initial)
+      r.fail("moisture", "equals moisture.initial, whose values are 'strength' and 'bekker'");
+    mr.cohesion = 1e3 * r.nonNegative("cohesion_kpa");
+    const double deg = r.nonNegative("friction_angle_deg");
+    if (deg >= 90.0)
+      r.fail("friction_angle_deg", "must be below 90");
+    mr.friction_angle = deg * M_PI / 180.0;
+    mr.n = r.positive("n");
+    mr.k_c = 1e3 * r.nonNegative("k_c_kn");
+    mr.k_phi = 1e3 * r.nonNegative("k_phi_kn");
+    spec.table.push_back(mr);
+  }
   return p;
 }
 }  // namespace

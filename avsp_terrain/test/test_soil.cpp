@@ -92,6 +92,10 @@ TEST(SoilLibrary, BadFilesNameFileAndKey)
   err = loadError(edited("    bekker: {n: 1.6, k_c_kn: 4.37, k_phi_kn: 196.72}\n", ""));
   EXPECT_NE(err.find("soils.snow.bekker"), std::string::npos) << err;
   EXPECT_NE(err.find("missing"), std::string::npos) << err;
+  err = loadError(edited("drying_time_constant_h: 48.0", "drying_time_constant_h: -48.0"));
+  EXPECT_NE(err.find("soils.sandy_loam.moisture.drying_time_constant_h"), std::string::npos) << err;
+  err = loadError(edited("- {moisture: 0.55, cohesion_kpa: 2.07", "- {moisture: 0.55, cohesion_kpa: oops"));
+  EXPECT_NE(err.find("soils.clay.moisture.table[0].cohesion_kpa"), std::string::npos) << err;
   err = loadError("soils: {}\n");
   EXPECT_NE(err.find("no soil"), std::string::npos) << err;
   err = loadError("soils: [\n");

@@ -44,6 +44,28 @@ private:
   std::vector<std::pair<double, double>> points_;
 };
 
+/// Strength and Bekker-Wong parameters of a soil at one moisture (a row of its table).
+struct MoistureRow
+{
+  double moisture = 0.0;        ///< mass of water / mass of dry soil
+  double cohesion = 0.0;        ///< Pa
+  double friction_angle = 0.0;  ///< rad
+  double n = 0.0;
+  double k_c = 0.0;             ///< N/m^(n+1)
+  double k_phi = 0.0;           ///< N/m^(n+2)
+};
+
+/// How a soil's moisture evolves and what it changes (MODELS.md section 3).
+struct MoistureSpec
+{
+  double initial = 0.0;          ///< moisture at which `strength`/`bekker` were given
+  double dry = 0.0;              ///< moisture the soil dries towards without rain
+  double saturated = 0.0;        ///< moisture it cannot exceed (> 0)
+  double wetting_per_mm = 0.0;   ///< moisture added per mm of rain, times (1 - w / saturated)
+  double drying_time_constant = 0.0;  ///< s, e-folding time of drying towards `dry`
+  std::vector<MoistureRow> table;     ///< other moistures; empty: strength independent of moisture
+};
+
 /// Everything the contact model needs to know about one soil, in SI units.
 struct SoilParameters
 {
@@ -66,6 +88,7 @@ struct SoilParameters
   double n = 0.0;               ///< sinkage exponent
   double k_c = 0.0;             ///< N/m^(n+1)
   double k_phi = 0.0;           ///< N/m^(n+2)
+  MoistureSpec moisture;
 };
 
 /// The soils of config/soils.yaml by name.
