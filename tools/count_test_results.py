@@ -23,66 +23,66 @@ def result_files(build_dir):
                 yield os.path.join(root, name)
 
 
-def count_file(path):
-    """Returns (passed, failed, skipped, failed_names) for one JUnit-style file."""
+def read_cases(path):
+    """Returns [(label, outcome)] for one JUnit-style file, outcome in pass/fail/skip. An
+    unreadable file, or one with no test case (the binary did not run its tests), is one
+    failing case."""
     try:
-        tree = ET.parse(path)
+        cases = list(ET.parse(path).getroot().iter("testcase"))
     except ET.ParseError as err:
-        return 0, 1, 0, ["%s: unreadable result file (%s)" % (path, err)]
-    passed = failed = skipped = 0
-    names = []
-    cases = list(tree.getroot().iter("testcase"))
+        return [("unreadable result file (%s)" % err, "fail")]
     if not cases:
-        # A result file with no test case means the test binary did not run its tests.
-        return 0, 1, 0, ["%s: no test case in result file" % path]
+        return [("no test case in result file", "fail")]
+    out = []
     for case in cases:
         label = "%s.%s" % (case.get("classname", "?"), case.get("name", "?"))
         if case.find("failure") is not None or case.find("error") is not None:
-            failed += 1
-            names.append("%s (%s)" % (label, os.path.basename(path)))
+            out.append((label, "fail"))
         elif case.find("skipped") is not None or case.get("status") == "notrun":
-            skipped += 1
+            out.append((label, "skip"))
         else:
-            passed += 1
-    return passed, failed, skipped, names
+            out.append((label, "pass"))
+    return out
+
+
+def wrapper_misses(path, cases):
+    """rostest wrapper cases that failed while the node's own rosunit-<name>.xml shows no
+    failure (the node crashed or wrote nothing): the only wrapper cases that count."""
+    missed = []
+    for label, outcome in cases:
+        if outcome != "fail":
+            continue
+        name = label.rsplit(".", 1)[-1]
+        inner = os.path.join(os.path.dirname(path), "rosunit-%s.xml" % name[len("test"):])
+        if not os.path.exists(inner) or all(o != "fail" for _l, o in read_cases(inner)):
+            missed.append((label, outcome))
+    return missed
 
 
 def main():
     build_dir = sys.argv[1] if len(sys.argv) > 1 else "build"
-    total_passed = total_failed = total_skipped = 0
+    totals = {"pass": 0, "fail": 0, "skip": 0}
     failed_names = []
-    files = list(result_files(build_dir))
-    for path in files:
-        p, f, s, names = count_file(path)
+    for path in result_files(build_dir):
+        cases = read_cases(path)
         if os.path.basename(path).startswith("rostest-"):
-            # Wrapper: one case per test node; only a failure the node's own file lacks counts.
-            wrapper_cases = list(ET.parse(path).getroot().iter("testcase")) if f == 0 or names else []
-            missed = 0
-            for case in wrapper_cases:
-                if case.find("failure") is None and case.find("error") is None:
-                    continue
-                inner = os.path.join(os.path.dirname(path), "rosunit-%s.xml" % case.get("name", "")[len("test"):])
-                if not os.path.exists(inner) or count_file(inner)[1] == 0:
-                    missed += 1
-            if f and not wrapper_cases:
-                missed = f  # unreadable wrapper
-            p, f, s = 0, missed, 0
-            names = names if missed else []
-        print("  %-60s %3d passed %3d failed %3d skipped" % (os.path.relpath(path, build_dir), p, f, s))
-        total_passed += p
-        total_failed += f
-        total_skipped += s
-        failed_names.extend(names)
+            cases = wrapper_misses(path, cases)
+        counts = {o: sum(1 for _l, c in cases if c == o) for o in totals}
+        print("  %-60s %3d passed %3d failed %3d skipped"
+              % (os.path.relpath(path, build_dir), counts["pass"], counts["fail"], counts["skip"]))
+        for o in totals:
+            totals[o] += counts[o]
+        failed_names += ["%s (%s)" % (l, os.path.basename(path)) for l, o in cases if o == "fail"]
     for name in failed_names:
         print("FAILED: " + name)
-    if total_passed + total_failed == 0:
+    if totals["pass"] + totals["fail"] == 0:
         print("no test was executed (no result files under %s)" % build_dir)
-        total_failed = max(total_failed, 1)
-    line = "%d passed, %d failed" % (total_passed, total_failed)
-    if total_skipped:
-        line += ", %d skipped" % total_skipped
+        totals["fail"] = 1
+    line = "%d passed, %d failed" % (totals["pass"], totals["fail"])
+    if totals["skip"]:
+        line += ", %d skipped" % totals["skip"]
     print(line)
-    return 0 if total_failed == 0 and total_passed > 0 else 1
+    return 0 if totals["fail"] == 0 and totals["pass"] > 0 else 1
 
 
 if __name__ == "__main__":
