@@ -100,7 +100,7 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
       h11 = pointHeight(i + 1, j + 1);
     }
   }
-  return (1 - u) * (1 - v) * h00 + u * (1 - v) * h10 + (1 - u) * v * h01 + u * v * h11;
+  return ElevationGrid::bilinear(h00, h10, h01, h11, u, v);
 }
 
 double DeformableTerrain::extraSinkage(const PointDeformation& state, double sigma) const

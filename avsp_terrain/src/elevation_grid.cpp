@@ -92,7 +92,7 @@ std::optional<double> ElevationGrid::height(double x, double y) const
   Patch p{};
   if (!patchAt(x, y, p))
     return std::nullopt;
-  return (1 - p.u) * (1 - p.v) * p.h00 + p.u * (1 - p.v) * p.h10 + (1 - p.u) * p.v * p.h01 + p.u * p.v * p.h11;
+  return bilinear(p.h00, p.h10, p.h01, p.h11, p.u, p.v);
 }
 
 std::optional<Eigen::Vector3d> ElevationGrid::normal(double x, double y) const

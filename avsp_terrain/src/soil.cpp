@@ -44,6 +44,15 @@ namespace
 {
 using Section = YamlSection<SoilError>;
 
+/// phi in rad from a `friction_angle_deg` key: in [0, 90) degrees.
+double frictionAngle(const Section& s)
+{
+  const double deg = s.nonNegative("friction_angle_deg");
+  if (deg >= 90.0)
+    s.fail("friction_angle_deg", "must be below 90");
+  return deg * M_PI / 180.0;
+}
+
 SoilParameters readSoil(const Section& s, const std::string& name)
 {
   s.allowOnly({ "source", "model", "simple", "strength", "bekker", "moisture" });
@@ -92,10 +101,7 @@ SoilParameters readSoil(const Section& s, const std::string& name)
   const Section strength = s.map("strength");
   strength.allowOnly({ "cohesion_kpa", "friction_angle_deg", "shear_modulus" });
   p.cohesion = 1e3 * strength.nonNegative("cohesion_kpa");
-  const double phi_deg = strength.nonNegative("friction_angle_deg");
-  if (phi_deg >= 90.0)
-    strength.fail("friction_angle_deg", "must be below 90");
-  p.friction_angle = phi_deg * M_PI / 180.0;
+  p.friction_angle = frictionAngle(strength);
   p.shear_modulus = strength.positive("shear_modulus");
 
   const Section bekker = s.map("bekker");
@@ -129,10 +135,7 @@ SoilParameters readSoil(const Section& s, const std::string& name)
     if (mr.moisture == spec.initial)
       r.fail("moisture", "equals moisture.initial, whose values are 'strength' and 'bekker'");
     mr.cohesion = 1e3 * r.nonNegative("cohesion_kpa");
-    const double deg = r.nonNegative("friction_angle_deg");
-    if (deg >= 90.0)
-      r.fail("friction_angle_deg", "must be below 90");
-    mr.friction_angle = deg * M_PI / 180.0;
+    mr.friction_angle = frictionAngle(r);
     mr.n = r.positive("n");
     mr.k_c = 1e3 * r.nonNegative("k_c_kn");
     mr.k_phi = 1e3 * r.nonNegative("k_phi_kn");

@@ -63,6 +63,12 @@ public:
   /// Unit upward normal of the bilinear surface at (x, y); nullopt outside.
   std::optional<Eigen::Vector3d> normal(double x, double y) const;
 
+  /// Bilinear blend of a cell's corner values (h_ij at corner (i, j)) at (u, v) in [0, 1].
+  static double bilinear(double h00, double h10, double h01, double h11, double u, double v)
+  {
+    return (1 - u) * (1 - v) * h00 + u * (1 - v) * h10 + (1 - u) * v * h01 + u * v * h11;
+  }
+
   /// Height of grid point (i, j), m. @throw std::out_of_range outside the grid.
   double pointHeight(std::size_t i, std::size_t j) const;
 
