@@ -9,7 +9,7 @@ export ROS_MASTER_URI="http://127.0.0.1:${port}"
 export ROS_IP=127.0.0.1
 gui=false; [ "${AVSP_GUI:-0}" = 1 ] && gui=true
 timeout_s="${AVSP_DEMO_TIMEOUT:-30}"
-share="$(rospack find avsp)" || { echo "run_demo: rospack cannot find package avsp (source install/setup.bash)" >&2; exit 1; }
+share="$(rospack find avsp)" || { echo "run_demo: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
 
 roslaunch -p "$port" avsp demo.launch gui:=$gui &
 launch_pid=$!
@@ -17,11 +17,13 @@ cleanup() { kill -INT "$launch_pid" 2>/dev/null || true; wait "$launch_pid" 2>/d
 trap cleanup EXIT
 
 # team_check needs the master: wait for it (bounded), then let team_check wait for TF.
+master_up=0
 for _ in $(seq 1 100); do
-  rostopic list >/dev/null 2>&1 && break
+  rostopic list >/dev/null 2>&1 && { master_up=1; break; }
   kill -0 "$launch_pid" 2>/dev/null || { echo "run_demo: roslaunch exited early" >&2; exit 1; }
   sleep 0.1
 done
+[ $master_up = 1 ] || { echo "run_demo: no ROS master on port $port after 10 s" >&2; exit 1; }
 rosparam load "$share/config/reference_team.yaml" /team_check
 rc=0
 rosrun avsp team_check __name:=team_check _config_dir:="$share/config/vehicles" _timeout:="$timeout_s" || rc=$?
