@@ -66,7 +66,8 @@ def main():
     text += display("TF", "TF", "Show Names: false\nShow Axes: true\nShow Arrows: false\nMarker Scale: 1\n"
                     "Frame Timeout: 15", enabled=False)
     text += display("MarkerArray", "Terrain mesh (/terrain/mesh)", "Marker Topic: /terrain/mesh\nQueue Size: 10")
-    text += display("MarkerArray", "Ruts (/terrain/ruts)", "Marker Topic: /terrain/ruts\nQueue Size: 100")
+    text += display("MarkerArray", "Ruts (/terrain/rut_markers)", "Marker Topic: /terrain/rut_markers\nQueue Size: 10")
+    text += display("MarkerArray", "Terrain objects (/terrain/objects)", "Marker Topic: /terrain/objects\nQueue Size: 10")
     text += display("MarkerArray", "Agents (/agents/markers)", "Marker Topic: /agents/markers\nQueue Size: 100")
     for v in TEAM:
         text += vehicle_group(v)
