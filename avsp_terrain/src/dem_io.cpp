@@ -833,18 +833,33 @@ HeightRaster readGeoTiff(const std::string& path)
   raster.origin_y = gt[3] + (height - 0.5) * gt[5];
   raster.heights.resize(raster.columns * raster.rows);
 
-  // Reading as double represents all four band types exactly, so the nodata comparison is exact.
-  std::vector<double> line(raster.columns);
+  // Memory: the heights are read row by row straight into the raster (flipped to row 0
+  // south), so the file's data is held once. GDAL keeps every block it reads in its block
+  // cache (by default 5 % of RAM, more than a site-size raster on a large machine), which
+  // would hold the whole file a second time; the cache is therefore dropped after each row
+  // of blocks. Float32, Int16 and UInt16 pixels are exact as float, so they are read as
+  // Float32 in place; Float64 goes through a one-row double buffer so that its nodata
+  // comparison and float-range check see the exact file value.
+  int block_x = 0, block_y = 0;
+  GDALGetBlockSize(band, &block_x, &block_y);
+  if (block_y < 1)
+    block_y = 1;
+  const bool read_double = type == GDT_Float64;
+  std::vector<double> line(read_double ? raster.columns : 0);
   for (int r = 0; r < height; ++r)
   {
-    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, line.data(), width, 1, GDT_Float64, 0, 0) != CE_None)
+    float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
+    void* buffer = read_double ? static_cast<void*>(line.data()) : static_cast<void*>(dst);
+    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, buffer, width, 1, read_double ? GDT_Float64 : GDT_Float32, 0,
+                     0) != CE_None)
       fail(fn, path,
            "cannot read pixel row " + std::to_string(r) + ", truncated or corrupt file (" +
                GdalQuietErrors::lastMessage() + ")");
-    float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
+    if ((r + 1) % block_y == 0 || r + 1 == height)
+      GDALFlushRasterCache(band);  // read-only: releases the cached blocks, writes nothing
     for (std::size_t c = 0; c < raster.columns; ++c)
     {
-      const double raw = line[c];
+      const double raw = read_double ? line[c] : static_cast<double>(dst[c]);
       if (std::isnan(raw) || (has_nodata && raw == nodata))
       {
         dst[c] = kNoData;
@@ -921,24 +936,35 @@ std::size_t fillNoData(HeightRaster& raster, const std::string& source)
     throw DemError("fillNoData: '" + source + "': raster has " + std::to_string(n) + " heights for " +
                    std::to_string(raster.columns) + " x " + std::to_string(raster.rows) + " points");
   // 32-bit indices halve the queue for large rasters; kMaxPoints guarantees they fit.
+  // Only valid points next to a no-data point are seeded: a valid point whose four
+  // neighbours are all valid would visit nothing, so leaving it out changes neither the
+  // result nor the order of the visits, and the queue holds the voids and their rims instead
+  // of the whole raster (a 218 M-point site would otherwise need 872 MB for it).
+  const std::size_t cols = raster.columns;
+  const std::size_t rows = raster.rows;
+  const auto missing = [&](std::size_t k) { return std::isnan(raster.heights[k]); };
   std::vector<std::uint32_t> queue;
-  queue.reserve(n);
   std::vector<bool> known(n, false);
-  for (std::size_t k = 0; k < n; ++k)
+  bool any_valid = false;
+  for (std::size_t j = 0, k = 0; j < rows; ++j)
   {
-    if (!std::isnan(raster.heights[k]))
+    for (std::size_t i = 0; i < cols; ++i, ++k)
     {
+      if (missing(k))
+        continue;
       known[k] = true;
-      queue.push_back(static_cast<std::uint32_t>(k));
+      any_valid = true;
+      if ((i > 0 && missing(k - 1)) || (i + 1 < cols && missing(k + 1)) || (j > 0 && missing(k - cols)) ||
+          (j + 1 < rows && missing(k + cols)))
+        queue.push_back(static_cast<std::uint32_t>(k));
     }
   }
-  if (queue.empty())
+  if (!any_valid)
     throw DemError("fillNoData: '" + source + "': every point is no-data, nothing to fill from");
 
   // Multi-source breadth-first search: each no-data point takes the height carried by the
   // first wave to reach it, i.e. from a valid point at the fewest 4-neighbour steps.
   std::size_t filled = 0;
-  const std::size_t cols = raster.columns;
   for (std::size_t head = 0; head < queue.size(); ++head)
   {
     const std::size_t k = queue[head];
@@ -959,7 +985,7 @@ std::size_t fillNoData(HeightRaster& raster, const std::string& source)
       visit(k + 1);
     if (j > 0)
       visit(k - cols);
-    if (j + 1 < raster.rows)
+    if (j + 1 < rows)
       visit(k + cols);
   }
   return filled;

@@ -108,6 +108,10 @@ void writePng16(const HeightRaster& raster, const std::string& path, const Png16
  * Float32, Float64, Int16 or UInt16 band, metre units if a CRS or band unit is given
  * (geographic CRSs are rejected), and applies the band's scale and offset if present. The
  * band's nodata value and NaN become NaN.
+ *
+ * Memory: the heights once (4 B per point) plus one row. Rows are read straight into the
+ * result and GDAL's block cache is released after each row of blocks, so a site-size
+ * raster is not held a second time in that cache.
  * @throw DemError naming @p path and the reason
  */
 HeightRaster readGeoTiff(const std::string& path);
@@ -125,6 +129,8 @@ void writeGeoTiff(const HeightRaster& raster, const std::string& path);
  * "Nearest" is by steps through the 4-neighbourhood (breadth-first from all valid points at
  * once); ties go to whichever valid point reaches the point first in that search, which is
  * deterministic (valid points are seeded in index order, neighbours visited -x, +x, -y, +y).
+ * Memory: one bit per point plus 4 B per no-data point and per valid point next to one
+ * (only those can reach a void, so only those are seeded).
  * @param source name used in error messages (usually the file the raster came from)
  * @return number of points filled
  * @throw DemError naming @p source if every point is no-data or the raster is inconsistent
