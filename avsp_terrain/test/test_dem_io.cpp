@@ -22,6 +22,7 @@
 
 #include "avsp_terrain/dem_io.hpp"
 
+using avsp::terrain::ClassRaster;
 using avsp::terrain::DemError;
 using avsp::terrain::fillNoData;
 using avsp::terrain::HeightRaster;
@@ -29,9 +30,13 @@ using avsp::terrain::Png16Georef;
 using avsp::terrain::readAsciiGrid;
 using avsp::terrain::readGeoTiff;
 using avsp::terrain::readPng16;
+using avsp::terrain::readPng16Georef;
 using avsp::terrain::writeAsciiGrid;
 using avsp::terrain::writeGeoTiff;
+using avsp::terrain::writeClassGeoTiff;
+using avsp::terrain::writeClassPng8;
 using avsp::terrain::writePng16;
+using avsp::terrain::writePng16Georef;
 
 namespace
 {
@@ -556,6 +561,108 @@ TEST_F(DemIo, GeoTiffReaderRejectsUnsupportedGeoreferenceAndTypes)
   const std::string good = file("utm.tif");
   writeTestTiff(good, 3, 2, GDT_UInt16, ok, px, nullptr, 32632);
   EXPECT_EQ(readGeoTiff(good).heights[0], 4.0f);
+}
+
+// --------------------------------------------------------------------------------------
+// PNG georeference sidecar and class rasters
+// --------------------------------------------------------------------------------------
+
+TEST_F(DemIo, Png16GeorefSidecarRoundTripsBitExactly)
+{
+  Png16Georef g;
+  g.origin_x = 4321.0 / 3.0;  // no short decimal form: 17 digits are needed
+  g.origin_y = -1e-7 / 7.0;
+  g.cell_size = 0.1;
+  g.z_offset = -12.345678901234567;
+  g.z_scale = 1.0 / 3.0;
+  const std::string path = file("map.png.yaml");
+  writePng16Georef(g, path, "map.png");
+  EXPECT_NE(readBytes(path).find("map.png"), std::string::npos);
+  const Png16Georef back = readPng16Georef(path);
+  EXPECT_EQ(back.origin_x, g.origin_x);
+  EXPECT_EQ(back.origin_y, g.origin_y);
+  EXPECT_EQ(back.cell_size, g.cell_size);
+  EXPECT_EQ(back.z_offset, g.z_offset);
+  EXPECT_EQ(back.z_scale, g.z_scale);
+
+  Png16Georef bad = g;
+  bad.z_scale = 0.0;
+  expectDemError([&] { writePng16Georef(bad, file("bad.yaml"), "x.png"); }, file("bad.yaml"), "z_scale");
+}
+
+TEST_F(DemIo, BadPng16GeorefSidecarsNameFileAndKey)
+{
+  const std::string full = "origin_x: 1\norigin_y: 2\ncell_size: 0.5\nz_offset: -3\nz_scale: 10\n";
+  struct Case
+  {
+    std::string name, text, words;
+  };
+  const std::vector<Case> cases = {
+    { "missing.yaml", "origin_x: 1\norigin_y: 2\ncell_size: 0.5\nz_offset: -3\n", "key 'z_scale'" },
+    { "typo.yaml", full + "z_scal: 3\n", "key 'z_scal'" },
+    { "word.yaml", "origin_x: east\norigin_y: 2\ncell_size: 0.5\nz_offset: -3\nz_scale: 10\n", "key 'origin_x'" },
+    { "zero.yaml", "origin_x: 1\norigin_y: 2\ncell_size: 0\nz_offset: -3\nz_scale: 10\n", "key 'cell_size'" },
+    { "negative.yaml", "origin_x: 1\norigin_y: 2\ncell_size: 1\nz_offset: -3\nz_scale: -10\n", "key 'z_scale'" },
+    { "nan.yaml", "origin_x: .nan\norigin_y: 2\ncell_size: 1\nz_offset: -3\nz_scale: 10\n", "finite" },
+    { "list.yaml", "- 1\n- 2\n", "map" },
+    { "broken.yaml", "origin_x: [1, 2\n", "YAML" },
+  };
+  for (const Case& c : cases)
+  {
+    SCOPED_TRACE(c.name);
+    const std::string path = file(c.name);
+    writeText(path, c.text);
+    expectDemError([&] { readPng16Georef(path); }, path, c.words);
+  }
+  writeText(file("ok.yaml"), full);
+  EXPECT_EQ(readPng16Georef(file("ok.yaml")).z_scale, 10.0);
+  expectDemError([&] { readPng16Georef(file("absent.yaml")); }, file("absent.yaml"), "not found");
+}
+
+TEST_F(DemIo, ClassRasterWritersStoreNorthRowFirstAndRejectInconsistentRasters)
+{
+  ClassRaster c;
+  c.origin_x = 10.0;
+  c.origin_y = 20.0;
+  c.cell_size = 2.0;
+  c.columns = 3;
+  c.rows = 2;
+  c.values = { 1, 2, 3, 4, 5, 255 };  // row 0 (south) = 1 2 3
+  for (const std::string name : { "classes.png", "classes.tif" })
+  {
+    SCOPED_TRACE(name);
+    const std::string path = file(name);
+    if (name == "classes.png")
+      writeClassPng8(c, path);
+    else
+      writeClassGeoTiff(c, path);
+    GDALAllRegister();
+    GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
+    ASSERT_NE(ds, nullptr);
+    GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+    EXPECT_EQ(GDALGetRasterDataType(band), GDT_Byte);
+    std::uint8_t px[6] = {};
+    ASSERT_EQ(GDALRasterIO(band, GF_Read, 0, 0, 3, 2, px, 3, 2, GDT_Byte, 0, 0), CE_None);
+    const std::uint8_t north_first[6] = { 4, 5, 255, 1, 2, 3 };
+    for (int k = 0; k < 6; ++k)
+      EXPECT_EQ(px[k], north_first[k]) << k;
+    if (name == "classes.tif")
+    {
+      double gt[6] = {};
+      ASSERT_EQ(GDALGetGeoTransform(ds, gt), CE_None);
+      EXPECT_EQ(gt[0], 9.0);
+      EXPECT_EQ(gt[3], 23.0);  // north grid point 22 plus half a cell
+      EXPECT_EQ(gt[5], -2.0);
+    }
+    GDALClose(ds);
+  }
+  ClassRaster short_values = c;
+  short_values.values.pop_back();
+  expectDemError([&] { writeClassPng8(short_values, file("s.png")); }, file("s.png"), "values");
+  expectDemError([&] { writeClassGeoTiff(short_values, file("s.tif")); }, file("s.tif"), "values");
+  ClassRaster no_cell = c;
+  no_cell.cell_size = 0.0;
+  expectDemError([&] { writeClassGeoTiff(no_cell, file("n.tif")); }, file("n.tif"), "cell size");
 }
 
 // --------------------------------------------------------------------------------------
