@@ -111,6 +111,10 @@ public:
   /// Height of grid point (i, j), m. @throw std::out_of_range outside the grid.
   double pointHeight(std::size_t i, std::size_t j) const;
 
+  /// Heights of all grid points, m, row-major (index j * columns + i): for writing the grid
+  /// out without copying it point by point.
+  const std::vector<float>& pointHeights() const { return heights_; }
+
   double originX() const { return origin_x_; }
   double originY() const { return origin_y_; }
   double dx() const { return dx_; }
