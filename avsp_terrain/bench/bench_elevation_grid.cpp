@@ -7,7 +7,8 @@
 //   wheel contacts  4 wheels x 24 points of a 0.3 m x 0.4 m patch, the vehicle moving 0.1 m a step;
 //   local window    random points in a 10 m x 10 m window that moves along the grid (how
 //                   wheels, bumpers and nearby rays query);
-//   ray march       points every 0.05 m along 100 m rays from random sensor positions;
+//   ray march       points every 0.05 m along rays (up to 100 m, ending at the grid's edge)
+//                   from random sensor positions;
 //   random          uniform over the whole grid: each query misses cache, so the figure is
 //                   the memory system's, shown next to a bare two-load random read of the
 //                   same array.
@@ -18,6 +19,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <random>
 #include <string>
@@ -52,6 +54,19 @@ struct Pattern
   std::string name;
   std::vector<double> xy;
 };
+
+/// Size of this CPU's L3 cache from sysfs, MB (1e6 B, like the grid's size); 0 when unknown.
+double l3CacheMegabytes()
+{
+  std::ifstream in("/sys/devices/system/cpu/cpu0/cache/index3/size");
+  double value = 0.0;
+  char unit = 0;
+  if (!(in >> value))
+    return 0.0;
+  in >> unit;
+  const double scale = unit == 'K' ? 1024.0 : unit == 'M' ? 1024.0 * 1024.0 : 1.0;
+  return value * scale / 1e6;
+}
 
 Pattern wheelContacts(double extent, std::size_t queries)
 {
@@ -100,16 +115,20 @@ Pattern localWindow(double extent, std::size_t queries, std::mt19937& rng)
 
 Pattern rayMarch(double extent, std::size_t queries, std::mt19937& rng)
 {
-  Pattern p{ "ray march (0.05 m steps, 100 m rays)", {} };
+  Pattern p{ "ray march (0.05 m steps, rays up to 100 m)", {} };
   p.xy.reserve(2 * queries);
-  std::uniform_real_distribution<double> pos(110.0, extent - 110.0), angle(0.0, 2.0 * M_PI);
+  std::uniform_real_distribution<double> pos(0.0, extent), angle(0.0, 2.0 * M_PI);
   while (p.xy.size() < 2 * queries)
   {
     const double x0 = pos(rng), y0 = pos(rng), a = angle(rng);
+    // A ray ends after 100 m or where it leaves the grid, as a sensor's march would.
     for (int s = 0; s < 2000 && p.xy.size() < 2 * queries; ++s)
     {
-      p.xy.push_back(x0 + 0.05 * s * std::cos(a));
-      p.xy.push_back(y0 + 0.05 * s * std::sin(a));
+      const double x = x0 + 0.05 * s * std::cos(a), y = y0 + 0.05 * s * std::sin(a);
+      if (!(x >= 0.0 && x <= extent && y >= 0.0 && y <= extent))
+        break;
+      p.xy.push_back(x);
+      p.xy.push_back(y);
     }
   }
   return p;
@@ -130,10 +149,10 @@ int main(int argc, char** argv)
 {
   const std::size_t n = argc > 1 ? std::strtoul(argv[1], nullptr, 10) : 4900;
   const std::size_t queries = argc > 2 ? std::strtoul(argv[2], nullptr, 10) : 4000000;
-  if (n < 300 || queries == 0)
+  if (n < 200 || queries == 0)
   {
-    std::fprintf(stderr, "bench_elevation_grid: points_per_side must be >= 300 (room for 100 m rays at 0.1 m) "
-                         "and queries > 0\n");
+    std::fprintf(stderr, "bench_elevation_grid: points_per_side must be >= 200 (room for the 10 m window and the "
+                         "vehicle) and queries > 0\n");
     return 2;
   }
   const double d = 0.1;
@@ -159,7 +178,7 @@ int main(int argc, char** argv)
 
   std::vector<double> out(queries);
   bool identical = true;
-  double random_rate = 0.0;
+  double random_single = 0.0, random_batch = 0.0;
   std::printf("%-52s %10s %10s %10s  (M queries/s per core; target >= %.0f)\n", "pattern", "height()", "heightAt()",
               "heights()", kTarget);
   for (const Pattern& p : patterns)
@@ -179,6 +198,12 @@ int main(int argc, char** argv)
           sum += z;
       return sum;
     }, c_fast);
+    // Every pattern stays on the grid, so that the three paths sum the same heights.
+    if (grid.heights(xy, out.data(), queries) != queries)
+    {
+      std::fprintf(stderr, "bench_elevation_grid: pattern '%s' left the grid (bug)\n", p.name.c_str());
+      return 1;
+    }
     const double r_batch = rate(queries, [&] {
       grid.heights(xy, out.data(), queries);
       double sum = 0;
@@ -188,10 +213,16 @@ int main(int argc, char** argv)
     }, c_batch);
     identical = identical && c_opt == c_fast && c_opt == c_batch;
     const double best = std::max({ r_opt, r_fast, r_batch });
-    std::printf("%-52s %10.1f %10.1f %10.1f  %s\n", p.name.c_str(), r_opt, r_fast, r_batch,
-                best >= kTarget ? "meets target" : "BELOW target");
+    const char* verdict = std::min({ r_opt, r_fast, r_batch }) >= kTarget ? "meets target, every path"
+                          : r_batch >= kTarget                            ? "meets target with heights() only"
+                          : best >= kTarget                               ? "meets target on some paths"
+                                                                          : "BELOW target";
+    std::printf("%-52s %10.1f %10.1f %10.1f  %s\n", p.name.c_str(), r_opt, r_fast, r_batch, verdict);
     if (&p == &patterns.back())
-      random_rate = best;
+    {
+      random_single = std::max(r_opt, r_fast);
+      random_batch = r_batch;
+    }
   }
   std::printf("checksums of the three paths %s\n", identical ? "identical (bit for bit)" : "DIFFER (bug)");
 
@@ -210,9 +241,20 @@ int main(int argc, char** argv)
         sum += bare[idx[k]] + bare[idx[k] + n];
       return sum;
     }, checksum);
-    std::printf("bare random read of 2 floats one row apart from the same %.0f MB array: %.1f M/s; random queries "
-                "reach %.0f %% of it: they are memory-bound, not compute-bound (checksum %.1f)\n",
-                grid_mb, r, 100.0 * random_rate / r, checksum);
+    std::printf("bare random read of 2 floats one row apart from the same %.0f MB array: %.1f M/s (checksum %.1f); "
+                "random queries: one at a time %.1f M/s (%.0f %% of it), batched %.1f M/s (%.0f %%)\n",
+                grid_mb, r, checksum, random_single, 100.0 * random_single / r, random_batch,
+                100.0 * random_batch / r);
+    const double l3_mb = l3CacheMegabytes();
+    if (l3_mb > 0.0 && grid_mb > 2.0 * l3_mb)
+      std::printf("the grid is %.1f x this CPU's %.1f MB L3 cache: random queries miss cache, so memory latency "
+                  "sets their rate (the bare read is the ceiling, not the arithmetic), and heights() is faster because "
+                  "it overlaps the misses of 16 queries; coherent patterns stay in cache\n",
+                  grid_mb / l3_mb, l3_mb);
+    else if (l3_mb > 0.0)
+      std::printf("the grid fits in about twice this CPU's %.0f MB L3 cache, so random queries mostly hit cache; "
+                  "run with points_per_side 4900 for the memory-bound case\n",
+                  l3_mb);
   }
   return identical ? 0 : 1;
 }
