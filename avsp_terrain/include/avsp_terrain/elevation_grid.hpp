@@ -143,8 +143,8 @@ private:
     // One range check for both bounds; NaN fails every comparison, so it is rejected too.
     if (!(fx >= 0.0 && fy >= 0.0 && fx <= max_fx_ && fy <= max_fy_))
       return false;
-    // floor of a non-negative value below 2^31 is its truncation (one cvttsd2si, no libm
-    // call); the far edge belongs to the last cell so that it has a height.
+    // floor of a non-negative value is its truncation, and fx <= columns - 1 fits int64 (one
+    // cvttsd2si, no libm call); the far edge belongs to the last cell so that it has a height.
     const std::int64_t ci = std::min(static_cast<std::int64_t>(fx), last_cell_i_);
     const std::int64_t cj = std::min(static_cast<std::int64_t>(fy), last_cell_j_);
     u = fx - static_cast<double>(ci);
@@ -171,6 +171,7 @@ private:
     const float* north = south + columns_;
     return bilinear(south[0], south[1], north[0], north[1], u, v);
   }
+
   /// The patch under (x, y); false outside the grid.
   bool patchAt(double x, double y, Patch& p) const;
 
