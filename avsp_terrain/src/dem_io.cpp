@@ -24,6 +24,8 @@
 #include <ogr_srs_api.h>
 #include <png.h>
 
+#include "avsp_terrain/yaml_section.hpp"
+
 namespace avsp
 {
 namespace terrain
@@ -152,6 +154,20 @@ void checkWritable(const char* function, const std::string& path, const HeightRa
            "height at point (" + std::to_string(k % raster.columns) + ", " + std::to_string(k / raster.columns) +
                ") is infinite");
   }
+}
+
+/// Preconditions of the class-raster writers: consistent sizes and a usable georeference.
+void checkClassWritable(const char* function, const std::string& path, const ClassRaster& raster)
+{
+  checkDimensions(function, path, raster.columns, raster.rows);
+  if (raster.values.size() != raster.columns * raster.rows)
+    fail(function, path,
+         "raster has " + std::to_string(raster.values.size()) + " values, expected columns*rows = " +
+             std::to_string(raster.columns * raster.rows));
+  if (!std::isfinite(raster.origin_x) || !std::isfinite(raster.origin_y))
+    fail(function, path, "raster origin is not finite");
+  if (!(raster.cell_size > 0.0) || !std::isfinite(raster.cell_size))
+    fail(function, path, "raster cell size must be finite and > 0");
 }
 
 // ------------------------------------------------------------------------------------------
@@ -532,12 +548,12 @@ bool pngReadRows(PngReadHandle& h, PngErrorState& err, png_bytepp rows)
 }
 
 bool pngWriteAll(PngWriteHandle& h, PngErrorState& err, std::FILE* file, png_uint_32 width, png_uint_32 height,
-                 png_bytepp rows)
+                 int bit_depth, png_bytepp rows)
 {
   if (setjmp(err.jump))
     return false;
   png_init_io(h.png, file);
-  png_set_IHDR(h.png, h.info, width, height, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+  png_set_IHDR(h.png, h.info, width, height, bit_depth, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                PNG_FILTER_TYPE_DEFAULT);
   png_write_info(h.png, h.info);
   png_write_image(h.png, rows);
@@ -572,6 +588,39 @@ void checkGeoref(const char* function, const std::string& path, const Png16Geore
     fail(function, path, "georef cell_size must be finite and > 0");
   if (!(g.z_scale > 0.0) || !std::isfinite(g.z_scale))
     fail(function, path, "georef z_scale must be finite and > 0");
+}
+
+/// Writes greyscale rows (north first, big-endian samples for 16 bits) as a PNG file; a
+/// failed write removes the partial file.
+void writePngFile(const char* fn, const std::string& path, std::size_t columns, std::size_t rows, int bit_depth,
+                  std::vector<png_byte>& pixels)
+{
+  const std::size_t row_bytes = columns * static_cast<std::size_t>(bit_depth / 8);
+  std::vector<png_bytep> row_pointers(rows);
+  for (std::size_t r = 0; r < rows; ++r)
+    row_pointers[r] = &pixels[r * row_bytes];
+
+  FilePtr file = openForWrite(fn, path);
+  PngErrorState err{};
+  bool ok = false;
+  {
+    PngWriteHandle h;
+    h.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, pngError, pngWarning);
+    if (h.png != nullptr)
+      h.info = png_create_info_struct(h.png);
+    if (h.png != nullptr && h.info != nullptr)
+      ok = pngWriteAll(h, err, file.get(), static_cast<png_uint_32>(columns), static_cast<png_uint_32>(rows),
+                       bit_depth, row_pointers.data());
+    else
+      std::snprintf(err.message, sizeof err.message, "%s", "cannot allocate libpng state");
+  }
+  if (!ok)
+  {
+    file.reset();
+    std::remove(path.c_str());
+    fail(fn, path, std::string("PNG write failed (libpng: ") + err.message + ")");
+  }
+  closeWritten(fn, path, file);
 }
 }  // namespace
 
@@ -665,44 +714,74 @@ void writePng16(const HeightRaster& raster, const std::string& path, const Png16
     for (std::size_t i = 0; i < raster.columns; ++i)
     {
       const float z = raster.heights[j * raster.columns + i];
-      const std::string where = "(" + std::to_string(i) + ", " + std::to_string(j) + ")";
+      // Built only on failure: a string per pixel would dominate the cost of a large raster.
+      const auto where = [&] { return "(" + std::to_string(i) + ", " + std::to_string(j) + ")"; };
       if (std::isnan(z))
-        fail(fn, path, "no-data at point " + where + " cannot be stored in a PNG; fill it first");
+        fail(fn, path, "no-data at point " + where() + " cannot be stored in a PNG; fill it first");
       const double q = (static_cast<double>(z) - georef.z_offset) / georef.z_scale * 65535.0;
       if (!(q >= -0.5 && q < 65535.5))
         fail(fn, path,
-             "height " + std::to_string(z) + " m at point " + where + " is outside the PNG range [z_offset, " +
+             "height " + std::to_string(z) + " m at point " + where() + " is outside the PNG range [z_offset, " +
                  "z_offset + z_scale]");
       const auto value = static_cast<unsigned>(std::min(65535.0, std::max(0.0, std::round(q))));
       dst[2 * i] = static_cast<png_byte>(value >> 8);
       dst[2 * i + 1] = static_cast<png_byte>(value & 0xffu);
     }
   }
-  std::vector<png_bytep> row_pointers(raster.rows);
-  for (std::size_t r = 0; r < raster.rows; ++r)
-    row_pointers[r] = &pixels[r * raster.columns * 2];
+  writePngFile(fn, path, raster.columns, raster.rows, 16, pixels);
+}
 
-  FilePtr file = openForWrite(fn, path);
-  PngErrorState err{};
-  bool ok = false;
+void writeClassPng8(const ClassRaster& raster, const std::string& path)
+{
+  const char* const fn = "writeClassPng8";
+  checkClassWritable(fn, path, raster);
+  if (raster.columns > PNG_UINT_31_MAX || raster.rows > PNG_UINT_31_MAX)
+    fail(fn, path, "too many columns or rows for PNG");
+  std::vector<png_byte> pixels(raster.values.size());
+  for (std::size_t j = 0; j < raster.rows; ++j)  // north row first
+    std::copy_n(&raster.values[j * raster.columns], raster.columns, &pixels[(raster.rows - 1 - j) * raster.columns]);
+  writePngFile(fn, path, raster.columns, raster.rows, 8, pixels);
+}
+
+// ------------------------------------------------------------------------------------------
+// PNG georeference sidecar (YAML)
+// ------------------------------------------------------------------------------------------
+void writePng16Georef(const Png16Georef& georef, const std::string& path, const std::string& image_name)
+{
+  const char* const fn = "writePng16Georef";
+  checkGeoref(fn, path, georef);
+  FilePtr f = openForWrite(fn, path);
+  std::fprintf(f.get(),
+               "# Georeference of the 16-bit greyscale PNG heightmap '%s' (avsp_terrain Png16Georef).\n"
+               "# Pixel row 0 is the north edge; pixel (c, r) of an image of R rows is grid point\n"
+               "# (origin_x + c * cell_size, origin_y + (R - 1 - r) * cell_size); pixel value v is the\n"
+               "# height z_offset + z_scale * v / 65535. All in metres, map frame.\n"
+               "origin_x: %.17g\norigin_y: %.17g\ncell_size: %.17g\nz_offset: %.17g\nz_scale: %.17g\n",
+               image_name.c_str(), georef.origin_x, georef.origin_y, georef.cell_size, georef.z_offset,
+               georef.z_scale);
+  closeWritten(fn, path, f);
+}
+
+Png16Georef readPng16Georef(const std::string& path)
+{
+  const char* const fn = "readPng16Georef";
+  checkInputFile(fn, path);
+  Png16Georef g;
+  try
   {
-    PngWriteHandle h;
-    h.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, pngError, pngWarning);
-    if (h.png != nullptr)
-      h.info = png_create_info_struct(h.png);
-    if (h.png != nullptr && h.info != nullptr)
-      ok = pngWriteAll(h, err, file.get(), static_cast<png_uint_32>(raster.columns),
-                       static_cast<png_uint_32>(raster.rows), row_pointers.data());
-    else
-      std::snprintf(err.message, sizeof err.message, "%s", "cannot allocate libpng state");
+    const YamlSection<DemError> root = loadYamlFile<DemError>(path);
+    root.allowOnly({ "cell_size", "origin_x", "origin_y", "z_offset", "z_scale" });
+    g.origin_x = root.number("origin_x");
+    g.origin_y = root.number("origin_y");
+    g.cell_size = root.positive("cell_size");
+    g.z_offset = root.number("z_offset");
+    g.z_scale = root.positive("z_scale");
   }
-  if (!ok)
+  catch (const YAML::Exception& e)
   {
-    file.reset();
-    std::remove(path.c_str());
-    fail(fn, path, std::string("PNG write failed (libpng: ") + err.message + ")");
+    fail(fn, path, "line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
-  closeWritten(fn, path, file);
+  return g;
 }
 
 // ------------------------------------------------------------------------------------------
@@ -833,18 +912,33 @@ HeightRaster readGeoTiff(const std::string& path)
   raster.origin_y = gt[3] + (height - 0.5) * gt[5];
   raster.heights.resize(raster.columns * raster.rows);
 
-  // Reading as double represents all four band types exactly, so the nodata comparison is exact.
-  std::vector<double> line(raster.columns);
+  // Memory: the heights are read row by row straight into the raster (flipped to row 0
+  // south), so the file's data is held once. GDAL keeps every block it reads in its block
+  // cache (by default 5 % of RAM, more than a site-size raster on a large machine), which
+  // would hold the whole file a second time; the cache is therefore dropped after each row
+  // of blocks. Float32, Int16 and UInt16 pixels are exact as float, so they are read as
+  // Float32 in place; Float64 goes through a one-row double buffer so that its nodata
+  // comparison and float-range check see the exact file value.
+  int block_x = 0, block_y = 0;
+  GDALGetBlockSize(band, &block_x, &block_y);
+  if (block_y < 1)
+    block_y = 1;
+  const bool read_double = type == GDT_Float64;
+  std::vector<double> line(read_double ? raster.columns : 0);
   for (int r = 0; r < height; ++r)
   {
-    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, line.data(), width, 1, GDT_Float64, 0, 0) != CE_None)
+    float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
+    void* buffer = read_double ? static_cast<void*>(line.data()) : static_cast<void*>(dst);
+    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, buffer, width, 1, read_double ? GDT_Float64 : GDT_Float32, 0,
+                     0) != CE_None)
       fail(fn, path,
            "cannot read pixel row " + std::to_string(r) + ", truncated or corrupt file (" +
                GdalQuietErrors::lastMessage() + ")");
-    float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
+    if ((r + 1) % block_y == 0 || r + 1 == height)
+      GDALFlushRasterCache(band);  // read-only: releases the cached blocks, writes nothing
     for (std::size_t c = 0; c < raster.columns; ++c)
     {
-      const double raw = line[c];
+      const double raw = read_double ? line[c] : static_cast<double>(dst[c]);
       if (std::isnan(raw) || (has_nodata && raw == nodata))
       {
         dst[c] = kNoData;
@@ -864,37 +958,44 @@ HeightRaster readGeoTiff(const std::string& path)
   return raster;
 }
 
-void writeGeoTiff(const HeightRaster& raster, const std::string& path)
+namespace
 {
-  const char* const fn = "writeGeoTiff";
-  checkWritable(fn, path, raster);
-  if (raster.columns > static_cast<std::size_t>(INT_MAX) || raster.rows > static_cast<std::size_t>(INT_MAX))
+/**
+ * Writes a one-band north-up GeoTIFF whose grid points are the pixel centres; `row(r)`
+ * returns file row r (north first) in `type`. Height bands get unit metre and nodata NaN.
+ * A failed write removes the partial file.
+ */
+template <class RowSource>
+void writeGeoTiffBand(const char* fn, const std::string& path, std::size_t columns, std::size_t rows,
+                      double origin_x, double origin_y, double cell, GDALDataType type, bool heights,
+                      const RowSource& row)
+{
+  if (columns > static_cast<std::size_t>(INT_MAX) || rows > static_cast<std::size_t>(INT_MAX))
     fail(fn, path, "too many columns or rows for GDAL");
-  const int width = static_cast<int>(raster.columns);
-  const int height = static_cast<int>(raster.rows);
+  const int width = static_cast<int>(columns);
+  const int height = static_cast<int>(rows);
   registerGdalDrivers();
   GdalQuietErrors quiet;
   GDALDriverH driver = GDALGetDriverByName("GTiff");
   if (driver == nullptr)
     fail(fn, path, "GDAL has no GTiff driver");
-  DatasetPtr ds(GDALCreate(driver, path.c_str(), width, height, 1, GDT_Float32, nullptr));
+  DatasetPtr ds(GDALCreate(driver, path.c_str(), width, height, 1, type, nullptr));
   if (!ds)
     fail(fn, path, "cannot create file (" + GdalQuietErrors::lastMessage() + ")");
 
   bool ok = true;
-  const double c = raster.cell_size;
   // Grid points are pixel centres, so the pixel edges lie half a cell outside them.
-  double gt[6] = { raster.origin_x - 0.5 * c, c, 0.0, raster.origin_y + (static_cast<double>(raster.rows) - 0.5) * c, 0.0, -c };
+  double gt[6] = { origin_x - 0.5 * cell, cell, 0.0, origin_y + (static_cast<double>(rows) - 0.5) * cell, 0.0, -cell };
   ok = ok && GDALSetGeoTransform(ds.get(), gt) == CE_None;
   GDALRasterBandH band = GDALGetRasterBand(ds.get(), 1);
-  ok = ok && GDALSetRasterNoDataValue(band, std::numeric_limits<double>::quiet_NaN()) == CE_None;
-  ok = ok && GDALSetRasterUnitType(band, "metre") == CE_None;
-  for (int r = 0; ok && r < height; ++r)
+  if (heights)
   {
-    // North row first.
-    float* src = const_cast<float*>(&raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns]);
-    ok = GDALRasterIO(band, GF_Write, 0, r, width, 1, src, width, 1, GDT_Float32, 0, 0) == CE_None;
+    ok = ok && GDALSetRasterNoDataValue(band, std::numeric_limits<double>::quiet_NaN()) == CE_None;
+    ok = ok && GDALSetRasterUnitType(band, "metre") == CE_None;
   }
+  for (int r = 0; ok && r < height; ++r)
+    ok = GDALRasterIO(band, GF_Write, 0, r, width, 1, const_cast<void*>(row(static_cast<std::size_t>(r))), width, 1,
+                      type, 0, 0) == CE_None;
   if (ok)
   {
     // Closing flushes; GDAL 3.6 reports a failed flush only through the error state.
@@ -910,6 +1011,27 @@ void writeGeoTiff(const HeightRaster& raster, const std::string& path)
     fail(fn, path, "write failed (" + why + ")");
   }
 }
+}  // namespace
+
+void writeGeoTiff(const HeightRaster& raster, const std::string& path)
+{
+  const char* const fn = "writeGeoTiff";
+  checkWritable(fn, path, raster);
+  writeGeoTiffBand(fn, path, raster.columns, raster.rows, raster.origin_x, raster.origin_y, raster.cell_size,
+                   GDT_Float32, true, [&](std::size_t file_row) -> const void* {
+                     return &raster.heights[(raster.rows - 1 - file_row) * raster.columns];
+                   });
+}
+
+void writeClassGeoTiff(const ClassRaster& raster, const std::string& path)
+{
+  const char* const fn = "writeClassGeoTiff";
+  checkClassWritable(fn, path, raster);
+  writeGeoTiffBand(fn, path, raster.columns, raster.rows, raster.origin_x, raster.origin_y, raster.cell_size,
+                   GDT_Byte, false, [&](std::size_t file_row) -> const void* {
+                     return &raster.values[(raster.rows - 1 - file_row) * raster.columns];
+                   });
+}
 
 // ------------------------------------------------------------------------------------------
 // No-data filling
@@ -921,24 +1043,35 @@ std::size_t fillNoData(HeightRaster& raster, const std::string& source)
     throw DemError("fillNoData: '" + source + "': raster has " + std::to_string(n) + " heights for " +
                    std::to_string(raster.columns) + " x " + std::to_string(raster.rows) + " points");
   // 32-bit indices halve the queue for large rasters; kMaxPoints guarantees they fit.
+  // Only valid points next to a no-data point are seeded: a valid point whose four
+  // neighbours are all valid would visit nothing, so leaving it out changes neither the
+  // result nor the order of the visits, and the queue holds the voids and their rims instead
+  // of the whole raster (a 218 M-point site would otherwise need 872 MB for it).
+  const std::size_t cols = raster.columns;
+  const std::size_t rows = raster.rows;
+  const auto missing = [&](std::size_t k) { return std::isnan(raster.heights[k]); };
   std::vector<std::uint32_t> queue;
-  queue.reserve(n);
   std::vector<bool> known(n, false);
-  for (std::size_t k = 0; k < n; ++k)
+  bool any_valid = false;
+  for (std::size_t j = 0, k = 0; j < rows; ++j)
   {
-    if (!std::isnan(raster.heights[k]))
+    for (std::size_t i = 0; i < cols; ++i, ++k)
     {
+      if (missing(k))
+        continue;
       known[k] = true;
-      queue.push_back(static_cast<std::uint32_t>(k));
+      any_valid = true;
+      if ((i > 0 && missing(k - 1)) || (i + 1 < cols && missing(k + 1)) || (j > 0 && missing(k - cols)) ||
+          (j + 1 < rows && missing(k + cols)))
+        queue.push_back(static_cast<std::uint32_t>(k));
     }
   }
-  if (queue.empty())
+  if (!any_valid)
     throw DemError("fillNoData: '" + source + "': every point is no-data, nothing to fill from");
 
   // Multi-source breadth-first search: each no-data point takes the height carried by the
   // first wave to reach it, i.e. from a valid point at the fewest 4-neighbour steps.
   std::size_t filled = 0;
-  const std::size_t cols = raster.columns;
   for (std::size_t head = 0; head < queue.size(); ++head)
   {
     const std::size_t k = queue[head];
@@ -959,7 +1092,7 @@ std::size_t fillNoData(HeightRaster& raster, const std::string& source)
       visit(k + 1);
     if (j > 0)
       visit(k - cols);
-    if (j + 1 < raster.rows)
+    if (j + 1 < rows)
       visit(k + cols);
   }
   return filled;

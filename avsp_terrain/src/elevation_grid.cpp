@@ -1,6 +1,8 @@
 #include "avsp_terrain/elevation_grid.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <sstream>
 
 namespace avsp
@@ -15,6 +17,10 @@ ElevationGrid::ElevationGrid(double origin_x, double origin_y, double dx, double
   , dy_(dy)
   , columns_(columns)
   , rows_(rows)
+  , max_fx_(static_cast<double>(columns) - 1.0)
+  , max_fy_(static_cast<double>(rows) - 1.0)
+  , last_cell_i_(static_cast<std::int64_t>(columns) - 2)
+  , last_cell_j_(static_cast<std::int64_t>(rows) - 2)
   , heights_(std::move(heights))
 {
   std::ostringstream why;
@@ -41,33 +47,15 @@ ElevationGrid::ElevationGrid(double origin_x, double origin_y, double dx, double
     throw GridError("ElevationGrid: " + why.str());
 }
 
-bool ElevationGrid::locate(double x, double y, CellIndex& cell, double& u, double& v) const
-{
-  const double fx = (x - origin_x_) / dx_;
-  const double fy = (y - origin_y_) / dy_;
-  const double max_i = static_cast<double>(columns_ - 1);
-  const double max_j = static_cast<double>(rows_ - 1);
-  // NaN fails every comparison, so it is rejected here too.
-  if (!(fx >= 0.0 && fy >= 0.0 && fx <= max_i && fy <= max_j))
-    return false;
-  // T1; the far edge belongs to the last cell so that it has a height.
-  const double ci = std::min(std::floor(fx), max_i - 1.0);
-  const double cj = std::min(std::floor(fy), max_j - 1.0);
-  cell = CellIndex{ static_cast<std::size_t>(ci), static_cast<std::size_t>(cj) };
-  u = fx - ci;
-  v = fy - cj;
-  return true;
-}
-
 bool ElevationGrid::patchAt(double x, double y, Patch& p) const
 {
-  CellIndex c{};
-  if (!locate(x, y, c, p.u, p.v))
+  std::size_t k = 0;
+  if (!locateFlat(x, y, k, p.u, p.v))
     return false;
-  p.h00 = heights_[c.j * columns_ + c.i];
-  p.h10 = heights_[c.j * columns_ + c.i + 1];
-  p.h01 = heights_[(c.j + 1) * columns_ + c.i];
-  p.h11 = heights_[(c.j + 1) * columns_ + c.i + 1];
+  p.h00 = heights_[k];
+  p.h10 = heights_[k + 1];
+  p.h01 = heights_[k + columns_];
+  p.h11 = heights_[k + columns_ + 1];
   return true;
 }
 
@@ -75,7 +63,7 @@ std::optional<CellIndex> ElevationGrid::cellAt(double x, double y) const
 {
   CellIndex cell{};
   double u = 0.0, v = 0.0;
-  if (!locate(x, y, cell, u, v))
+  if (!locate(x, y, cell.i, cell.j, u, v))
     return std::nullopt;
   return cell;
 }
@@ -87,12 +75,43 @@ double ElevationGrid::pointHeight(std::size_t i, std::size_t j) const
   return heights_[j * columns_ + i];
 }
 
-std::optional<double> ElevationGrid::height(double x, double y) const
+std::size_t ElevationGrid::heights(const double* xy, double* out, std::size_t n) const
 {
-  Patch p{};
-  if (!patchAt(x, y, p))
-    return std::nullopt;
-  return bilinear(p.h00, p.h10, p.h01, p.h11, p.u, p.v);
+  // Points per block: enough cells in flight to hide a cache miss behind the others (a core
+  // tracks a few dozen outstanding lines), few enough that the block stays in registers/L1.
+  constexpr std::size_t kBlock = 16;
+  constexpr std::size_t kOutside = SIZE_MAX;
+  std::size_t cell[kBlock];
+  double u[kBlock], v[kBlock];
+  std::size_t inside = 0;
+  for (std::size_t start = 0; start < n; start += kBlock)
+  {
+    const std::size_t m = std::min(kBlock, n - start);
+    const double* p = xy + 2 * start;
+    // Pass 1: locate every point and ask for both rows of its cell.
+    for (std::size_t b = 0; b < m; ++b)
+    {
+      if (locateFlat(p[2 * b], p[2 * b + 1], cell[b], u[b], v[b]))
+      {
+        __builtin_prefetch(heights_.data() + cell[b]);
+        __builtin_prefetch(heights_.data() + cell[b] + columns_);
+      }
+      else
+        cell[b] = kOutside;
+    }
+    // Pass 2: the loads now mostly hit cache.
+    for (std::size_t b = 0; b < m; ++b)
+    {
+      if (cell[b] == kOutside)
+        out[start + b] = std::numeric_limits<double>::quiet_NaN();
+      else
+      {
+        out[start + b] = blendAt(cell[b], u[b], v[b]);
+        ++inside;
+      }
+    }
+  }
+  return inside;
 }
 
 std::optional<Eigen::Vector3d> ElevationGrid::normal(double x, double y) const

@@ -22,6 +22,7 @@
 
 #include "avsp_terrain/dem_io.hpp"
 
+using avsp::terrain::ClassRaster;
 using avsp::terrain::DemError;
 using avsp::terrain::fillNoData;
 using avsp::terrain::HeightRaster;
@@ -29,9 +30,13 @@ using avsp::terrain::Png16Georef;
 using avsp::terrain::readAsciiGrid;
 using avsp::terrain::readGeoTiff;
 using avsp::terrain::readPng16;
+using avsp::terrain::readPng16Georef;
 using avsp::terrain::writeAsciiGrid;
 using avsp::terrain::writeGeoTiff;
+using avsp::terrain::writeClassGeoTiff;
+using avsp::terrain::writeClassPng8;
 using avsp::terrain::writePng16;
+using avsp::terrain::writePng16Georef;
 
 namespace
 {
@@ -432,6 +437,90 @@ TEST_F(DemIo, GeoTiffReaderIsNorthUpWithSouthWestValueAtOrigin)
   EXPECT_EQ(r.noDataCount(), 1u);
 }
 
+// The reader goes row by row through GDAL's block cache and drops the cache after each row
+// of blocks; tiled and multi-row-strip files of every band type must still come out exact,
+// north row first, with nodata, scale and offset applied.
+TEST_F(DemIo, GeoTiffReaderIsExactAcrossBlocksForEveryBandType)
+{
+  const int width = 37, height = 45;  // not multiples of the 16 x 16 tiles or 5-row strips
+  const double gt[6] = { 500.0, 0.5, 0.0, 800.0, 0.0, -0.5 };
+  struct Case
+  {
+    const char* name;
+    GDALDataType type;
+    std::vector<const char*> options;
+    double scale, offset, nodata;
+  };
+  const std::vector<Case> cases = {
+    { "f32_tiled.tif", GDT_Float32, { "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16" }, 1.0, 0.0, -9999.0 },
+    { "f64_strips.tif", GDT_Float64, { "BLOCKYSIZE=5" }, 1.0, 0.0, -9999.1 },
+    { "i16_tiled.tif", GDT_Int16, { "TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16" }, 0.25, -100.0, -32768.0 },
+    { "u16_strips.tif", GDT_UInt16, { "BLOCKYSIZE=5" }, 0.01, 20.0, 65535.0 },
+  };
+  for (const Case& c : cases)
+  {
+    SCOPED_TRACE(c.name);
+    // File pixel (col, row): a value with a fraction for the float types (0.1 steps are not
+    // exact in float, so Float64 shows whether it is rounded once, from the file value);
+    // every 11th pixel is nodata.
+    std::vector<double> pixels(static_cast<std::size_t>(width) * height);
+    for (int r = 0; r < height; ++r)
+      for (int col = 0; col < width; ++col)
+      {
+        const bool is_int = c.type == GDT_Int16 || c.type == GDT_UInt16;
+        const double v = is_int ? static_cast<double>(100 * r + col) : 0.1 * (100 * r + col) - 7.0;
+        pixels[static_cast<std::size_t>(r) * width + col] = (r * width + col) % 11 == 3 ? c.nodata : v;
+      }
+    const std::string path = file(c.name);
+    {
+      GDALAllRegister();
+      std::vector<char*> options;
+      for (const char* o : c.options)
+        options.push_back(const_cast<char*>(o));
+      options.push_back(nullptr);
+      GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), path.c_str(), width, height, 1, c.type,
+                                   options.data());
+      ASSERT_NE(ds, nullptr);
+      EXPECT_EQ(GDALSetGeoTransform(ds, const_cast<double*>(gt)), CE_None);
+      GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+      EXPECT_EQ(GDALSetRasterNoDataValue(band, c.nodata), CE_None);
+      if (c.scale != 1.0 || c.offset != 0.0)
+      {
+        EXPECT_EQ(GDALSetRasterScale(band, c.scale), CE_None);
+        EXPECT_EQ(GDALSetRasterOffset(band, c.offset), CE_None);
+      }
+      EXPECT_EQ(GDALRasterIO(band, GF_Write, 0, 0, width, height, pixels.data(), width, height, GDT_Float64, 0, 0),
+                CE_None);
+      int bx = 0, by = 0;
+      GDALGetBlockSize(band, &bx, &by);
+      EXPECT_LT(by, height) << "the file must have several rows of blocks";
+      GDALClose(ds);
+    }
+    const HeightRaster r = readGeoTiff(path);
+    ASSERT_EQ(r.columns, static_cast<std::size_t>(width));
+    ASSERT_EQ(r.rows, static_cast<std::size_t>(height));
+    std::size_t nodata_pixels = 0;
+    for (int row = 0; row < height; ++row)
+      for (int col = 0; col < width; ++col)
+      {
+        const double raw = pixels[static_cast<std::size_t>(row) * width + col];
+        // Raster row 0 is the file's last (southern) row.
+        const float got = r.heights[static_cast<std::size_t>(height - 1 - row) * width + col];
+        if (raw == c.nodata)
+        {
+          ++nodata_pixels;
+          ASSERT_TRUE(std::isnan(got)) << col << ", " << row;
+          continue;
+        }
+        // What the file holds (Float32 rounds once on write), then scale and offset in double.
+        const double stored = c.type == GDT_Float32 ? static_cast<double>(static_cast<float>(raw)) : raw;
+        const double z = (c.scale == 1.0 && c.offset == 0.0) ? stored : c.offset + c.scale * stored;
+        ASSERT_EQ(bitsOf(got), bitsOf(static_cast<float>(z))) << col << ", " << row << ": " << got << " vs " << z;
+      }
+    EXPECT_EQ(r.noDataCount(), nodata_pixels);
+  }
+}
+
 TEST_F(DemIo, GeoTiffReaderRejectsUnsupportedGeoreferenceAndTypes)
 {
   const std::vector<double> px = { 1, 2, 3, 4, 5, 6 };
@@ -472,6 +561,108 @@ TEST_F(DemIo, GeoTiffReaderRejectsUnsupportedGeoreferenceAndTypes)
   const std::string good = file("utm.tif");
   writeTestTiff(good, 3, 2, GDT_UInt16, ok, px, nullptr, 32632);
   EXPECT_EQ(readGeoTiff(good).heights[0], 4.0f);
+}
+
+// --------------------------------------------------------------------------------------
+// PNG georeference sidecar and class rasters
+// --------------------------------------------------------------------------------------
+
+TEST_F(DemIo, Png16GeorefSidecarRoundTripsBitExactly)
+{
+  Png16Georef g;
+  g.origin_x = 4321.0 / 3.0;  // no short decimal form: 17 digits are needed
+  g.origin_y = -1e-7 / 7.0;
+  g.cell_size = 0.1;
+  g.z_offset = -12.345678901234567;
+  g.z_scale = 1.0 / 3.0;
+  const std::string path = file("map.png.yaml");
+  writePng16Georef(g, path, "map.png");
+  EXPECT_NE(readBytes(path).find("map.png"), std::string::npos);
+  const Png16Georef back = readPng16Georef(path);
+  EXPECT_EQ(back.origin_x, g.origin_x);
+  EXPECT_EQ(back.origin_y, g.origin_y);
+  EXPECT_EQ(back.cell_size, g.cell_size);
+  EXPECT_EQ(back.z_offset, g.z_offset);
+  EXPECT_EQ(back.z_scale, g.z_scale);
+
+  Png16Georef bad = g;
+  bad.z_scale = 0.0;
+  expectDemError([&] { writePng16Georef(bad, file("bad.yaml"), "x.png"); }, file("bad.yaml"), "z_scale");
+}
+
+TEST_F(DemIo, BadPng16GeorefSidecarsNameFileAndKey)
+{
+  const std::string full = "origin_x: 1\norigin_y: 2\ncell_size: 0.5\nz_offset: -3\nz_scale: 10\n";
+  struct Case
+  {
+    std::string name, text, words;
+  };
+  const std::vector<Case> cases = {
+    { "missing.yaml", "origin_x: 1\norigin_y: 2\ncell_size: 0.5\nz_offset: -3\n", "key 'z_scale'" },
+    { "typo.yaml", full + "z_scal: 3\n", "key 'z_scal'" },
+    { "word.yaml", "origin_x: east\norigin_y: 2\ncell_size: 0.5\nz_offset: -3\nz_scale: 10\n", "key 'origin_x'" },
+    { "zero.yaml", "origin_x: 1\norigin_y: 2\ncell_size: 0\nz_offset: -3\nz_scale: 10\n", "key 'cell_size'" },
+    { "negative.yaml", "origin_x: 1\norigin_y: 2\ncell_size: 1\nz_offset: -3\nz_scale: -10\n", "key 'z_scale'" },
+    { "nan.yaml", "origin_x: .nan\norigin_y: 2\ncell_size: 1\nz_offset: -3\nz_scale: 10\n", "finite" },
+    { "list.yaml", "- 1\n- 2\n", "map" },
+    { "broken.yaml", "origin_x: [1, 2\n", "YAML" },
+  };
+  for (const Case& c : cases)
+  {
+    SCOPED_TRACE(c.name);
+    const std::string path = file(c.name);
+    writeText(path, c.text);
+    expectDemError([&] { readPng16Georef(path); }, path, c.words);
+  }
+  writeText(file("ok.yaml"), full);
+  EXPECT_EQ(readPng16Georef(file("ok.yaml")).z_scale, 10.0);
+  expectDemError([&] { readPng16Georef(file("absent.yaml")); }, file("absent.yaml"), "not found");
+}
+
+TEST_F(DemIo, ClassRasterWritersStoreNorthRowFirstAndRejectInconsistentRasters)
+{
+  ClassRaster c;
+  c.origin_x = 10.0;
+  c.origin_y = 20.0;
+  c.cell_size = 2.0;
+  c.columns = 3;
+  c.rows = 2;
+  c.values = { 1, 2, 3, 4, 5, 255 };  // row 0 (south) = 1 2 3
+  for (const std::string name : { "classes.png", "classes.tif" })
+  {
+    SCOPED_TRACE(name);
+    const std::string path = file(name);
+    if (name == "classes.png")
+      writeClassPng8(c, path);
+    else
+      writeClassGeoTiff(c, path);
+    GDALAllRegister();
+    GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
+    ASSERT_NE(ds, nullptr);
+    GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+    EXPECT_EQ(GDALGetRasterDataType(band), GDT_Byte);
+    std::uint8_t px[6] = {};
+    ASSERT_EQ(GDALRasterIO(band, GF_Read, 0, 0, 3, 2, px, 3, 2, GDT_Byte, 0, 0), CE_None);
+    const std::uint8_t north_first[6] = { 4, 5, 255, 1, 2, 3 };
+    for (int k = 0; k < 6; ++k)
+      EXPECT_EQ(px[k], north_first[k]) << k;
+    if (name == "classes.tif")
+    {
+      double gt[6] = {};
+      ASSERT_EQ(GDALGetGeoTransform(ds, gt), CE_None);
+      EXPECT_EQ(gt[0], 9.0);
+      EXPECT_EQ(gt[3], 23.0);  // north grid point 22 plus half a cell
+      EXPECT_EQ(gt[5], -2.0);
+    }
+    GDALClose(ds);
+  }
+  ClassRaster short_values = c;
+  short_values.values.pop_back();
+  expectDemError([&] { writeClassPng8(short_values, file("s.png")); }, file("s.png"), "values");
+  expectDemError([&] { writeClassGeoTiff(short_values, file("s.tif")); }, file("s.tif"), "values");
+  ClassRaster no_cell = c;
+  no_cell.cell_size = 0.0;
+  expectDemError([&] { writeClassGeoTiff(no_cell, file("n.tif")); }, file("n.tif"), "cell size");
 }
 
 // --------------------------------------------------------------------------------------
@@ -634,6 +825,65 @@ TEST(FillNoData, WallOfValuesStopsTheFarSideFromLeakingThrough)
   const std::vector<float> expected = { 3, 5, 5, 5, 3, 5, 5, 5, 3, 5, 5, 9 };
   for (std::size_t k = 0; k < expected.size(); ++k)
     EXPECT_EQ(r.heights[k], expected[k]) << k;
+}
+
+namespace
+{
+/// The breadth-first fill as first written: every valid point seeded, in index order.
+void referenceFill(HeightRaster& r)
+{
+  const std::size_t n = r.heights.size(), cols = r.columns;
+  std::vector<std::size_t> queue;
+  std::vector<bool> known(n, false);
+  for (std::size_t k = 0; k < n; ++k)
+    if (!std::isnan(r.heights[k]))
+    {
+      known[k] = true;
+      queue.push_back(k);
+    }
+  for (std::size_t head = 0; head < queue.size(); ++head)
+  {
+    const std::size_t k = queue[head], i = k % cols, j = k / cols;
+    for (const long long step : { -1LL, 1LL, -static_cast<long long>(cols), static_cast<long long>(cols) })
+    {
+      if ((step == -1 && i == 0) || (step == 1 && i + 1 == cols) || (step < -1 && j == 0) ||
+          (step > 1 && j + 1 == r.rows))
+        continue;
+      const std::size_t nk = static_cast<std::size_t>(static_cast<long long>(k) + step);
+      if (!known[nk])
+      {
+        known[nk] = true;
+        r.heights[nk] = r.heights[k];
+        queue.push_back(nk);
+      }
+    }
+  }
+}
+}  // namespace
+
+TEST(FillNoData, SeedingOnlyTheRimsGivesTheSameFillAsSeedingEveryPoint)
+{
+  // Random masks from nearly empty to nearly full, on distinct heights, so that any change
+  // of which valid point wins a tie shows as a different value.
+  std::mt19937 rng(11);
+  for (const double void_fraction : { 0.02, 0.3, 0.7, 0.97 })
+    for (int trial = 0; trial < 5; ++trial)
+    {
+      SCOPED_TRACE(void_fraction);
+      HeightRaster r = makeRaster(23 + trial, 17 + 2 * trial, 0.0, 0.0, 1.0);
+      std::bernoulli_distribution hole(void_fraction);
+      for (float& h : r.heights)
+        if (hole(rng))
+          h = kNaN;
+      if (r.noDataCount() == r.heights.size())
+        r.heights[5] = 1.0f;
+      HeightRaster expected = r;
+      referenceFill(expected);
+      const std::size_t voids = r.noDataCount();
+      EXPECT_EQ(fillNoData(r, "mask"), voids);
+      for (std::size_t k = 0; k < r.heights.size(); ++k)
+        ASSERT_EQ(bitsOf(r.heights[k]), bitsOf(expected.heights[k])) << k;
+    }
 }
 
 TEST(FillNoData, NothingToFillAndAllNoData)

@@ -10,6 +10,7 @@
  * program calls setlocale).
  */
 #include <cstddef>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -62,6 +63,20 @@ struct Png16Georef
 };
 
 /**
+ * @brief A raster of small class numbers per grid point (a soil map: soil indices), laid out
+ *        like HeightRaster: row 0 is the southernmost row, grid points are pixel centres.
+ */
+struct ClassRaster
+{
+  double origin_x = 0;                ///< map x of grid point (0, 0) (the south-west point), m
+  double origin_y = 0;                ///< map y of grid point (0, 0), m
+  double cell_size = 0;               ///< spacing of the grid points along x and y, m, > 0
+  std::size_t columns = 0;            ///< grid points along x
+  std::size_t rows = 0;               ///< grid points along y
+  std::vector<std::uint8_t> values;   ///< row-major, index j * columns + i
+};
+
+/**
  * @brief Reads an ESRI ASCII grid (.asc).
  *
  * Header keys (case-insensitive): ncols, nrows, xllcorner or xllcenter, yllcorner or
@@ -102,12 +117,47 @@ HeightRaster readPng16(const std::string& path, const Png16Georef& georef);
 void writePng16(const HeightRaster& raster, const std::string& path, const Png16Georef& georef);
 
 /**
+ * @brief Writes a PNG's georeference as a small YAML sidecar file, since the PNG has none.
+ *
+ * Keys origin_x, origin_y, cell_size, z_offset, z_scale (m), printed with 17 significant
+ * digits so that readPng16Georef() returns the same doubles, plus comments saying how a
+ * pixel value becomes a height. @p image_name is only named in a comment.
+ * @throw DemError naming @p path if the georef is invalid or the file cannot be written
+ */
+void writePng16Georef(const Png16Georef& georef, const std::string& path, const std::string& image_name);
+
+/**
+ * @brief Reads a sidecar written by writePng16Georef(): all five keys required, finite,
+ *        cell_size and z_scale > 0; other keys are rejected (a typo must not become a default).
+ * @throw DemError naming @p path and the key with the reason
+ */
+Png16Georef readPng16Georef(const std::string& path);
+
+/**
+ * @brief Writes an 8-bit greyscale PNG of a class raster, pixel row 0 = the north edge, pixel
+ *        value = class number. Carries no georeference: write it beside (e.g. a YAML sidecar).
+ * @throw DemError if the raster is inconsistent or the write fails
+ */
+void writeClassPng8(const ClassRaster& raster, const std::string& path);
+
+/**
+ * @brief Writes a Byte GeoTIFF of a class raster with the same north-up geotransform as
+ *        writeGeoTiff() and no nodata (every point has a class).
+ * @throw DemError if the raster is inconsistent or the write fails
+ */
+void writeClassGeoTiff(const ClassRaster& raster, const std::string& path);
+
+/**
  * @brief Reads band 1 of a GeoTIFF (GDAL).
  *
  * Requires a north-up geotransform (no rotation, pixel height < 0) with square pixels, a
  * Float32, Float64, Int16 or UInt16 band, metre units if a CRS or band unit is given
  * (geographic CRSs are rejected), and applies the band's scale and offset if present. The
  * band's nodata value and NaN become NaN.
+ *
+ * Memory: the heights once (4 B per point) plus one row. Rows are read straight into the
+ * result and GDAL's block cache is released after each row of blocks, so a site-size
+ * raster is not held a second time in that cache.
  * @throw DemError naming @p path and the reason
  */
 HeightRaster readGeoTiff(const std::string& path);
@@ -125,6 +175,8 @@ void writeGeoTiff(const HeightRaster& raster, const std::string& path);
  * "Nearest" is by steps through the 4-neighbourhood (breadth-first from all valid points at
  * once); ties go to whichever valid point reaches the point first in that search, which is
  * deterministic (valid points are seeded in index order, neighbours visited -x, +x, -y, +y).
+ * Memory: one bit per point plus 4 B per no-data point and per valid point next to one
+ * (only those can reach a void, so only those are seeded).
  * @param source name used in error messages (usually the file the raster came from)
  * @return number of points filled
  * @throw DemError naming @p source if every point is no-data or the raster is inconsistent
