@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include "avsp_terrain/terramechanics.hpp"
@@ -12,22 +14,53 @@ namespace terrain
 {
 namespace
 {
-/// Stress at which a point is treated as the hard layer (no more deformation possible).
-constexpr double kRigidStress = 1e8;  // Pa
-
-struct LoadedPoint
+[[noreturn]] void rejectArgument(const char* function, const char* field, const char* rule, double value)
 {
-  std::size_t i, j;
-  double along;        // m, position along the direction of travel (wheel frame)
-  double penetration;  // m, below the current unloaded surface
-  double sigma;        // Pa
-  double elastic;      // m
-};
+  std::ostringstream why;
+  why << function << ": " << field << " must be " << rule << ", got " << value;
+  throw std::invalid_argument(why.str());
+}
+
+void requireFinite(const char* function, const char* field, double value)
+{
+  if (!std::isfinite(value))
+    rejectArgument(function, field, "finite", value);
+}
+
+void requirePositive(const char* function, const char* field, double value)
+{
+  if (!(value > 0.0) || !std::isfinite(value))
+    rejectArgument(function, field, "finite and > 0", value);
+}
+
+/// Grid indices first..last of the points with lo <= origin + k d <= hi along one axis,
+/// clamped in floating point before converting (a far-away patch must not overflow a long).
+bool gridRange(double lo, double hi, double origin, double d, std::size_t count, std::size_t& first,
+               std::size_t& last)
+{
+  const double a = std::max(std::ceil((lo - origin) / d), 0.0);
+  const double b = std::min(std::floor((hi - origin) / d), static_cast<double>(count) - 1.0);
+  if (!(a <= b))
+    return false;
+  first = static_cast<std::size_t>(a);
+  last = static_cast<std::size_t>(b);
+  return true;
+}
+
+/// Mean of (1 - exp(-s x / K)) over the strip [x0, x1] (meanShearStress() without its
+/// strength factor), from e0 = exp(-s x0 / K) and e1 = exp(-s x1 / K) the caller has.
+double meanShearFactor(double s, double k, double x0, double x1, double e0, double e1)
+{
+  if (s * x1 / k < 1e-8)
+    return s * (x0 + x1) / (2.0 * k);
+  return 1.0 - k / (s * (x1 - x0)) * (e0 - e1);
+}
 }  // namespace
 
 DeformableTerrain::DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options)
   : base_(std::move(base))
   , soil_(std::move(soil))
+  , contact_soil_(soil_)
   , options_(options)
   , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
   , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
@@ -103,71 +136,40 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
   return ElevationGrid::bilinear(h00, h10, h01, h11, u, v);
 }
 
-double DeformableTerrain::extraSinkage(const PointDeformation& state, double sigma) const
-{
-  const double sigma_max = std::max<double>(sigma, state.sigma_max);
-  // T2: compaction follows the largest stress; T4 bearing flow likewise only for new stress.
-  const double plastic = std::max(plasticSinkage(soil_, sigma_max) - state.plastic, 0.0);
-  const double flow = soil_.b1 * std::max(sigma - state.sigma_max, 0.0);
-  // T3 with z the point's deformation before this step (keeps the increment monotone in sigma).
-  const double elastic = elasticSinkage(soil_, sigma, state.plastic + state.displaced);
-  return plastic + flow + elastic;
-}
-
-double DeformableTerrain::stressForPenetration(const PointDeformation& state, double penetration) const
-{
-  double lo = 0.0, hi = 1e4;
-  double f_lo = -penetration, f_hi = extraSinkage(state, hi) - penetration;
-  while (f_hi < 0.0)
-  {
-    lo = hi;
-    f_lo = f_hi;
-    hi *= 4.0;
-    if (hi > kRigidStress)
-      return kRigidStress;  // compacted to the hard layer: carries whatever it must
-    f_hi = extraSinkage(state, hi) - penetration;
-  }
-  // Illinois regula falsi on a monotone, nearly linear function: a few evaluations reach
-  // 1e-10 m; the bracket keeps it safe where the compression curve has kinks.
-  int side = 0;
-  for (int k = 0; k < 60; ++k)
-  {
-    const double mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
-    const double f_mid = extraSinkage(state, mid) - penetration;
-    if (std::abs(f_mid) < 1e-10 || hi - lo < 1e-9 * hi)
-      return mid;
-    if ((f_mid < 0.0) == (f_lo < 0.0))
-    {
-      lo = mid;
-      f_lo = f_mid;
-      if (side == -1)
-        f_hi *= 0.5;
-      side = -1;
-    }
-    else
-    {
-      hi = mid;
-      f_hi = f_mid;
-      if (side == 1)
-        f_lo *= 0.5;
-      side = 1;
-    }
-  }
-  return 0.5 * (lo + hi);
-}
-
 void DeformableTerrain::spreadToNeighbours(std::size_t i, std::size_t j, double volume)
 {
   // f(z_f, d) of T5: the flowed volume goes to the 8 neighbours weighted by 1/d, so what
   // leaves one point arrives exactly at others (volume leaving = volume arriving).
-  struct Target
-  {
-    std::size_t i, j;
-    double weight;
-  };
-  std::array<Target, 8> targets{};
-  int count = 0;
+  const double area = base_.dx() * base_.dy();
+  const bool interior = i > 0 && j > 0 && i + 1 < base_.columns() && j + 1 < base_.rows();
   double total = 0.0;
+  if (interior)
+  {
+    // The sum of the 8 weights in the loop's order below (so it is the same double).
+    static const double kInteriorTotal = [] {
+      double t = 0.0;
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+          if (di != 0 || dj != 0)
+            t += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+      return t;
+    }();
+    total = kInteriorTotal;
+  }
+  else
+  {
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di)
+      {
+        const long ni = static_cast<long>(i) + di, nj = static_cast<long>(j) + dj;
+        if ((di != 0 || dj != 0) && ni >= 0 && nj >= 0 && ni < static_cast<long>(base_.columns()) &&
+            nj < static_cast<long>(base_.rows()))
+          total += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+      }
+  }
+  // Neighbours share a tile 36 times out of 64: keep the last tile's pointer.
+  std::size_t cached = tiles_.size();
+  Tile* tile = nullptr;
   for (int dj = -1; dj <= 1; ++dj)
   {
     for (int di = -1; di <= 1; ++di)
@@ -175,24 +177,39 @@ void DeformableTerrain::spreadToNeighbours(std::size_t i, std::size_t j, double 
       if (di == 0 && dj == 0)
         continue;
       const long ni = static_cast<long>(i) + di, nj = static_cast<long>(j) + dj;
-      if (ni < 0 || nj < 0 || ni >= static_cast<long>(base_.columns()) || nj >= static_cast<long>(base_.rows()))
+      if (!interior &&
+          (ni < 0 || nj < 0 || ni >= static_cast<long>(base_.columns()) || nj >= static_cast<long>(base_.rows())))
         continue;
+      const std::size_t ti = tileIndex(static_cast<std::size_t>(ni), static_cast<std::size_t>(nj));
+      if (ti != cached)
+      {
+        touch(static_cast<std::size_t>(ni), static_cast<std::size_t>(nj));  // allocates the tile if new
+        cached = ti;
+        tile = tiles_[ti].get();
+      }
       const double w = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-      targets[count++] = { static_cast<std::size_t>(ni), static_cast<std::size_t>(nj), w };
-      total += w;
+      const double share = volume * w / total;
+      (*tile)[(nj % kTileSize) * kTileSize + ni % kTileSize].displaced -= static_cast<float>(share / area);
+      arrived_volume_ += share;
     }
-  }
-  const double area = base_.dx() * base_.dy();
-  for (int k = 0; k < count; ++k)
-  {
-    const double share = volume * targets[k].weight / total;
-    touch(targets[k].i, targets[k].j).displaced -= static_cast<float>(share / area);
-    arrived_volume_ += share;
   }
 }
 
 ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt, bool deform)
 {
+  static const char* const kFn = "DeformableTerrain::wheelContact";
+  for (int k = 0; k < 3; ++k)
+  {
+    requireFinite(kFn, "wheel.centre", wheel.centre[k]);
+    requireFinite(kFn, "wheel.velocity", wheel.velocity[k]);
+  }
+  requirePositive(kFn, "wheel.radius", wheel.radius);
+  requirePositive(kFn, "wheel.width", wheel.width);
+  requireFinite(kFn, "wheel.heading", wheel.heading);
+  requireFinite(kFn, "wheel.spin_rate", wheel.spin_rate);
+  if (!(dt >= 0.0) || !std::isfinite(dt))
+    rejectArgument(kFn, "dt", "finite and >= 0", dt);
+
   ContactForces out;
   const double ca = std::cos(wheel.heading), sa = std::sin(wheel.heading);
   const double r = wheel.radius, half_w = 0.5 * wheel.width;
@@ -200,12 +217,8 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   const double ext_x = r * std::abs(ca) + half_w * std::abs(sa);
   const double ext_y = r * std::abs(sa) + half_w * std::abs(ca);
   const double dx = base_.dx(), dy = base_.dy();
-  const long i0 = std::max(0L, static_cast<long>(std::ceil((wheel.centre.x() - ext_x - base_.originX()) / dx)));
-  const long j0 = std::max(0L, static_cast<long>(std::ceil((wheel.centre.y() - ext_y - base_.originY()) / dy)));
-  const long i1 = std::min(static_cast<long>(base_.columns()) - 1,
-                           static_cast<long>(std::floor((wheel.centre.x() + ext_x - base_.originX()) / dx)));
-  const long j1 = std::min(static_cast<long>(base_.rows()) - 1,
-                           static_cast<long>(std::floor((wheel.centre.y() + ext_y - base_.originY()) / dy)));
+  const double ox = base_.originX(), oy = base_.originY();
+  const double cx = wheel.centre.x(), cy = wheel.centre.y(), cz = wheel.centre.z();
 
   // Kinematics: T8 slip from T9's theoretical speed, slip angle from the lateral velocity.
   const double v_long = wheel.velocity.x() * ca + wheel.velocity.y() * sa;
@@ -215,39 +228,56 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   out.slip_angle = (std::abs(v_long) + std::abs(v_lat) > 1e-9) ? std::atan2(v_lat, std::abs(v_long)) : 0.0;
   const double travel = (std::abs(v_long) > 1e-6) ? (v_long < 0 ? -1.0 : 1.0) : (wheel.spin_rate < 0 ? -1.0 : 1.0);
 
-  std::vector<LoadedPoint> loaded;
-  for (long j = j0; j <= j1; ++j)
+  loaded_.clear();
+  std::size_t i0 = 0, i1 = 0, j0 = 0, j1 = 0;
+  if (!gridRange(cx - ext_x, cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
+      !gridRange(cy - ext_y, cy + ext_y, oy, dy, base_.rows(), j0, j1))
+    return out;
+  const ContactSoil& soil = contact_soil_;
+  const double r2 = r * r;
+  for (std::size_t j = j0; j <= j1; ++j)
   {
-    for (long i = i0; i <= i1; ++i)
+    const double py = oy + j * dy - cy;
+    const double py_sa = py * sa, py_ca = py * ca;
+    const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
+    std::size_t tile_column = tiles_x_;  // none yet
+    const Tile* tile = nullptr;
+    for (std::size_t i = i0; i <= i1; ++i)
     {
-      const double px = base_.originX() + i * dx - wheel.centre.x();
-      const double py = base_.originY() + j * dy - wheel.centre.y();
-      const double u = px * ca + py * sa;
-      const double v = -px * sa + py * ca;
+      const double px = ox + i * dx - cx;
+      const double u = px * ca + py_sa;
+      const double v = -px * sa + py_ca;
       if (std::abs(u) >= r || std::abs(v) > half_w)
         continue;
-      const double bottom = wheel.centre.z() - std::sqrt(r * r - u * u);
-      const PointDeformation state = deformation(i, j);
+      const double bottom = cz - std::sqrt(r2 - u * u);
+      // The point's tile changes every kTileSize columns: one directory lookup per tile.
+      if (i / kTileSize != tile_column)
+      {
+        tile_column = i / kTileSize;
+        tile = tiles_[tile_row + tile_column].get();
+      }
+      const PointDeformation state = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
       const double base_z = base_.pointHeight(i, j);
       const double penetration = base_z - state.plastic - state.displaced - bottom;
       if (!(penetration > 0.0))
         continue;
-      const double sigma = stressForPenetration(state, penetration);
-      const double elastic = elasticSinkage(soil_, sigma, state.plastic + state.displaced);
-      loaded.push_back({ static_cast<std::size_t>(i), static_cast<std::size_t>(j), u * travel, penetration, sigma,
-                         elastic });
+      const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
+      const double sigma = soil.stressForPenetration(state.plastic, deformation, state.sigma_max, penetration);
+      const double elastic = soil.elasticSinkage(sigma, deformation);
+      loaded_.push_back({ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), u * travel, penetration,
+                          sigma, elastic });
       out.sinkage = std::max(out.sinkage, base_z - bottom);
       out.elastic_sinkage = std::max(out.elastic_sinkage, elastic);
     }
   }
-  out.contact_points = static_cast<int>(loaded.size());
-  if (loaded.empty())
+  out.contact_points = static_cast<int>(loaded_.size());
+  if (loaded_.empty())
     return out;
 
   // Normal force, and traction per strip with j = s x behind the leading edge (T7, T11).
   const double area = dx * dy;
   double front = -1e300, max_penetration = 0.0;
-  for (const LoadedPoint& p : loaded)
+  for (const LoadedPoint& p : loaded_)
   {
     front = std::max(front, p.along);
     max_penetration = std::max(max_penetration, p.penetration);
@@ -255,32 +285,40 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   front += 0.5 * dx;
   const double lateral_slip = (1.0 - std::abs(out.slip)) * std::tan(out.slip_angle);
   const double slip_magnitude = std::hypot(out.slip, lateral_slip);
-  for (const LoadedPoint& p : loaded)
+  // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point.
+  const double k = soil.shear_modulus;
+  const double half_strip = std::exp(slip_magnitude * 0.5 * dx / k);
+  for (const LoadedPoint& p : loaded_)
   {
     out.normal_force += p.sigma * area;
     if (slip_magnitude > 0.0)
     {
       const double x = front - p.along;
-      const double tau = meanShearStress(soil_, p.sigma, slip_magnitude, std::max(x - 0.5 * dx, 0.0), x + 0.5 * dx);
+      const double x0 = std::max(x - 0.5 * dx, 0.0), x1 = x + 0.5 * dx;
+      const double e_mid = std::exp(-slip_magnitude * x / k);
+      const double e0 = x0 > 0.0 ? e_mid * half_strip : 1.0;
+      const double mean = meanShearFactor(slip_magnitude, k, x0, x1, e0, e_mid / half_strip);
+      const double tau = (soil.cohesion + std::max(p.sigma, 0.0) * soil.tan_phi) * mean;
       out.longitudinal_force += travel * (out.slip / slip_magnitude) * tau * area;
       out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area;
     }
   }
   // T12 with the mean stress of the patch and the depth of the soil ahead (largest penetration).
-  const double contact_area = area * loaded.size();
-  out.resistance_force =
-      resistanceForce(soil_, out.normal_force / contact_area, wheel.width, max_penetration, contact_area);
+  const double contact_area = area * loaded_.size();
+  const double sigma_mean = out.normal_force / contact_area;
+  out.resistance_force = (soil.cohesion + std::max(sigma_mean, 0.0) * soil.tan_phi) * wheel.width * max_penetration +
+                         soil.rolling_resistance * contact_area * std::max(sigma_mean, 0.0);
 
   if (deform)
   {
     const double slip_speed = std::hypot(v_theoretical - v_long, v_lat);  // v_r of T4
-    for (const LoadedPoint& p : loaded)
+    for (const LoadedPoint& p : loaded_)
     {
       PointDeformation& state = touch(p.i, p.j);
       const float sigma_before = state.sigma_max;
       const double sigma_max = std::max<double>(p.sigma, sigma_before);
-      const double flow = soil_.b1 * std::max(p.sigma - sigma_before, 0.0) + soil_.b2 * p.sigma * slip_speed * dt;
-      state.plastic = std::max(state.plastic, static_cast<float>(plasticSinkage(soil_, sigma_max)));
+      const double flow = soil.b1 * std::max(p.sigma - sigma_before, 0.0) + soil.b2 * p.sigma * slip_speed * dt;
+      state.plastic = std::max(state.plastic, static_cast<float>(soil.plasticSinkage(sigma_max)));
       state.sigma_max = static_cast<float>(sigma_max);
       state.displaced += static_cast<float>(flow);
       flowed_volume_ += static_cast<double>(static_cast<float>(flow)) * area;

@@ -2,6 +2,9 @@
 // (T2, T3, T6), flowed soil is conserved and forms berms with transport on and vanishes
 // with it off (T4, T5), and the contact force grows with sinkage.
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
 
 #include <gtest/gtest.h>
 
@@ -175,4 +178,74 @@ TEST(DeformableTerrain, StateOnlyWhereTouched)
   EXPECT_GT(t.deformedPoints(), 0u);
   // A single wheel print touches a handful of 8x8 tiles, not the 160,000-point grid.
   EXPECT_LT(t.deformationBytes() - empty, 20u * 1024u);
+}
+
+TEST(DeformableTerrain, BadWheelInputThrowsNamingTheField)
+{
+  DeformableTerrain t = flat("clay", true, 40);
+  const auto expectRejected = [&](const WheelPatch& w, double dt, const char* field) {
+    try
+    {
+      t.wheelContact(w, dt, true);
+      ADD_FAILURE() << "accepted a bad " << field;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  const WheelPatch good = wheelAt(1.0, 1.0, -0.02);
+  WheelPatch w = good;
+  w.radius = -0.35;
+  expectRejected(w, 0.01, "wheel.radius");
+  w = good;
+  w.width = 0.0;
+  expectRejected(w, 0.01, "wheel.width");
+  w = good;
+  w.centre.z() = std::nan("");
+  expectRejected(w, 0.01, "wheel.centre");
+  w = good;
+  w.velocity.x() = std::numeric_limits<double>::infinity();
+  expectRejected(w, 0.01, "wheel.velocity");
+  w = good;
+  w.heading = std::nan("");
+  expectRejected(w, 0.01, "wheel.heading");
+  w = good;
+  w.spin_rate = std::nan("");
+  expectRejected(w, 0.01, "wheel.spin_rate");
+  expectRejected(good, -0.01, "dt");
+  expectRejected(good, std::nan(""), "dt");
+  EXPECT_EQ(t.deformedPoints(), 0u);  // nothing was half-applied
+  // Far outside the grid (even absurdly far) is simply no contact.
+  w = good;
+  w.centre.x() = 1e300;
+  EXPECT_EQ(t.wheelContact(w, 0.01, true).contact_points, 0);
+  w.centre.x() = -1e300;
+  EXPECT_EQ(t.wheelContact(w, 0.01, true).contact_points, 0);
+}
+
+TEST(DeformableTerrain, RepeatedRunsAreBitIdentical)
+{
+  // Same inputs, same terrain and forces to the bit (lockstep simulation relies on it).
+  DeformableTerrain a = flat("mud", true), b = flat("mud", true);
+  for (double x = 1.0; x < 2.0; x += 0.0037)
+  {
+    WheelPatch w = wheelAt(x, 3.0 + 0.1 * std::sin(3 * x), -0.035);
+    w.heading = 0.3 * std::sin(2 * x);
+    w.velocity = Eigen::Vector3d(std::cos(w.heading), std::sin(w.heading), 0);
+    w.spin_rate = 1.2 / w.radius;
+    const ContactForces fa = a.wheelContact(w, 0.004, true), fb = b.wheelContact(w, 0.004, true);
+    ASSERT_EQ(fa.normal_force, fb.normal_force);
+    ASSERT_EQ(fa.longitudinal_force, fb.longitudinal_force);
+    ASSERT_EQ(fa.lateral_force, fb.lateral_force);
+    ASSERT_EQ(fa.resistance_force, fb.resistance_force);
+  }
+  for (std::size_t j = 0; j < a.base().rows(); ++j)
+    for (std::size_t i = 0; i < a.base().columns(); ++i)
+    {
+      const PointDeformation da = a.deformation(i, j), db = b.deformation(i, j);
+      ASSERT_EQ(std::memcmp(&da, &db, sizeof(da)), 0) << i << "," << j;
+    }
+  EXPECT_EQ(a.flowedVolume(), b.flowedVolume());
+  EXPECT_EQ(a.arrivedVolume(), b.arrivedVolume());
 }

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include "avsp_terrain/contact_soil.hpp"
 #include "avsp_terrain/elevation_grid.hpp"
 #include "avsp_terrain/soil.hpp"
 
@@ -23,8 +24,8 @@ namespace terrain
 struct WheelPatch
 {
   Eigen::Vector3d centre;    ///< m, wheel centre in map
-  double radius = 0.0;       ///< m
-  double width = 0.0;        ///< m
+  double radius = 0.0;       ///< m, > 0
+  double width = 0.0;        ///< m, > 0
   double heading = 0.0;      ///< rad, direction the wheel rolls towards, from map x (CCW)
   double spin_rate = 0.0;    ///< rad/s, positive rolls the wheel forward
   Eigen::Vector3d velocity;  ///< m/s, velocity of the wheel centre in map
@@ -71,6 +72,7 @@ public:
     bool transport = true;  ///< T5 on: flowed soil arrives at neighbours (berms); off: z_n = 0
   };
 
+  /// @throw std::invalid_argument naming the soil field when `soil` is unusable (see ContactSoil)
   DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options);
 
   /// Deformed (unloaded) height at (x, y), bilinear, m; nullopt outside the grid.
@@ -86,6 +88,8 @@ public:
    * @brief Soil contact of a rigid wheel for one step of length dt (s).
    * @param deform true: the step's compaction and flow become permanent (ruts); false: a
    *        probe that leaves the terrain as it was
+   * @throw std::invalid_argument naming the field: non-finite centre, velocity, heading or
+   *        spin rate, radius or width not > 0, dt not finite or negative
    */
   ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform);
 
@@ -119,23 +123,31 @@ public:
 private:
   using Tile = std::array<PointDeformation, kTileSize * kTileSize>;
 
+  /// A grid point under the running gear this step.
+  struct LoadedPoint
+  {
+    std::uint32_t i, j;
+    double along;        ///< m, position along the direction of travel (wheel frame)
+    double penetration;  ///< m, below the current unloaded surface
+    double sigma;        ///< Pa
+    double elastic;      ///< m
+  };
+
   const PointDeformation* find(std::size_t i, std::size_t j) const;
   std::size_t tileIndex(std::size_t i, std::size_t j) const { return (j / kTileSize) * tiles_x_ + i / kTileSize; }
   PointDeformation& touch(std::size_t i, std::size_t j);
-  /// Normal stress (Pa) at which the point absorbs `penetration` (m) of new deformation.
-  double stressForPenetration(const PointDeformation& state, double penetration) const;
-  /// Extra sinkage (m) the point takes under stress sigma (Pa): T2 + T4 (b1) + T3 increments.
-  double extraSinkage(const PointDeformation& state, double sigma) const;
   void spreadToNeighbours(std::size_t i, std::size_t j, double volume);
 
   ElevationGrid base_;
   SoilParameters soil_;
+  ContactSoil contact_soil_;  ///< soil_ prepared for the contact's inner loop
   Options options_;
   std::size_t tiles_x_;
   std::vector<std::unique_ptr<Tile>> tiles_;  ///< tile directory, row-major, null = untouched
   std::size_t allocated_tiles_ = 0;
   double flowed_volume_ = 0.0;
   double arrived_volume_ = 0.0;
+  std::vector<LoadedPoint> loaded_;  ///< scratch of the current contact (kept: no allocation per call)
 };
 
 }  // namespace terrain
