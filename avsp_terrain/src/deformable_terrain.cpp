@@ -47,6 +47,28 @@ bool gridRange(double lo, double hi, double origin, double d, std::size_t count,
   return true;
 }
 
+/// The palette prepared for the contact; errors name the palette entry.
+std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette)
+{
+  if (palette.empty() || palette.size() > DeformableTerrain::kMaxSoils)
+    throw std::invalid_argument("DeformableTerrain: palette has " + std::to_string(palette.size()) +
+                                " soils, needs 1 to " + std::to_string(DeformableTerrain::kMaxSoils));
+  std::vector<ContactSoil> prepared;
+  prepared.reserve(palette.size());
+  for (std::size_t k = 0; k < palette.size(); ++k)
+  {
+    try
+    {
+      prepared.emplace_back(palette[k]);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw std::invalid_argument("DeformableTerrain: palette[" + std::to_string(k) + "]: " + e.what());
+    }
+  }
+  return prepared;
+}
+
 /// Mean of (1 - exp(-s x / K)) over the strip [x0, x1] (meanShearStress() without its
 /// strength factor), from e0 = exp(-s x0 / K) and e1 = exp(-s x1 / K) the caller has.
 double meanShearFactor(double s, double k, double x0, double x1, double e0, double e1)
@@ -59,12 +81,57 @@ double meanShearFactor(double s, double k, double x0, double x1, double e0, doub
 
 DeformableTerrain::DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options)
   : base_(std::move(base))
-  , soil_(std::move(soil))
-  , contact_soil_(soil_)
+  , palette_{ std::move(soil) }
+  , contact_soils_(prepareSoils(palette_))
   , options_(options)
   , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
   , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
+}
+
+DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParameters> palette,
+                                     std::vector<std::uint8_t> soil_map, Options options)
+  : base_(std::move(base))
+  , palette_(std::move(palette))
+  , contact_soils_(prepareSoils(palette_))
+  , soil_map_(std::move(soil_map))
+  , options_(options)
+  , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
+  , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
+{
+  const std::size_t points = base_.columns() * base_.rows();
+  if (soil_map_.size() != points)
+    throw std::invalid_argument("DeformableTerrain: soil_map has " + std::to_string(soil_map_.size()) +
+                                " entries, expected columns * rows = " + std::to_string(points));
+  // A bad index would read past the palette in every contact over it: refuse it here, once.
+  const std::size_t first_bad =
+      std::find_if(soil_map_.begin(), soil_map_.end(), [&](std::uint8_t s) { return s >= palette_.size(); }) -
+      soil_map_.begin();
+  if (first_bad < points)
+    throw std::invalid_argument("DeformableTerrain: soil_map: index " + std::to_string(soil_map_[first_bad]) +
+                                " at grid point (" + std::to_string(first_bad % base_.columns()) + ", " +
+                                std::to_string(first_bad / base_.columns()) + ") is not in the palette of " +
+                                std::to_string(palette_.size()) + " soils");
+  if (palette_.size() == 1)
+    std::vector<std::uint8_t>().swap(soil_map_);  // all zeros: not worth a byte per point
+}
+
+std::uint8_t DeformableTerrain::soilIndex(std::size_t i, std::size_t j) const
+{
+  if (i >= base_.columns() || j >= base_.rows())
+    throw std::out_of_range("DeformableTerrain::soilIndex: point (" + std::to_string(i) + ", " + std::to_string(j) +
+                            ") is outside the grid");
+  return soil_map_.empty() ? 0 : soil_map_[j * base_.columns() + i];
+}
+
+void DeformableTerrain::setSoil(std::size_t index, SoilParameters soil)
+{
+  if (index >= palette_.size())
+    throw std::invalid_argument("DeformableTerrain::setSoil: index " + std::to_string(index) +
+                                " is not in the palette of " + std::to_string(palette_.size()) + " soils");
+  ContactSoil prepared(soil);  // validates before anything changes
+  palette_[index] = std::move(soil);
+  contact_soils_[index] = prepared;
 }
 
 const PointDeformation* DeformableTerrain::find(std::size_t i, std::size_t j) const
@@ -233,13 +300,13 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   if (!gridRange(cx - ext_x, cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
       !gridRange(cy - ext_y, cy + ext_y, oy, dy, base_.rows(), j0, j1))
     return out;
-  const ContactSoil& soil = contact_soil_;
   const double r2 = r * r;
   for (std::size_t j = j0; j <= j1; ++j)
   {
     const double py = oy + j * dy - cy;
     const double py_sa = py * sa, py_ca = py * ca;
     const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
+    const std::uint8_t* soil_row = soil_map_.empty() ? nullptr : soil_map_.data() + j * base_.columns();
     std::size_t tile_column = tiles_x_;  // none yet
     const Tile* tile = nullptr;
     for (std::size_t i = i0; i <= i1; ++i)
@@ -261,11 +328,13 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
       const double penetration = base_z - state.plastic - state.displaced - bottom;
       if (!(penetration > 0.0))
         continue;
+      const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
+      const ContactSoil& soil = contact_soils_[soil_index];
       const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
       const double sigma = soil.stressForPenetration(state.plastic, deformation, state.sigma_max, penetration);
       const double elastic = soil.elasticSinkage(sigma, deformation);
-      loaded_.push_back({ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), u * travel, penetration,
-                          sigma, elastic });
+      loaded_.push_back({ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), soil_index, u * travel,
+                          penetration, sigma, elastic });
       out.sinkage = std::max(out.sinkage, base_z - bottom);
       out.elastic_sinkage = std::max(out.elastic_sinkage, elastic);
     }
@@ -285,35 +354,48 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   front += 0.5 * dx;
   const double lateral_slip = (1.0 - std::abs(out.slip)) * std::tan(out.slip_angle);
   const double slip_magnitude = std::hypot(out.slip, lateral_slip);
-  // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point.
-  const double k = soil.shear_modulus;
-  const double half_strip = std::exp(slip_magnitude * 0.5 * dx / k);
+  // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point (and
+  // one per change of soil along the loop for the strip's half-width factor).
+  int strip_soil = -1;
+  double half_strip = 1.0;
+  // T12 per point so that each soil brings its own strength and f: bulldozing shared in
+  // proportion to the points, (c + sigma tan phi) w z_rel / count; rolling f sigma A.
+  double bulldozing = 0.0, rolling = 0.0;
   for (const LoadedPoint& p : loaded_)
   {
+    const ContactSoil& soil = contact_soils_[p.soil];
+    const double strength = soil.cohesion + std::max(p.sigma, 0.0) * soil.tan_phi;
     out.normal_force += p.sigma * area;
+    bulldozing += strength;
+    rolling += soil.rolling_resistance * std::max(p.sigma, 0.0) * area;
     if (slip_magnitude > 0.0)
     {
+      const double k = soil.shear_modulus;
+      if (p.soil != strip_soil)
+      {
+        strip_soil = p.soil;
+        half_strip = std::exp(slip_magnitude * 0.5 * dx / k);
+      }
       const double x = front - p.along;
       const double x0 = std::max(x - 0.5 * dx, 0.0), x1 = x + 0.5 * dx;
       const double e_mid = std::exp(-slip_magnitude * x / k);
       const double e0 = x0 > 0.0 ? e_mid * half_strip : 1.0;
       const double mean = meanShearFactor(slip_magnitude, k, x0, x1, e0, e_mid / half_strip);
-      const double tau = (soil.cohesion + std::max(p.sigma, 0.0) * soil.tan_phi) * mean;
+      const double tau = strength * mean;
       out.longitudinal_force += travel * (out.slip / slip_magnitude) * tau * area;
       out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area;
     }
   }
-  // T12 with the mean stress of the patch and the depth of the soil ahead (largest penetration).
-  const double contact_area = area * loaded_.size();
-  const double sigma_mean = out.normal_force / contact_area;
-  out.resistance_force = (soil.cohesion + std::max(sigma_mean, 0.0) * soil.tan_phi) * wheel.width * max_penetration +
-                         soil.rolling_resistance * contact_area * std::max(sigma_mean, 0.0);
+  // T12 with the depth of the soil ahead (largest penetration): for one soil this is
+  // (c + mean sigma tan phi) w z_rel + f A mean sigma.
+  out.resistance_force = bulldozing / loaded_.size() * wheel.width * max_penetration + rolling;
 
   if (deform)
   {
     const double slip_speed = std::hypot(v_theoretical - v_long, v_lat);  // v_r of T4
     for (const LoadedPoint& p : loaded_)
     {
+      const ContactSoil& soil = contact_soils_[p.soil];
       PointDeformation& state = touch(p.i, p.j);
       const float sigma_before = state.sigma_max;
       const double sigma_max = std::max<double>(p.sigma, sigma_before);
@@ -365,6 +447,15 @@ std::vector<std::pair<std::size_t, std::size_t>> DeformableTerrain::statefulPoin
 std::size_t DeformableTerrain::directoryBytes() const
 {
   return tiles_.size() * sizeof(std::unique_ptr<Tile>);
+}
+
+std::vector<SoilParameters> paletteFromNames(const std::vector<std::string>& names, const SoilLibrary& library)
+{
+  std::vector<SoilParameters> palette;
+  palette.reserve(names.size());
+  for (const std::string& name : names)
+    palette.push_back(library.get(name));
+  return palette;
 }
 
 }  // namespace terrain

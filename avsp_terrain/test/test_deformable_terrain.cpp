@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "avsp_terrain/default_course.hpp"
 #include "avsp_terrain/deformable_terrain.hpp"
 #include "avsp_terrain/terramechanics.hpp"
 
@@ -82,12 +83,12 @@ TEST(DeformableTerrain, ElasticRecoversPlasticStays)
   // The point under the wheel's bottom (x = 3.0 -> i = 60, y = 3.0 -> j = 60).
   const PointDeformation d = t.deformation(60, 60);
   EXPECT_GT(d.plastic, 0.f);
-  EXPECT_NEAR(d.plastic, plasticSinkage(t.soil(), d.sigma_max), 1e-7);  // T2 at the largest stress
+  EXPECT_NEAR(d.plastic, plasticSinkage(t.soil(60, 60), d.sigma_max), 1e-7);  // T2 at the largest stress
   // Unloaded, the surface sits at the permanent deformation only: z_e is gone (T6).
   const double unloaded_depth = -t.pointHeight(60, 60);
   EXPECT_NEAR(unloaded_depth, d.plastic + d.displaced, 1e-9);
   // While loaded it was deformed by the full penetration: permanent + elastic.
-  EXPECT_NEAR(depth, unloaded_depth + elasticSinkage(t.soil(), d.sigma_max, 0.0), 1e-6);
+  EXPECT_NEAR(depth, unloaded_depth + elasticSinkage(t.soil(60, 60), d.sigma_max, 0.0), 1e-6);
   // Lifting the wheel and pressing again less deeply does not undo the compaction.
   t.wheelContact(wheelAt(3.0, 3.0, -0.5 * unloaded_depth), 0.001, true);
   EXPECT_FLOAT_EQ(t.deformation(60, 60).plastic, d.plastic);
@@ -160,7 +161,7 @@ TEST(DeformableTerrain, DrivingWheelGetsTractionAndResistance)
   EXPECT_NEAR(f.lateral_force, 0.0, 1e-9);
   // Traction cannot exceed the Mohr-Coulomb envelope over the contact (T7 with j -> inf).
   const double area = t.base().dx() * t.base().dy() * f.contact_points;
-  EXPECT_LT(f.longitudinal_force, area * t.soil().cohesion + f.normal_force * std::tan(t.soil().friction_angle));
+  EXPECT_LT(f.longitudinal_force, area * t.soil(60, 60).cohesion + f.normal_force * std::tan(t.soil(60, 60).friction_angle));
   // Braking reverses it; sliding sideways gives a restoring lateral force.
   w.spin_rate = 0.8 / w.radius;
   EXPECT_LT(t.wheelContact(w, 0.001, false).longitudinal_force, 0.0);
@@ -248,4 +249,147 @@ TEST(DeformableTerrain, RepeatedRunsAreBitIdentical)
     }
   EXPECT_EQ(a.flowedVolume(), b.flowedVolume());
   EXPECT_EQ(a.arrivedVolume(), b.arrivedVolume());
+}
+
+namespace
+{
+/// Flat n x n terrain at 0.05 m: clay (palette 0) for x < 3 m, mud (palette 1) from x = 3 m.
+DeformableTerrain clayAndMud(bool transport = true, std::size_t n = 120)
+{
+  std::vector<std::uint8_t> map(n * n);
+  for (std::size_t j = 0; j < n; ++j)
+    for (std::size_t i = 0; i < n; ++i)
+      map[j * n + i] = i < 60 ? 0 : 1;
+  return DeformableTerrain(ElevationGrid(0, 0, 0.05, 0.05, n, n, std::vector<float>(n * n, 0.f)),
+                           { library().get("clay"), library().get("mud") }, std::move(map),
+                           DeformableTerrain::Options{ transport });
+}
+}  // namespace
+
+TEST(DeformableTerrain, SoilMapEachPointUsesItsOwnSoil)
+{
+  DeformableTerrain mixed = clayAndMud();
+  DeformableTerrain clay = flat("clay", true), mud = flat("mud", true);
+  EXPECT_EQ(mixed.soil(10, 10).name, "clay");
+  EXPECT_EQ(mixed.soil(100, 10).name, "mud");
+  // A wheel wholly on one side feels exactly that soil.
+  WheelPatch w = wheelAt(1.5, 3.0, -0.03);
+  w.velocity = Eigen::Vector3d(1.0, 0, 0);
+  w.spin_rate = 1.2 / w.radius;
+  const ContactForces on_clay = mixed.wheelContact(w, 0.01, false);
+  EXPECT_EQ(on_clay.normal_force, clay.wheelContact(w, 0.01, false).normal_force);
+  EXPECT_EQ(on_clay.longitudinal_force, clay.wheelContact(w, 0.01, false).longitudinal_force);
+  w.centre.x() = 4.5;
+  const ContactForces on_mud = mixed.wheelContact(w, 0.01, false);
+  EXPECT_EQ(on_mud.normal_force, mud.wheelContact(w, 0.01, false).normal_force);
+  EXPECT_NE(on_mud.normal_force, on_clay.normal_force);
+  // Straddling the boundary (rolling along y, across it), each point compacts by its own T2.
+  w.centre.x() = 3.0;
+  w.heading = M_PI / 2;
+  w.velocity = Eigen::Vector3d(0, 1.0, 0);
+  const ContactForces straddle = mixed.wheelContact(w, 0.01, true);
+  int clay_points = 0, mud_points = 0;
+  for (std::size_t j = 0; j < 120; ++j)
+    for (std::size_t i = 0; i < 120; ++i)
+    {
+      const PointDeformation d = mixed.deformation(i, j);
+      if (d.sigma_max == 0.f)
+        continue;
+      const SoilParameters& soil = mixed.soil(i, j);
+      EXPECT_EQ(d.plastic, static_cast<float>(plasticSinkage(soil, d.sigma_max))) << i << "," << j;
+      (soil.name == "clay" ? clay_points : mud_points) += 1;
+    }
+  EXPECT_GT(clay_points, 5);
+  EXPECT_GT(mud_points, 5);
+  EXPECT_EQ(clay_points + mud_points, straddle.contact_points);
+}
+
+TEST(DeformableTerrain, BadPaletteOrSoilMapThrowsNamingIt)
+{
+  const std::size_t n = 20;
+  const ElevationGrid grid(0, 0, 0.1, 0.1, n, n, std::vector<float>(n * n, 0.f));
+  const auto expectRejected = [&](std::vector<SoilParameters> palette, std::vector<std::uint8_t> map,
+                                  const char* what) {
+    try
+    {
+      DeformableTerrain t(grid, std::move(palette), std::move(map), DeformableTerrain::Options{});
+      ADD_FAILURE() << "accepted: " << what;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  const SoilParameters clay = library().get("clay"), mud = library().get("mud");
+  expectRejected({ clay, mud }, std::vector<std::uint8_t>(n * n - 1, 0), "soil_map has 399 entries");
+  std::vector<std::uint8_t> map(n * n, 1);
+  map[3 * n + 7] = 2;
+  expectRejected({ clay, mud }, map, "soil_map: index 2 at grid point (7, 3) is not in the palette of 2");
+  expectRejected({}, std::vector<std::uint8_t>(n * n, 0), "palette has 0 soils");
+  expectRejected(std::vector<SoilParameters>(257, clay), std::vector<std::uint8_t>(n * n, 0), "palette has 257");
+  SoilParameters broken = mud;
+  broken.shear_modulus = std::nan("");
+  expectRejected({ clay, broken }, std::vector<std::uint8_t>(n * n, 0), "palette[1]: soil 'mud': shear_modulus");
+  // A full palette of 256 is fine, and a single soil stores no map.
+  std::vector<std::uint8_t> all(n * n);
+  for (std::size_t k = 0; k < all.size(); ++k)
+    all[k] = static_cast<std::uint8_t>(k % 256);
+  EXPECT_EQ(DeformableTerrain(grid, std::vector<SoilParameters>(256, clay), all, {}).soilIndex(15, 12), 255);
+  EXPECT_EQ(DeformableTerrain(grid, { clay }, std::vector<std::uint8_t>(n * n, 0), {}).soilMapBytes(), 0u);
+  EXPECT_THROW(DeformableTerrain(grid, clay, {}).soilIndex(n, 0), std::out_of_range);
+}
+
+TEST(DeformableTerrain, SetSoilChangesThatPaletteEntryOnly)
+{
+  DeformableTerrain mixed = clayAndMud();
+  DeformableTerrain clay = flat("clay", true);
+  WheelPatch w = wheelAt(4.5, 3.0, -0.03);  // on the mud side
+  mixed.setSoil(1, library().get("clay"));
+  EXPECT_EQ(mixed.wheelContact(w, 0.01, false).normal_force, clay.wheelContact(w, 0.01, false).normal_force);
+  SoilParameters broken = library().get("mud");
+  broken.h0 = -1.0;
+  EXPECT_THROW(mixed.setSoil(1, broken), std::invalid_argument);
+  EXPECT_EQ(mixed.palette()[1].name, "clay");  // a rejected soil changes nothing
+  try
+  {
+    mixed.setSoil(2, library().get("mud"));
+    ADD_FAILURE() << "set a soil outside the palette";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("index 2"), std::string::npos) << e.what();
+  }
+}
+
+TEST(DeformableTerrain, PaletteFromCourseNames)
+{
+  const auto palette = paletteFromNames({ "gravel", "mud" }, library());
+  ASSERT_EQ(palette.size(), 2u);
+  EXPECT_EQ(palette[1].name, "mud");
+  EXPECT_THROW(paletteFromNames({ "gravel", "lava" }, library()), SoilError);
+}
+
+TEST(DeformableTerrain, DefaultCourseSoilMapDrivesTheContact)
+{
+  CourseOptions options;
+  options.length_x = kMinCourseLengthX;
+  options.length_y = kMinCourseLengthY;
+  options.cell_size = 0.25;
+  Course course = makeDefaultCourse(options);
+  const std::vector<std::string> names = course.soil_names;
+  DeformableTerrain t(std::move(course.heights), paletteFromNames(names, library()), std::move(course.soil_map),
+                      DeformableTerrain::Options{ true });
+  const auto soilAt = [&](const CourseFeature& f) {
+    const double x = 0.5 * (f.min_x + f.max_x), y = 0.5 * (f.min_y + f.max_y);
+    return t.soil(static_cast<std::size_t>(std::lround(x / 0.25)), static_cast<std::size_t>(std::lround(y / 0.25)))
+        .name;
+  };
+  EXPECT_EQ(soilAt(course.feature("road")), "asphalt");
+  EXPECT_EQ(soilAt(course.feature("pond")), "mud");
+  // The same 2 cm press needs far more force on the road than in the pond.
+  const auto press = [&](const CourseFeature& f) {
+    const double x = 0.5 * (f.min_x + f.max_x), y = 0.5 * (f.min_y + f.max_y);
+    return t.wheelContact(wheelAt(x, y, *t.height(x, y) - 0.02, 0.35, 0.3), 0.01, false).normal_force;
+  };
+  EXPECT_GT(press(course.feature("road")), 10.0 * press(course.feature("pond")));
 }

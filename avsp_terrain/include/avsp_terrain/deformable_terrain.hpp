@@ -1,13 +1,15 @@
 #pragma once
 /**
  * @file deformable_terrain.hpp
- * @brief Terrain that ruts: base heights (ElevationGrid) plus per-point deformation
- *        (MODELS.md T2-T6) stored sparsely in tiles allocated only where running gear has
- *        touched, and the rigid-wheel soil contact (T7-T12) that deforms it.
+ * @brief Terrain that ruts: base heights (ElevationGrid), a soil per grid point (a palette of
+ *        up to 256 soils and a uint8 soil map), per-point deformation (MODELS.md T2-T6)
+ *        stored sparsely in tiles allocated only where running gear has touched, and the
+ *        rigid-wheel soil contact (T7-T12) that deforms it.
  */
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -55,25 +57,41 @@ struct PointDeformation
 };
 
 /**
- * @brief Elevation grid + one soil + sparse deformation state + wheel contact.
+ * @brief Elevation grid + soil map + sparse deformation state + wheel contact.
  *
  * Height of a point = base - z_p - (z_f - z_n); while loaded also - z_e (T3, T6).
  * Tiles of kTileSize x kTileSize points are allocated the first time a point in them
- * deforms; untouched terrain costs its base heights plus one pointer per tile (a dense
- * directory: 8 B per 64 points, so lookups are an index, not a hash).
+ * deforms; untouched terrain costs its base heights, one soil byte per point (none with a
+ * single soil) and one pointer per tile (a dense directory: 8 B per 64 points, so lookups
+ * are an index, not a hash). Each point under a wheel uses its own soil.
  */
 class DeformableTerrain
 {
 public:
   static constexpr int kTileSize = 8;
+  /// Largest palette: soil indices are one byte.
+  static constexpr std::size_t kMaxSoils = 256;
 
   struct Options
   {
     bool transport = true;  ///< T5 on: flowed soil arrives at neighbours (berms); off: z_n = 0
   };
 
-  /// @throw std::invalid_argument naming the soil field when `soil` is unusable (see ContactSoil)
+  /**
+   * @brief One soil everywhere (no soil map is stored).
+   * @throw std::invalid_argument naming the soil field when `soil` is unusable (see ContactSoil)
+   */
   DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options);
+
+  /**
+   * @brief A soil per grid point.
+   * @param palette the soils, 1 to kMaxSoils of them
+   * @param soil_map index into `palette` per grid point (index j * columns + i), columns * rows entries
+   * @throw std::invalid_argument naming `palette` or `soil_map` and the reason: empty or too
+   *        large palette, an unusable soil, a map of the wrong size, an index not in the palette
+   */
+  DeformableTerrain(ElevationGrid base, std::vector<SoilParameters> palette, std::vector<std::uint8_t> soil_map,
+                    Options options);
 
   /// Deformed (unloaded) height at (x, y), bilinear, m; nullopt outside the grid.
   std::optional<double> height(double x, double y) const;
@@ -102,6 +120,8 @@ public:
   std::size_t deformationBytes() const;
   /// Bytes of the tile directory: fixed per grid (8 B per kTileSize^2 points).
   std::size_t directoryBytes() const;
+  /// Bytes of the soil map: fixed per grid, 1 B per grid point (0 with a single soil).
+  std::size_t soilMapBytes() const { return soil_map_.size(); }
 
   /// Grid points (i, j) that carry state (all points of allocated tiles), in row-major tile
   /// order then row-major within the tile: what a save must write to restore bit-exactly.
@@ -118,7 +138,19 @@ public:
   const Options& options() const { return options_; }
 
   const ElevationGrid& base() const { return base_; }
-  const SoilParameters& soil() const { return soil_; }
+
+  /// The soils, indexed by the soil map.
+  const std::vector<SoilParameters>& palette() const { return palette_; }
+  /// Palette index of grid point (i, j). @throw std::out_of_range outside the grid
+  std::uint8_t soilIndex(std::size_t i, std::size_t j) const;
+  /// Soil of grid point (i, j). @throw std::out_of_range outside the grid
+  const SoilParameters& soil(std::size_t i, std::size_t j) const { return palette_[soilIndex(i, j)]; }
+  /**
+   * @brief Replaces palette entry `index` (e.g. the same soil at a new moisture, dynamic_soil.hpp);
+   *        every point mapped to it uses the new parameters from the next contact on.
+   * @throw std::invalid_argument naming `index` (not in the palette) or the soil field
+   */
+  void setSoil(std::size_t index, SoilParameters soil);
 
 private:
   using Tile = std::array<PointDeformation, kTileSize * kTileSize>;
@@ -127,6 +159,7 @@ private:
   struct LoadedPoint
   {
     std::uint32_t i, j;
+    std::uint8_t soil;   ///< palette index
     double along;        ///< m, position along the direction of travel (wheel frame)
     double penetration;  ///< m, below the current unloaded surface
     double sigma;        ///< Pa
@@ -139,8 +172,9 @@ private:
   void spreadToNeighbours(std::size_t i, std::size_t j, double volume);
 
   ElevationGrid base_;
-  SoilParameters soil_;
-  ContactSoil contact_soil_;  ///< soil_ prepared for the contact's inner loop
+  std::vector<SoilParameters> palette_;
+  std::vector<ContactSoil> contact_soils_;  ///< palette_ prepared for the contact's inner loop
+  std::vector<std::uint8_t> soil_map_;      ///< per grid point; empty: index 0 everywhere
   Options options_;
   std::size_t tiles_x_;
   std::vector<std::unique_ptr<Tile>> tiles_;  ///< tile directory, row-major, null = untouched
@@ -149,6 +183,12 @@ private:
   double arrived_volume_ = 0.0;
   std::vector<LoadedPoint> loaded_;  ///< scratch of the current contact (kept: no allocation per call)
 };
+
+/**
+ * @brief The palette for `names` (e.g. Course::soil_names) from the soil library, in order.
+ * @throw SoilError naming the soil when the library has no soil of that name
+ */
+std::vector<SoilParameters> paletteFromNames(const std::vector<std::string>& names, const SoilLibrary& library);
 
 }  // namespace terrain
 }  // namespace avsp
