@@ -47,6 +47,20 @@ bool gridRange(double lo, double hi, double origin, double d, std::size_t count,
   return true;
 }
 
+/// Largest |tan| of the rim angle used for a wheel's Bekker compaction resistance (75 deg):
+/// beyond it the wheel is sunk near its axle, where a vertical-stress grid says nothing
+/// sensible about the horizontal push (T13 itself holds only to z < D/6, i.e. 48 deg).
+constexpr double kMaxRimSlope = 3.7320508075688772;
+
+/// Share of a grid point's cell inside a band edge (point `inside` m within the edge, cells
+/// `spacing` m apart across it): 1/2 on the edge, rising linearly; the outermost point inside
+/// (inside < spacing) also takes the part of the next cell out, so a lattice line of points
+/// across a band sums to exactly band width / spacing for any offset.
+double edgeWeight(double inside, double spacing)
+{
+  return inside < spacing ? inside / spacing + 0.5 : 1.0;
+}
+
 /// The palette prepared for the contact; errors name the palette entry.
 std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette)
 {
@@ -301,6 +315,8 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
       !gridRange(cy - ext_y, cy + ext_y, oy, dy, base_.rows(), j0, j1))
     return out;
   const double r2 = r * r;
+  // Spacing of grid points across the wheel (exact when it is axis-aligned).
+  const double lateral_spacing = dx * std::abs(sa) + dy * std::abs(ca);
   for (std::size_t j = j0; j <= j1; ++j)
   {
     const double py = oy + j * dy - cy;
@@ -330,13 +346,24 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
         continue;
       const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
       const ContactSoil& soil = contact_soils_[soil_index];
-      const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
-      const double sigma = soil.stressForPenetration(state.plastic, deformation, state.sigma_max, penetration);
-      const double elastic = soil.elasticSinkage(sigma, deformation);
-      loaded_.push_back({ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), soil_index, u * travel,
-                          penetration, sigma, elastic });
+      LoadedPoint p{ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), soil_index,
+                     edgeWeight(half_w - std::abs(v), lateral_spacing), u * travel, penetration, 0.0, 0.0, 0.0, 0.0 };
+      if (soil.model() == SinkageModel::kBekker)
+      {
+        // Rigid-plastic Bekker: the pressure of the sinkage reached, b = wheel width (T13).
+        p.depth = state.plastic + penetration;
+        p.sigma = soil.bekkerPressure(soil.bekkerModulus(wheel.width), p.depth);
+        p.rim_slope = std::clamp(p.along / std::sqrt(r2 - u * u), -kMaxRimSlope, kMaxRimSlope);
+      }
+      else
+      {
+        const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
+        p.sigma = soil.stressForPenetration(state.plastic, deformation, state.sigma_max, penetration);
+        p.elastic = soil.elasticSinkage(p.sigma, deformation);
+      }
+      loaded_.push_back(p);
       out.sinkage = std::max(out.sinkage, base_z - bottom);
-      out.elastic_sinkage = std::max(out.elastic_sinkage, elastic);
+      out.elastic_sinkage = std::max(out.elastic_sinkage, p.elastic);
     }
   }
   out.contact_points = static_cast<int>(loaded_.size());
@@ -359,15 +386,25 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   int strip_soil = -1;
   double half_strip = 1.0;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
-  // proportion to the points, (c + sigma tan phi) w z_rel / count; rolling f sigma A.
-  double bulldozing = 0.0, rolling = 0.0;
+  // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
+  // Bekker points instead push back on the rim: compaction resistance sigma A_k tan(angle).
+  double bulldozing = 0.0, rolling = 0.0, compaction = 0.0, total_weight = 0.0;
   for (const LoadedPoint& p : loaded_)
   {
     const ContactSoil& soil = contact_soils_[p.soil];
     const double strength = soil.cohesion + std::max(p.sigma, 0.0) * soil.tan_phi;
-    out.normal_force += p.sigma * area;
-    bulldozing += strength;
-    rolling += soil.rolling_resistance * std::max(p.sigma, 0.0) * area;
+    const double load = p.sigma * area * p.weight;
+    out.normal_force += load;
+    total_weight += p.weight;
+    if (soil.model() == SinkageModel::kBekker)
+    {
+      compaction += load * p.rim_slope;
+    }
+    else
+    {
+      bulldozing += strength * p.weight;
+      rolling += soil.rolling_resistance * load;
+    }
     if (slip_magnitude > 0.0)
     {
       const double k = soil.shear_modulus;
@@ -382,13 +419,15 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
       const double e0 = x0 > 0.0 ? e_mid * half_strip : 1.0;
       const double mean = meanShearFactor(slip_magnitude, k, x0, x1, e0, e_mid / half_strip);
       const double tau = strength * mean;
-      out.longitudinal_force += travel * (out.slip / slip_magnitude) * tau * area;
-      out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area;
+      out.longitudinal_force += travel * (out.slip / slip_magnitude) * tau * area * p.weight;
+      out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area * p.weight;
     }
   }
-  // T12 with the depth of the soil ahead (largest penetration): for one soil this is
-  // (c + mean sigma tan phi) w z_rel + f A mean sigma.
-  out.resistance_force = bulldozing / loaded_.size() * wheel.width * max_penetration + rolling;
+  // T12 with the depth of the soil ahead (largest penetration): for one simple soil this is
+  // (c + mean sigma tan phi) w z_rel + f A mean sigma. A wheel pressed into Bekker soil at rest
+  // is pushed back as much as forward: no net compaction resistance, never a negative one.
+  out.resistance_force =
+      bulldozing / total_weight * wheel.width * max_penetration + rolling + std::max(compaction, 0.0);
 
   if (deform)
   {
@@ -399,8 +438,16 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
       PointDeformation& state = touch(p.i, p.j);
       const float sigma_before = state.sigma_max;
       const double sigma_max = std::max<double>(p.sigma, sigma_before);
-      const double flow = soil.b1 * std::max(p.sigma - sigma_before, 0.0) + soil.b2 * p.sigma * slip_speed * dt;
-      state.plastic = std::max(state.plastic, static_cast<float>(soil.plasticSinkage(sigma_max)));
+      double flow = soil.b2 * p.sigma * slip_speed * dt;
+      if (soil.model() == SinkageModel::kBekker)
+      {
+        state.plastic = std::max(state.plastic, static_cast<float>(p.depth));  // the sinkage stays
+      }
+      else
+      {
+        flow += soil.b1 * std::max(p.sigma - sigma_before, 0.0);
+        state.plastic = std::max(state.plastic, static_cast<float>(soil.plasticSinkage(sigma_max)));
+      }
       state.sigma_max = static_cast<float>(sigma_max);
       state.displaced += static_cast<float>(flow);
       flowed_volume_ += static_cast<double>(static_cast<float>(flow)) * area;

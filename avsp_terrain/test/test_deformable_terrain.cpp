@@ -393,3 +393,188 @@ TEST(DeformableTerrain, DefaultCourseSoilMapDrivesTheContact)
   };
   EXPECT_GT(press(course.feature("road")), 10.0 * press(course.feature("pond")));
 }
+
+TEST(DeformableTerrain, LoadedWidthIsTheWheelWidthAtAnyGridOffset)
+{
+  // Side-edge points carry the share of their cell under the wheel: sliding the wheel
+  // sideways by a fraction of a cell leaves the force unchanged (without the shares it
+  // jumps by a whole row, 1/5 of a 0.25 m wheel at 0.05 m cells), and the force is
+  // proportional to the width.
+  DeformableTerrain t = flat("clay", false);
+  const double reference = t.wheelContact(wheelAt(3.0, 3.0, -0.02, 0.35, 0.25), 0.01, false).normal_force;
+  for (int k = 1; k <= 10; ++k)
+  {
+    const double y = 3.0 + 0.005 * k;
+    EXPECT_NEAR(t.wheelContact(wheelAt(3.0, y, -0.02, 0.35, 0.25), 0.01, false).normal_force, reference,
+                1e-9 * reference)
+        << "offset " << 0.005 * k;
+    WheelPatch across = wheelAt(3.0 + 0.005 * k, 3.0, -0.02, 0.35, 0.25);
+    across.heading = M_PI / 2;  // rolling along y: the width lies along x
+    EXPECT_NEAR(t.wheelContact(across, 0.01, false).normal_force, reference, 1e-9 * reference);
+  }
+  for (const double width : { 0.13, 0.21, 0.37 })
+    EXPECT_NEAR(t.wheelContact(wheelAt(3.0, 3.013, -0.02, 0.35, width), 0.01, false).normal_force,
+                reference * width / 0.25, 1e-9 * reference);
+}
+
+namespace
+{
+/// Depth (m) of the wheel's lowest point below the surface at which the wheel at (x, y)
+/// carries `load` (N) on terrain t, by bisection on probes (the terrain is not changed).
+double depthCarrying(DeformableTerrain& t, WheelPatch w, double load)
+{
+  double lo = 0.0, hi = 0.9 * w.radius;
+  for (int k = 0; k < 60; ++k)
+  {
+    const double mid = 0.5 * (lo + hi);
+    w.centre.z() = w.radius - mid;
+    (t.wheelContact(w, 0.01, false).normal_force < load ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+const double kBekkerRadius = 0.546;  // m, FED-Alpha-class tyre as a rigid wheel (as test_terramechanics)
+const double kBekkerWidth = 0.365;   // m
+}  // namespace
+
+TEST(DeformableTerrain, BekkerStaticSinkageMatchesRigidWheelTheory)
+{
+  // A wheel lowered onto dry sand (a `bekker` soil) until the grid carries W. At rest the
+  // whole arc is loaded, front and back alike, each half carrying what the front arc of
+  // rigidWheelOnBekkerSoil() carries at that sinkage: so the grid's sinkage under W is the
+  // theory's sinkage under W / 2 (T13 and rigidWheelStaticSinkage() are for a rolling
+  // wheel, whose rear has unloaded: see the rolling test below).
+  //
+  // Tolerance from the discretisation: across the wheel the side-edge shares make the
+  // width exact for an axis-aligned wheel; along it the grid samples p(u) = k z(u)^n at
+  // points h apart over a contact 2L long (L = 0.22 m here) and the sum misses or adds part
+  // of a cell at each end. Summed over all phases of the grid against the contact, that
+  // error stays below 1 % of the load at h = 0.05 m (h / L = 0.23) and 0.05 % at h = 0.01 m
+  // for n = 1.1 (computed offline by the same lattice sum). The load grows as z^(n + 1/2),
+  // so the sinkage error is the load error / 1.6: we allow 1 % and 0.1 %.
+  const SoilParameters& sand = library().get("dry_sand");
+  ASSERT_EQ(sand.model, SinkageModel::kBekker);
+  const double load = 5000.0;
+  const double theory = rigidWheelStaticSinkage(sand, kBekkerRadius, kBekkerWidth, 0.5 * load);
+  for (const double cell : { 0.05, 0.01 })
+  {
+    const std::size_t n = static_cast<std::size_t>(std::lround(3.0 / cell)) + 1;
+    DeformableTerrain t(ElevationGrid(0, 0, cell, cell, n, n, std::vector<float>(n * n, 0.f)), sand,
+                        DeformableTerrain::Options{ true });
+    const double tolerance = cell > 0.02 ? 0.01 : 0.001;
+    for (const double phase : { 0.0, 0.3, 0.55, 0.8 })
+    {
+      for (const double heading : { 0.0, M_PI / 2 })
+      {
+        WheelPatch w = wheelAt(1.5 + phase * cell, 1.5 + 0.37 * phase * cell, 0.0, kBekkerRadius, kBekkerWidth);
+        w.heading = heading;
+        EXPECT_NEAR(depthCarrying(t, w, load), theory, tolerance * theory)
+            << "cell " << cell << " phase " << phase << " heading " << heading;
+      }
+    }
+    // Turned off the grid's axes the side shares are exact only on average; the same bound holds.
+    WheelPatch turned = wheelAt(1.5, 1.5, 0.0, kBekkerRadius, kBekkerWidth);
+    turned.heading = 0.5;
+    EXPECT_NEAR(depthCarrying(t, turned, load), theory, tolerance * theory) << "cell " << cell << " turned";
+    EXPECT_EQ(t.deformedPoints(), 0u);
+  }
+  // And Bekker's closed form T13 (for W / 2), within the 5 % T13 itself is good for at n = 1.1.
+  const double t13 = bekkerStaticSinkageClosedForm(sand, 2.0 * kBekkerRadius, kBekkerWidth, 0.5 * load);
+  EXPECT_NEAR(theory, t13, 0.05 * t13);
+}
+
+TEST(DeformableTerrain, BekkerRollingWheelSinksAsT13)
+{
+  // A towed wheel (no slip) rolled over dry sand at constant load W, deforming: each step the
+  // wheel is lowered until the grid carries W, then the step is made permanent. The rear of
+  // the wheel rides on the rut it made (rigid-plastic soil: no rebound), so only the front
+  // arc is loaded: the rolling wheel of rigidWheelStaticSinkage() and T13, directly.
+  //
+  // Discretisation: the lattice cuts the loaded front arc near the bottom, where the
+  // pressure is largest, somewhere within a cell; that misplaces at most half a cell of arc
+  // at the peak pressure p_max, i.e. p_max b h / 2 of load, and the sinkage error is that
+  // relative load error / (n + 1/2). The error is first order in h, so it must also shrink
+  // with the cell. The compaction resistance, a sum of sigma tan(angle) that vanishes at both
+  // ends of the front arc (angle 0 at the bottom, sigma 0 at entry), has the static test's
+  // kind of error at the grid's own sinkage: 1.5 % at h = 0.05 m, 0.3 % at h = 0.02 m.
+  const SoilParameters& sand = library().get("dry_sand");
+  const double load = 5000.0;
+  const double theory = rigidWheelStaticSinkage(sand, kBekkerRadius, kBekkerWidth, load);
+  const double p_max = bekkerPressure(sand, kBekkerWidth, theory);
+  std::vector<double> errors;
+  for (const double cell : { 0.05, 0.02 })
+  {
+    const std::size_t columns = static_cast<std::size_t>(std::lround(4.0 / cell)) + 1;
+    const std::size_t rows = static_cast<std::size_t>(std::lround(1.2 / cell)) + 1;
+    DeformableTerrain t(ElevationGrid(0, 0, cell, cell, columns, rows, std::vector<float>(columns * rows, 0.f)),
+                        sand, DeformableTerrain::Options{ true });
+    const double step = cell / 5.0;
+    double sinkage_sum = 0.0, resistance_sum = 0.0;
+    int samples = 0;
+    for (int k = 0;; ++k)
+    {
+      const double x = 0.8 + k * step;
+      if (x > 3.3)
+        break;
+      WheelPatch w = wheelAt(x, 0.6, 0.0, kBekkerRadius, kBekkerWidth);
+      w.velocity = Eigen::Vector3d(1.0, 0.0, 0.0);
+      w.spin_rate = 1.0 / kBekkerRadius;  // towed: slip 0, no slip sinkage
+      const double z = depthCarrying(t, w, load);
+      w.centre.z() = kBekkerRadius - z;
+      const ContactForces f = t.wheelContact(w, step, true);
+      ASSERT_NEAR(f.slip, 0.0, 1e-12);
+      if (x > 2.3)  // after several contact lengths: steady state, averaged over 1 m
+      {
+        sinkage_sum += z;
+        resistance_sum += f.resistance_force;
+        ++samples;
+      }
+    }
+    const double sinkage = sinkage_sum / samples;
+    const double bound = p_max * kBekkerWidth * 0.5 * cell / load / (sand.n + 0.5);
+    errors.push_back(std::abs(sinkage / theory - 1.0));
+    EXPECT_LT(errors.back(), bound) << "cell " << cell << ": sinkage " << sinkage << ", theory " << theory;
+    const double compaction =
+        rigidWheelOnBekkerSoil(sand, kBekkerRadius, kBekkerWidth, sinkage).compaction_resistance;
+    EXPECT_NEAR(resistance_sum / samples, compaction, (cell > 0.03 ? 0.015 : 0.003) * compaction) << "cell " << cell;
+    // Rigid-plastic: the rut stays as deep as the wheel went (no rebound behind it).
+    EXPECT_NEAR(-t.pointHeight(static_cast<std::size_t>(std::lround(2.0 / cell)), rows / 2), sinkage,
+                0.05 * sinkage);
+  }
+  EXPECT_LT(errors[1], 0.6 * errors[0]) << "the error does not shrink with the cell";
+  // Bekker's closed form for the same wheel (T13's own accuracy at n = 1.1 is 5 %).
+  const double t13 = bekkerStaticSinkageClosedForm(sand, 2.0 * kBekkerRadius, kBekkerWidth, load);
+  EXPECT_NEAR(theory, t13, 0.05 * t13);
+}
+
+TEST(DeformableTerrain, BekkerSoilSlipSinksDeeperAndConservesVolume)
+{
+  // On a Bekker soil T4's slip-driven flow (b2) still moves soil (T5 conserving it), and under
+  // the same load a slipping wheel sinks deeper than a towed one: slip sinkage.
+  const double load = 2000.0, dt = 0.004;
+  double sinkage[2] = { 0.0, 0.0 };
+  for (const int slipping : { 0, 1 })
+  {
+    DeformableTerrain t = flat("dry_sand", true);
+    for (double x = 1.0; x < 2.5; x += dt)
+    {
+      WheelPatch w = wheelAt(x, 3.0, 0.0);
+      w.velocity = Eigen::Vector3d(1.0, 0, 0);
+      w.spin_rate = (slipping ? 1.3 : 1.0) / w.radius;
+      sinkage[slipping] = depthCarrying(t, w, load);
+      w.centre.z() = w.radius - sinkage[slipping];
+      t.wheelContact(w, dt, true);
+    }
+    if (!slipping)
+    {
+      EXPECT_EQ(t.flowedVolume(), 0.0);
+      continue;
+    }
+    ASSERT_GT(t.flowedVolume(), 1e-5);
+    EXPECT_NEAR(t.arrivedVolume(), t.flowedVolume(), 1e-9 * t.flowedVolume());
+    EXPECT_LT(std::abs(netDisplacedVolume(t)), 1e-6 * t.flowedVolume());
+  }
+  // b2 = 5e-8 1/Pa: about 40 kPa x 0.3 m/s slip speed x 0.25 s under the wheel = 0.15 mm of
+  // flow per pass, and the wheel sinks to restore its load.
+  EXPECT_GT(sinkage[1], sinkage[0] + 1e-4) << "towed " << sinkage[0] << " m, slipping " << sinkage[1] << " m";
+}

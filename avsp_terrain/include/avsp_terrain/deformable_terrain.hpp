@@ -51,7 +51,7 @@ struct ContactForces
 /// Deformation of one grid point (what a rut remembers).
 struct PointDeformation
 {
-  float plastic = 0.f;    ///< m, z_p (T2), only grows
+  float plastic = 0.f;    ///< m, z_p (T2; Bekker soils: the sinkage reached), only grows
   float displaced = 0.f;  ///< m, z_f - z_n (T4, T5): soil pushed away minus soil received
   float sigma_max = 0.f;  ///< Pa, largest normal stress seen (governs T2 and T4's b1 term)
 };
@@ -63,7 +63,26 @@ struct PointDeformation
  * Tiles of kTileSize x kTileSize points are allocated the first time a point in them
  * deforms; untouched terrain costs its base heights, one soil byte per point (none with a
  * single soil) and one pointer per tile (a dense directory: 8 B per 64 points, so lookups
- * are an index, not a hash). Each point under a wheel uses its own soil.
+ * are an index, not a hash).
+ *
+ * Per point the contact uses that point's soil:
+ * - `simple` soils: the normal stress at which T2 compaction + T4 bearing flow (b1) + T3
+ *   elastic sinkage absorb the penetration; T12 resistance.
+ * - `bekker` soils: p = (k_c / b + k_phi) z^n with z the point's sinkage below its
+ *   undeformed surface and b the wheel's width (as in T13). The soil is rigid-plastic: the
+ *   sinkage stays (no rebound; a rut carries the pressure it was made with before it sinks
+ *   further), which is what the rigid-wheel theory behind T13 assumes when the rear of a
+ *   rolling wheel unloads. Resistance is Bekker's compaction resistance, the horizontal
+ *   component of the rim pressure (so a wheel at rest, loaded front and back alike, has
+ *   none). No T3 or T4-b1 terms: Bekker's law is the whole static sinkage; T4's
+ *   slip-driven flow (b2) and T5 transport still apply, so a slipping wheel in sand digs
+ *   and piles soil.
+ * - Both: T7 Mohr-Coulomb/Janosi shear with j = s x behind the leading edge (T11).
+ *
+ * Grid points along the footprint's side edges carry the share of their cell the footprint
+ * covers (half when the edge passes through the point; the outermost point inside also takes
+ * the sliver of the next cell), so the loaded width equals the wheel's width for any
+ * alignment with the grid instead of rounding to whole cells.
  */
 class DeformableTerrain
 {
@@ -160,10 +179,13 @@ private:
   {
     std::uint32_t i, j;
     std::uint8_t soil;   ///< palette index
+    double weight;       ///< share of the point's cell under the footprint, (0, 1.5)
     double along;        ///< m, position along the direction of travel (wheel frame)
     double penetration;  ///< m, below the current unloaded surface
     double sigma;        ///< Pa
     double elastic;      ///< m
+    double depth;        ///< m, Bekker soils: sinkage reached (plastic + penetration)
+    double rim_slope;    ///< Bekker soils: horizontal / vertical rim pressure, + opposes travel
   };
 
   const PointDeformation* find(std::size_t i, std::size_t j) const;
