@@ -72,33 +72,13 @@ ContactSoil::ContactSoil(const SoilParameters& soil) : model_(soil.model)
   {
     sigma_.push_back(sigma);
     rho_.push_back(rho);
+    z_p_.push_back(h0 * (1.0 - rho0 / rho));
   }
-}
-
-double ContactSoil::density(double sigma) const
-{
-  // The arithmetic of CompressionCurve::density, so that z_p matches plasticSinkage() to the bit.
-  if (sigma <= 0.0)
-    return rho_.front();
-  for (std::size_t k = 1; k < sigma_.size(); ++k)
-    if (sigma <= sigma_[k])
-      return rho_[k - 1] + (rho_[k] - rho_[k - 1]) * (sigma - sigma_[k - 1]) / (sigma_[k] - sigma_[k - 1]);
-  return rho_.back();
-}
-
-double ContactSoil::plasticSinkage(double sigma_max) const
-{
-  return h0 * (1.0 - rho0 / density(sigma_max));
-}
-
-double ContactSoil::plasticIncrement(double rho, double plastic) const
-{
-  return std::max(h0 * (1.0 - rho0 / rho) - plastic, 0.0);
 }
 
 double ContactSoil::extraSinkage(double plastic, double deformation, double sigma_max, double sigma) const
 {
-  const double compaction = plasticIncrement(density(std::max(sigma, sigma_max)), plastic);
+  const double compaction = plasticIncrement(plasticSinkage(std::max(sigma, sigma_max)), plastic);
   const double flow = b1 * std::max(sigma - sigma_max, 0.0);
   return compaction + flow + elasticSinkage(sigma, deformation);
 }
@@ -107,7 +87,8 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
                                          double penetration) const
 {
   const double a = elasticSinkage(1.0, deformation);  // m/Pa: T3's (h0 - z)^+ E
-  const double q0 = plasticIncrement(density(sigma_max), plastic);
+  // Virgin points (the common case under a moving wheel) need no curve lookup.
+  const double q0 = plasticIncrement(sigma_max > 0.0 ? plasticSinkage(sigma_max) : z_p_.front(), plastic);
   // Reloading up to the largest stress seen: no new compaction or bearing flow, only T3.
   if (q0 + a * sigma_max >= penetration)
     return a > 0.0 ? std::max((penetration - q0) / a, 0.0) : 0.0;
@@ -122,7 +103,7 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
     ++k;
   for (; k < sigma_.size(); ++k)
   {
-    const double at_k = plasticIncrement(rho_[k], plastic) + b1 * (sigma_[k] - sigma_max) + a * sigma_[k];
+    const double at_k = plasticIncrement(z_p_[k], plastic) + b1 * (sigma_[k] - sigma_max) + a * sigma_[k];
     if (at_k >= penetration)
       break;
   }
@@ -132,7 +113,7 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
     // Beyond the table the density holds: only bearing flow and T3 still give.
     if (!(d > 0.0))
       return kRigidStress;
-    sigma = (penetration + b1 * sigma_max - plasticIncrement(rho_.back(), plastic)) / d;
+    sigma = (penetration + b1 * sigma_max - plasticIncrement(z_p_.back(), plastic)) / d;
   }
   else
   {
@@ -155,8 +136,9 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
     }
     sigma = std::clamp(sigma, lo, hi);
     // Just above sigma_max the float-stored plastic may exceed z_p(sigma) by a rounding: there
-    // the compaction increment is clamped to 0 and e(sigma) is linear.
-    if (h0 * (1.0 - rho0 / density(sigma)) < plastic && d > 0.0)
+    // the compaction increment is clamped to 0 and e(sigma) is linear. (Virgin points cannot
+    // be there; rho on this segment is alpha + beta sigma.)
+    if (plastic > 0.0 && d > 0.0 && h0 * (1.0 - rho0 / (alpha + beta * sigma)) < plastic)
       sigma = std::max((penetration + b1 * sigma_max) / d, lo);
   }
   return std::min(sigma, kRigidStress);

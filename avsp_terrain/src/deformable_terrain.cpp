@@ -217,64 +217,92 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
   return ElevationGrid::bilinear(h00, h10, h01, h11, u, v);
 }
 
-void DeformableTerrain::spreadToNeighbours(std::size_t i, std::size_t j, double volume)
+void DeformableTerrain::spreadFlow()
 {
-  // f(z_f, d) of T5: the flowed volume goes to the 8 neighbours weighted by 1/d, so what
-  // leaves one point arrives exactly at others (volume leaving = volume arriving).
-  const double area = base_.dx() * base_.dy();
-  const bool interior = i > 0 && j > 0 && i + 1 < base_.columns() && j + 1 < base_.rows();
-  double total = 0.0;
-  if (interior)
+  // f(z_f, d) of T5: each point's flowed volume goes to its 8 neighbours weighted by 1/d, so
+  // what leaves one point arrives exactly at others (volume leaving = volume arriving). The
+  // arrivals of the whole contact are summed in a small window around the loaded points first
+  // and applied once per receiving point: no tile lookups per share.
+  std::size_t imin = base_.columns(), imax = 0, jmin = base_.rows(), jmax = 0;
+  for (const LoadedPoint& p : loaded_)
   {
-    // The sum of the 8 weights in the loop's order below (so it is the same double).
-    static const double kInteriorTotal = [] {
-      double t = 0.0;
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di)
-          if (di != 0 || dj != 0)
-            t += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-      return t;
-    }();
-    total = kInteriorTotal;
+    imin = std::min<std::size_t>(imin, p.i);
+    imax = std::max<std::size_t>(imax, p.i);
+    jmin = std::min<std::size_t>(jmin, p.j);
+    jmax = std::max<std::size_t>(jmax, p.j);
   }
-  else
-  {
+  // Window: the loaded box plus one point around it, clipped to the grid.
+  const std::size_t wi0 = imin > 0 ? imin - 1 : 0, wj0 = jmin > 0 ? jmin - 1 : 0;
+  const std::size_t wi1 = std::min(imax + 1, base_.columns() - 1), wj1 = std::min(jmax + 1, base_.rows() - 1);
+  const std::size_t width = wi1 - wi0 + 1;
+  arrivals_.assign(width * (wj1 - wj0 + 1), 0.0);
+  // The sum of the 8 weights of an interior point, in the loop's order below.
+  static const double kInteriorTotal = [] {
+    double t = 0.0;
     for (int dj = -1; dj <= 1; ++dj)
       for (int di = -1; di <= 1; ++di)
-      {
-        const long ni = static_cast<long>(i) + di, nj = static_cast<long>(j) + dj;
-        if ((di != 0 || dj != 0) && ni >= 0 && nj >= 0 && ni < static_cast<long>(base_.columns()) &&
-            nj < static_cast<long>(base_.rows()))
-          total += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-      }
-  }
-  // Neighbours share a tile 36 times out of 64: keep the last tile's pointer.
-  std::size_t cached = tiles_.size();
-  Tile* tile = nullptr;
-  for (int dj = -1; dj <= 1; ++dj)
+        if (di != 0 || dj != 0)
+          t += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+    return t;
+  }();
+  const double area = base_.dx() * base_.dy();
+  const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
+  double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
+  for (const LoadedPoint& p : loaded_)
   {
-    for (int di = -1; di <= 1; ++di)
+    if (!(p.flow_volume > 0.0))
+      continue;
+    const long i = p.i, j = p.j;
+    const auto inside = [&](long ni, long nj) { return ni >= 0 && nj >= 0 && ni < columns && nj < rows; };
+    double total = kInteriorTotal;
+    if (i == 0 || j == 0 || i + 1 == columns || j + 1 == rows)
     {
-      if (di == 0 && dj == 0)
-        continue;
-      const long ni = static_cast<long>(i) + di, nj = static_cast<long>(j) + dj;
-      if (!interior &&
-          (ni < 0 || nj < 0 || ni >= static_cast<long>(base_.columns()) || nj >= static_cast<long>(base_.rows())))
-        continue;
-      const std::size_t ti = tileIndex(static_cast<std::size_t>(ni), static_cast<std::size_t>(nj));
-      if (ti != cached)
+      // On the grid's border: only the neighbours that exist share the volume.
+      total = 0.0;
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+          if ((di != 0 || dj != 0) && inside(i + di, j + dj))
+            total += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+    }
+    // Per unit weight: volume (m^3) and height (m) at a neighbour; two divisions per point.
+    const double volume = p.flow_volume / total, height = volume / area;
+    for (int dj = -1; dj <= 1; ++dj)
+    {
+      for (int di = -1; di <= 1; ++di)
       {
-        touch(static_cast<std::size_t>(ni), static_cast<std::size_t>(nj));  // allocates the tile if new
-        cached = ti;
-        tile = tiles_[ti].get();
+        if ((di == 0 && dj == 0) || !inside(i + di, j + dj))
+          continue;
+        const double w = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+        arrivals_[(j + dj - wj0) * width + (i + di - wi0)] += height * w;
+        arrived += volume * w;
       }
-      const double w = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-      const double share = volume * w / total;
-      (*tile)[(nj % kTileSize) * kTileSize + ni % kTileSize].displaced -= static_cast<float>(share / area);
-      arrived_volume_ += share;
     }
   }
+  arrived_volume_ += arrived;
+  for (std::size_t j = wj0; j <= wj1; ++j)
+  {
+    const double* row = arrivals_.data() + (j - wj0) * width - wi0;
+    for (std::size_t i = wi0; i <= wi1; ++i)
+      if (row[i] != 0.0)
+        touch(i, j).displaced -= static_cast<float>(row[i]);
+  }
 }
+
+/// Where a wheel or track patch is, its shape, and how it moves (shared by both contacts).
+struct DeformableTerrain::Footprint
+{
+  bool wheel = true;
+  double cx = 0.0, cy = 0.0, cz = 0.0;  ///< m: wheel centre, or the track face's centre
+  double ca = 1.0, sa = 0.0;            ///< cos and sin of the heading
+  double half_length = 0.0;             ///< m: the wheel's radius, or half the track patch's length
+  double half_width = 0.0;              ///< m
+  double bekker_b = 0.0;                ///< m, b of k_c / b: wheel width; a track's smaller dimension
+  double track_length = 0.0;            ///< m, whole track's ground contact (tracks)
+  double segment_offset = 0.0;          ///< m, patch centre from the whole track's centre, + forward
+  double v_long = 0.0, v_lat = 0.0;     ///< m/s, in the footprint's frame
+  double v_theoretical = 0.0;           ///< m/s, T9 or T10
+  double travel = 1.0;                  ///< +1 moving forward, -1 backward
+};
 
 ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt, bool deform)
 {
@@ -291,35 +319,100 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   if (!(dt >= 0.0) || !std::isfinite(dt))
     rejectArgument(kFn, "dt", "finite and >= 0", dt);
 
+  Footprint fp;
+  fp.cx = wheel.centre.x();
+  fp.cy = wheel.centre.y();
+  fp.cz = wheel.centre.z();
+  fp.ca = std::cos(wheel.heading);
+  fp.sa = std::sin(wheel.heading);
+  fp.half_length = wheel.radius;
+  fp.half_width = 0.5 * wheel.width;
+  fp.bekker_b = wheel.width;  // T13's b for a wheel
+  fp.v_long = wheel.velocity.x() * fp.ca + wheel.velocity.y() * fp.sa;
+  fp.v_lat = -wheel.velocity.x() * fp.sa + wheel.velocity.y() * fp.ca;
+  fp.v_theoretical = wheelTheoreticalSpeed(wheel.radius, wheel.spin_rate);  // T9
+  fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) : (wheel.spin_rate < 0 ? -1.0 : 1.0);
   ContactForces out;
-  const double ca = std::cos(wheel.heading), sa = std::sin(wheel.heading);
-  const double r = wheel.radius, half_w = 0.5 * wheel.width;
-  // Axis-aligned bounds of the wheel's 2r x w footprint rectangle.
-  const double ext_x = r * std::abs(ca) + half_w * std::abs(sa);
-  const double ext_y = r * std::abs(sa) + half_w * std::abs(ca);
-  const double dx = base_.dx(), dy = base_.dy();
-  const double ox = base_.originX(), oy = base_.originY();
-  const double cx = wheel.centre.x(), cy = wheel.centre.y(), cz = wheel.centre.z();
+  collect(fp, out);
+  forcesAndDeform(fp, dt, deform, out);
+  return out;
+}
 
-  // Kinematics: T8 slip from T9's theoretical speed, slip angle from the lateral velocity.
-  const double v_long = wheel.velocity.x() * ca + wheel.velocity.y() * sa;
-  const double v_lat = -wheel.velocity.x() * sa + wheel.velocity.y() * ca;
-  const double v_theoretical = wheelTheoreticalSpeed(r, wheel.spin_rate);
-  out.slip = longitudinalSlip(v_theoretical, v_long);
-  out.slip_angle = (std::abs(v_long) + std::abs(v_lat) > 1e-9) ? std::atan2(v_lat, std::abs(v_long)) : 0.0;
-  const double travel = (std::abs(v_long) > 1e-6) ? (v_long < 0 ? -1.0 : 1.0) : (wheel.spin_rate < 0 ? -1.0 : 1.0);
+ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt, bool deform)
+{
+  static const char* const kFn = "DeformableTerrain::trackContact";
+  for (int k = 0; k < 3; ++k)
+  {
+    requireFinite(kFn, "track.centre", track.centre[k]);
+    requireFinite(kFn, "track.velocity", track.velocity[k]);
+  }
+  requirePositive(kFn, "track.length", track.length);
+  requirePositive(kFn, "track.width", track.width);
+  requireFinite(kFn, "track.heading", track.heading);
+  requirePositive(kFn, "track.sprocket_pitch", track.sprocket_pitch);
+  if (track.sprocket_teeth <= 0)
+    rejectArgument(kFn, "track.sprocket_teeth", "> 0", track.sprocket_teeth);
+  requireFinite(kFn, "track.sprocket_spin_rate", track.sprocket_spin_rate);
+  requireFinite(kFn, "track.segment_offset", track.segment_offset);
+  if (!(dt >= 0.0) || !std::isfinite(dt))
+    rejectArgument(kFn, "dt", "finite and >= 0", dt);
+  const double whole = track.track_length == 0.0 ? track.length : track.track_length;
+  if (!(whole >= track.length) || !std::isfinite(whole))
+    rejectArgument(kFn, "track.track_length", "0 (the patch is the whole track) or >= track.length",
+                   track.track_length);
+  // The patch must lie on the track (a rounding's worth of slack for segments laid end to end).
+  if (std::abs(track.segment_offset) + 0.5 * track.length > 0.5 * whole * (1.0 + 1e-12))
+    rejectArgument(kFn, "track.segment_offset", "such that the patch lies within track_length",
+                   track.segment_offset);
+
+  Footprint fp;
+  fp.wheel = false;
+  fp.cx = track.centre.x();
+  fp.cy = track.centre.y();
+  fp.cz = track.centre.z();
+  fp.ca = std::cos(track.heading);
+  fp.sa = std::sin(track.heading);
+  fp.half_length = 0.5 * track.length;
+  fp.half_width = 0.5 * track.width;
+  fp.bekker_b = std::min(whole, track.width);  // Bekker: the smaller dimension of the contact
+  fp.track_length = whole;
+  fp.segment_offset = track.segment_offset;
+  fp.v_long = track.velocity.x() * fp.ca + track.velocity.y() * fp.sa;
+  fp.v_lat = -track.velocity.x() * fp.sa + track.velocity.y() * fp.ca;
+  fp.v_theoretical = trackTheoreticalSpeed(track.sprocket_pitch, track.sprocket_teeth, track.sprocket_spin_rate);
+  fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) :
+                                             (track.sprocket_spin_rate < 0 ? -1.0 : 1.0);
+  ContactForces out;
+  collect(fp, out);
+  forcesAndDeform(fp, dt, deform, out);
+  return out;
+}
+
+void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
+{
+  // Kinematics: T8 slip from the theoretical speed (T9/T10), slip angle from the lateral velocity.
+  out.slip = longitudinalSlip(fp.v_theoretical, fp.v_long);
+  out.slip_angle =
+      (std::abs(fp.v_long) + std::abs(fp.v_lat) > 1e-9) ? std::atan2(fp.v_lat, std::abs(fp.v_long)) : 0.0;
 
   loaded_.clear();
+  const double ca = fp.ca, sa = fp.sa;
+  // Axis-aligned bounds of the footprint rectangle (the wheel's is 2r x w).
+  const double ext_x = fp.half_length * std::abs(ca) + fp.half_width * std::abs(sa);
+  const double ext_y = fp.half_length * std::abs(sa) + fp.half_width * std::abs(ca);
+  const double dx = base_.dx(), dy = base_.dy();
+  const double ox = base_.originX(), oy = base_.originY();
   std::size_t i0 = 0, i1 = 0, j0 = 0, j1 = 0;
-  if (!gridRange(cx - ext_x, cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
-      !gridRange(cy - ext_y, cy + ext_y, oy, dy, base_.rows(), j0, j1))
-    return out;
-  const double r2 = r * r;
-  // Spacing of grid points across the wheel (exact when it is axis-aligned).
+  if (!gridRange(fp.cx - ext_x, fp.cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
+      !gridRange(fp.cy - ext_y, fp.cy + ext_y, oy, dy, base_.rows(), j0, j1))
+    return;
+  const double r = fp.half_length, r2 = r * r;
+  // Spacing of grid points across and along the footprint (exact when it is axis-aligned).
   const double lateral_spacing = dx * std::abs(sa) + dy * std::abs(ca);
+  const double along_spacing = dx * std::abs(ca) + dy * std::abs(sa);
   for (std::size_t j = j0; j <= j1; ++j)
   {
-    const double py = oy + j * dy - cy;
+    const double py = oy + j * dy - fp.cy;
     const double py_sa = py * sa, py_ca = py * ca;
     const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
     const std::uint8_t* soil_row = soil_map_.empty() ? nullptr : soil_map_.data() + j * base_.columns();
@@ -327,12 +420,12 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
     const Tile* tile = nullptr;
     for (std::size_t i = i0; i <= i1; ++i)
     {
-      const double px = ox + i * dx - cx;
+      const double px = ox + i * dx - fp.cx;
       const double u = px * ca + py_sa;
       const double v = -px * sa + py_ca;
-      if (std::abs(u) >= r || std::abs(v) > half_w)
+      if (std::abs(v) > fp.half_width || (fp.wheel ? std::abs(u) >= r : std::abs(u) > r))
         continue;
-      const double bottom = cz - std::sqrt(r2 - u * u);
+      const double bottom = fp.wheel ? fp.cz - std::sqrt(r2 - u * u) : fp.cz;
       // The point's tile changes every kTileSize columns: one directory lookup per tile.
       if (i / kTileSize != tile_column)
       {
@@ -347,13 +440,25 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
       const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
       const ContactSoil& soil = contact_soils_[soil_index];
       LoadedPoint p{ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), soil_index,
-                     edgeWeight(half_w - std::abs(v), lateral_spacing), u * travel, penetration, 0.0, 0.0, 0.0, 0.0 };
+                     edgeWeight(fp.half_width - std::abs(v), lateral_spacing), u * fp.travel, 0.0, 0.0, penetration,
+                     0.0, 0.0, 0.0, 0.0, 0.0 };
+      if (!fp.wheel)
+      {
+        // A track's strip, m behind the whole track's leading edge (T11's j = s x keeps growing
+        // over segments); the points nearest the patch's ends reach to them (edgeWeight).
+        const double x = 0.5 * fp.track_length - (fp.segment_offset * fp.travel + p.along);
+        const double to_lead = r - p.along, to_trail = r + p.along;
+        p.x0 = to_lead < along_spacing ? x - to_lead : x - 0.5 * along_spacing;
+        p.x1 = to_trail < along_spacing ? x + to_trail : x + 0.5 * along_spacing;
+        p.weight *= (p.x1 - p.x0) / along_spacing;
+      }
       if (soil.model() == SinkageModel::kBekker)
       {
-        // Rigid-plastic Bekker: the pressure of the sinkage reached, b = wheel width (T13).
+        // Rigid-plastic Bekker: the pressure of the sinkage reached.
         p.depth = state.plastic + penetration;
-        p.sigma = soil.bekkerPressure(soil.bekkerModulus(wheel.width), p.depth);
-        p.rim_slope = std::clamp(p.along / std::sqrt(r2 - u * u), -kMaxRimSlope, kMaxRimSlope);
+        p.sigma = soil.bekkerPressure(soil.bekkerModulus(fp.bekker_b), p.depth);
+        if (fp.wheel)
+          p.rim_slope = std::clamp(p.along / std::sqrt(r2 - u * u), -kMaxRimSlope, kMaxRimSlope);
       }
       else
       {
@@ -367,27 +472,42 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
     }
   }
   out.contact_points = static_cast<int>(loaded_.size());
-  if (loaded_.empty())
-    return out;
-
-  // Normal force, and traction per strip with j = s x behind the leading edge (T7, T11).
-  const double area = dx * dy;
-  double front = -1e300, max_penetration = 0.0;
-  for (const LoadedPoint& p : loaded_)
+  if (fp.wheel && !loaded_.empty())
   {
-    front = std::max(front, p.along);
-    max_penetration = std::max(max_penetration, p.penetration);
+    // A wheel's contact starts where the soil does: strips behind the foremost loaded point.
+    double front = -1e300;
+    for (const LoadedPoint& p : loaded_)
+      front = std::max(front, p.along);
+    front += 0.5 * dx;
+    for (LoadedPoint& p : loaded_)
+    {
+      const double x = front - p.along;
+      p.x0 = std::max(x - 0.5 * dx, 0.0);
+      p.x1 = x + 0.5 * dx;
+    }
   }
-  front += 0.5 * dx;
+}
+
+void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool deform, ContactForces& out)
+{
+  if (loaded_.empty())
+    return;
+  // Normal force, and traction per strip with j = s x behind the leading edge (T7, T11).
+  const double area = base_.dx() * base_.dy();
+  double max_penetration = 0.0;
+  for (const LoadedPoint& p : loaded_)
+    max_penetration = std::max(max_penetration, p.penetration);
   const double lateral_slip = (1.0 - std::abs(out.slip)) * std::tan(out.slip_angle);
   const double slip_magnitude = std::hypot(out.slip, lateral_slip);
-  // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point (and
-  // one per change of soil along the loop for the strip's half-width factor).
+  // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one
+  // per change of soil or strip length along the loop for the half-strip factor.
   int strip_soil = -1;
-  double half_strip = 1.0;
+  double strip_half = -1.0, half_factor = 1.0;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
-  // Bekker points instead push back on the rim: compaction resistance sigma A_k tan(angle).
+  // Bekker points instead resist by compaction: a wheel's rim pushes back with
+  // sigma A_k tan(angle); a track does the compaction work b k z^(n+1) / (n + 1) per metre,
+  // shared over its length.
   double bulldozing = 0.0, rolling = 0.0, compaction = 0.0, total_weight = 0.0;
   for (const LoadedPoint& p : loaded_)
   {
@@ -396,30 +516,34 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
     const double load = p.sigma * area * p.weight;
     out.normal_force += load;
     total_weight += p.weight;
-    if (soil.model() == SinkageModel::kBekker)
+    if (soil.model() == SinkageModel::kSimple)
+    {
+      bulldozing += strength * p.weight;
+      rolling += soil.rolling_resistance * load;
+    }
+    else if (fp.wheel)
     {
       compaction += load * p.rim_slope;
     }
     else
     {
-      bulldozing += strength * p.weight;
-      rolling += soil.rolling_resistance * load;
+      compaction += area * p.weight / fp.track_length * p.sigma * p.depth / (soil.n + 1.0);
     }
     if (slip_magnitude > 0.0)
     {
       const double k = soil.shear_modulus;
-      if (p.soil != strip_soil)
+      const double half = 0.5 * (p.x1 - p.x0);
+      if (p.soil != strip_soil || half != strip_half)
       {
         strip_soil = p.soil;
-        half_strip = std::exp(slip_magnitude * 0.5 * dx / k);
+        strip_half = half;
+        half_factor = std::exp(slip_magnitude * half / k);
       }
-      const double x = front - p.along;
-      const double x0 = std::max(x - 0.5 * dx, 0.0), x1 = x + 0.5 * dx;
-      const double e_mid = std::exp(-slip_magnitude * x / k);
-      const double e0 = x0 > 0.0 ? e_mid * half_strip : 1.0;
-      const double mean = meanShearFactor(slip_magnitude, k, x0, x1, e0, e_mid / half_strip);
+      const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) / k);
+      const double e0 = p.x0 > 0.0 ? e_mid * half_factor : 1.0;
+      const double mean = meanShearFactor(slip_magnitude, k, p.x0, p.x1, e0, e_mid / half_factor);
       const double tau = strength * mean;
-      out.longitudinal_force += travel * (out.slip / slip_magnitude) * tau * area * p.weight;
+      out.longitudinal_force += fp.travel * (out.slip / slip_magnitude) * tau * area * p.weight;
       out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area * p.weight;
     }
   }
@@ -427,35 +551,35 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   // (c + mean sigma tan phi) w z_rel + f A mean sigma. A wheel pressed into Bekker soil at rest
   // is pushed back as much as forward: no net compaction resistance, never a negative one.
   out.resistance_force =
-      bulldozing / total_weight * wheel.width * max_penetration + rolling + std::max(compaction, 0.0);
+      bulldozing / total_weight * (2.0 * fp.half_width) * max_penetration + rolling + std::max(compaction, 0.0);
 
-  if (deform)
+  if (!deform)
+    return;
+  const double slip_speed = std::hypot(fp.v_theoretical - fp.v_long, fp.v_lat);  // v_r of T4
+  for (LoadedPoint& p : loaded_)
   {
-    const double slip_speed = std::hypot(v_theoretical - v_long, v_lat);  // v_r of T4
-    for (const LoadedPoint& p : loaded_)
+    const ContactSoil& soil = contact_soils_[p.soil];
+    PointDeformation& state = touch(p.i, p.j);
+    const float sigma_before = state.sigma_max;
+    const double sigma_max = std::max<double>(p.sigma, sigma_before);
+    double flow = soil.b2 * p.sigma * slip_speed * dt;
+    if (soil.model() == SinkageModel::kBekker)
     {
-      const ContactSoil& soil = contact_soils_[p.soil];
-      PointDeformation& state = touch(p.i, p.j);
-      const float sigma_before = state.sigma_max;
-      const double sigma_max = std::max<double>(p.sigma, sigma_before);
-      double flow = soil.b2 * p.sigma * slip_speed * dt;
-      if (soil.model() == SinkageModel::kBekker)
-      {
-        state.plastic = std::max(state.plastic, static_cast<float>(p.depth));  // the sinkage stays
-      }
-      else
-      {
-        flow += soil.b1 * std::max(p.sigma - sigma_before, 0.0);
-        state.plastic = std::max(state.plastic, static_cast<float>(soil.plasticSinkage(sigma_max)));
-      }
-      state.sigma_max = static_cast<float>(sigma_max);
-      state.displaced += static_cast<float>(flow);
-      flowed_volume_ += static_cast<double>(static_cast<float>(flow)) * area;
-      if (options_.transport && flow > 0.0)
-        spreadToNeighbours(p.i, p.j, static_cast<double>(static_cast<float>(flow)) * area);
+      state.plastic = std::max(state.plastic, static_cast<float>(p.depth));  // the sinkage stays
     }
+    else
+    {
+      flow += soil.b1 * std::max(p.sigma - sigma_before, 0.0);
+      state.plastic = std::max(state.plastic, static_cast<float>(soil.plasticSinkage(sigma_max)));
+    }
+    state.sigma_max = static_cast<float>(sigma_max);
+    state.displaced += static_cast<float>(flow);
+    // What the point lost, as stored (float), is what transport hands on.
+    p.flow_volume = static_cast<double>(static_cast<float>(flow)) * area;
+    flowed_volume_ += p.flow_volume;
   }
-  return out;
+  if (options_.transport)
+    spreadFlow();
 }
 
 std::size_t DeformableTerrain::deformedPoints() const

@@ -578,3 +578,198 @@ TEST(DeformableTerrain, BekkerSoilSlipSinksDeeperAndConservesVolume)
   // flow per pass, and the wheel sinks to restore its load.
   EXPECT_GT(sinkage[1], sinkage[0] + 1e-4) << "towed " << sinkage[0] << " m, slipping " << sinkage[1] << " m";
 }
+
+namespace
+{
+/// A 2 m x 0.4 m track patch at (x, y) with its ground face z m above the flat ground.
+TrackPatch trackAt(double x, double y, double z, double length = 2.0, double width = 0.4)
+{
+  TrackPatch t;
+  t.centre = Eigen::Vector3d(x, y, z);
+  t.length = length;
+  t.width = width;
+  t.sprocket_pitch = 0.152;  // m, M113-class track pitch
+  t.sprocket_teeth = 10;
+  t.velocity = Eigen::Vector3d::Zero();
+  return t;
+}
+
+/// Depth (m) of the track's face below the ground at which it carries `load` (N).
+double trackDepthCarrying(DeformableTerrain& t, TrackPatch track, double load)
+{
+  double lo = 0.0, hi = 0.5;
+  for (int k = 0; k < 80; ++k)
+  {
+    const double mid = 0.5 * (lo + hi);
+    track.centre.z() = -mid;
+    (t.trackContact(track, 0.01, false).normal_force < load ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+/// Sprocket spin rate (rad/s) that gives longitudinal slip s at ground speed v (T10, T8).
+double spinForSlip(const TrackPatch& t, double v, double s)
+{
+  return v / (1.0 - s) * 2.0 * M_PI / (t.sprocket_pitch * t.sprocket_teeth);
+}
+}  // namespace
+
+TEST(DeformableTerrain, TrackSettlesWhereSummedPressureEqualsLoad)
+{
+  // A flat track on flat soil presses every point equally: the pressure is W / A and the
+  // sinkage is the soil's own at that pressure. The track's ends and sides carry their cell
+  // shares, so at any grid offset A is the track's L b and the closed forms hold to rounding.
+  const double load = 30000.0;  // N, about a third of one M113 track's share
+  const TrackPatch track = trackAt(3.013, 3.021, 0.0);
+  const double area = track.length * track.width;
+  {
+    // Bekker (dry sand): z = (W / (A k))^(1/n), k = k_c / b + k_phi, b = width (the smaller side).
+    const SoilParameters& sand = library().get("dry_sand");
+    DeformableTerrain t = flat("dry_sand", true);
+    const double k = sand.k_c / track.width + sand.k_phi;
+    const double expected = std::pow(load / (area * k), 1.0 / sand.n);
+    const double z = trackDepthCarrying(t, track, load);
+    EXPECT_NEAR(z, expected, 1e-9 * expected);
+    TrackPatch settled = track;
+    settled.centre.z() = -z;
+    const ContactForces f = t.trackContact(settled, 0.01, false);
+    EXPECT_NEAR(f.sinkage, z, 1e-9);
+    // Bekker's track compaction resistance, b k z^(n+1) / (n + 1), on a towed track.
+    EXPECT_NEAR(f.resistance_force, bekkerCompactionResistanceClosedForm(sand, track.width, z),
+                1e-9 * f.resistance_force);
+  }
+  {
+    // Simple model (sandy loam): the sinkage T2 + T4(b1) + T3 give at sigma = W / A.
+    const SoilParameters& loam = library().get("sandy_loam");
+    DeformableTerrain t = flat("sandy_loam", true);
+    const double sigma = load / area;
+    const double expected =
+        plasticSinkage(loam, sigma) + loam.b1 * sigma + elasticSinkage(loam, sigma, 0.0);
+    EXPECT_NEAR(trackDepthCarrying(t, track, load), expected, 1e-9 * expected);
+  }
+}
+
+TEST(DeformableTerrain, TrackTractionIsJanosiClosedForm)
+{
+  // Uniform pressure under a flat track: T11's strip sum, each strip's exponential integrated
+  // exactly, is Janosi-Hanamoto's closed form F = (A c + W tan phi)[1 - K/(s l)(1 - e^(-s l/K))].
+  DeformableTerrain t = flat("sandy_loam", true);
+  const SoilParameters& loam = library().get("sandy_loam");
+  TrackPatch track = trackAt(3.013, 3.021, -0.02);
+  const double area = track.length * track.width;
+  const double v = 1.0;
+  for (const double s : { 0.02, 0.1, 0.3, 0.7 })
+  {
+    track.velocity = Eigen::Vector3d(v, 0, 0);
+    track.sprocket_spin_rate = spinForSlip(track, v, s);
+    const ContactForces f = t.trackContact(track, 0.01, false);
+    ASSERT_NEAR(f.slip, s, 1e-12);
+    const double janosi = janosiTractiveEffort(loam, area, track.length, f.normal_force, s);
+    EXPECT_NEAR(f.longitudinal_force, janosi, 0.01 * janosi) << "slip " << s;
+    EXPECT_NEAR(f.longitudinal_force, janosi, 1e-9 * janosi) << "slip " << s << " (axis-aligned: exact)";
+
+    // The same track as 4 segments of 0.5 m: shear keeps growing from the track's front.
+    double segments = 0.0;
+    for (int k = 0; k < 4; ++k)
+    {
+      TrackPatch segment = track;
+      segment.length = 0.5;
+      segment.track_length = track.length;
+      segment.segment_offset = 0.75 - 0.5 * k;
+      segment.centre.x() = track.centre.x() + segment.segment_offset;
+      segments += t.trackContact(segment, 0.01, false).longitudinal_force;
+    }
+    EXPECT_NEAR(segments, janosi, 1e-9 * janosi) << "slip " << s << " in segments";
+
+    // Turned off the grid's axes, the end and side shares are exact only on average: 1 %.
+    TrackPatch turned = track;
+    turned.heading = 0.6;
+    turned.velocity = Eigen::Vector3d(v * std::cos(0.6), v * std::sin(0.6), 0);
+    const ContactForces g = t.trackContact(turned, 0.01, false);
+    EXPECT_NEAR(g.longitudinal_force, janosiTractiveEffort(loam, area, track.length, g.normal_force, s),
+                0.01 * janosi)
+        << "slip " << s << " turned";
+  }
+  // Reversing: the leading edge is the rear end, the force points backwards.
+  track.velocity = Eigen::Vector3d(-v, 0, 0);
+  track.sprocket_spin_rate = -spinForSlip(track, v, 0.2);
+  const ContactForces back = t.trackContact(track, 0.01, false);
+  EXPECT_NEAR(back.longitudinal_force, -janosiTractiveEffort(loam, area, track.length, back.normal_force, 0.2),
+              1e-9 * back.normal_force);
+}
+
+TEST(DeformableTerrain, TrackRutIsUniformAlongItsLength)
+{
+  // A 4 m track driven 6 m at 20 % slip, its face at a constant height: every point the whole
+  // track passed over saw the same history (steps of a fifth of a cell, started off the
+  // cells' edges), so the rut is uniform to rounding.
+  const std::size_t columns = 240, rows = 60;  // 12 m x 3 m at 0.05 m
+  DeformableTerrain t(ElevationGrid(0, 0, 0.05, 0.05, columns, rows, std::vector<float>(columns * rows, 0.f)),
+                      library().get("sandy_loam"), DeformableTerrain::Options{ true });
+  TrackPatch track = trackAt(0.0, 1.5, -0.03, 4.0, 0.5);
+  track.velocity = Eigen::Vector3d(1.0, 0, 0);
+  track.sprocket_spin_rate = spinForSlip(track, 1.0, 0.2);
+  const double step = 0.01;
+  for (int k = 0; k <= 600; ++k)
+  {
+    track.centre.x() = 3.0025 + step * k;  // front from 5.0025 m to 11.0025 m
+    t.trackContact(track, step, true);
+  }
+  ASSERT_GT(t.flowedVolume(), 0.0);
+  // Passed over by the whole track: from the front's start to the rear's end, 5.0 .. 7.0 m.
+  double shallowest = 1.0, deepest = 0.0;
+  for (std::size_t i = 101; i < 140; ++i)
+  {
+    const double depth = -t.pointHeight(i, 30);
+    shallowest = std::min(shallowest, depth);
+    deepest = std::max(deepest, depth);
+  }
+  EXPECT_GT(shallowest, 0.01);  // a real rut (the face was 3 cm down; the elastic part recovered)
+  // Uniform to the rounding of float storage: each point's deformation is a float summed
+  // over the 400 steps it spends under the track.
+  EXPECT_LT(deepest - shallowest, 400 * std::numeric_limits<float>::epsilon() * deepest)
+      << shallowest << " .. " << deepest;
+}
+
+TEST(DeformableTerrain, BadTrackInputThrowsNamingTheField)
+{
+  DeformableTerrain t = flat("clay", true, 40);
+  const auto expectRejected = [&](const TrackPatch& p, const char* field) {
+    try
+    {
+      t.trackContact(p, 0.01, true);
+      ADD_FAILURE() << "accepted a bad " << field;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  const TrackPatch good = trackAt(1.0, 1.0, -0.02, 1.0, 0.3);
+  TrackPatch p = good;
+  p.length = -1.0;
+  expectRejected(p, "track.length");
+  p = good;
+  p.width = std::nan("");
+  expectRejected(p, "track.width");
+  p = good;
+  p.sprocket_pitch = 0.0;
+  expectRejected(p, "track.sprocket_pitch");
+  p = good;
+  p.sprocket_teeth = 0;
+  expectRejected(p, "track.sprocket_teeth");
+  p = good;
+  p.sprocket_spin_rate = std::numeric_limits<double>::infinity();
+  expectRejected(p, "track.sprocket_spin_rate");
+  p = good;
+  p.centre.y() = std::nan("");
+  expectRejected(p, "track.centre");
+  p = good;
+  p.track_length = 0.5;  // shorter than the patch
+  expectRejected(p, "track.track_length");
+  p = good;
+  p.track_length = 2.0;
+  p.segment_offset = 0.6;  // 0.6 + 0.5 > 1.0: off the track's end
+  expectRejected(p, "track.segment_offset");
+  EXPECT_EQ(t.deformedPoints(), 0u);
+}

@@ -46,7 +46,7 @@ public:
   SinkageModel model() const { return model_; }
 
   /// T2: h0 (1 - rho0 / rho(sigma_max)), m; equal to plasticSinkage(soil, sigma_max).
-  double plasticSinkage(double sigma_max) const;
+  double plasticSinkage(double sigma_max) const { return h0 * (1.0 - rho0 / density(sigma_max)); }
 
   /// T3: (h0 - z)^+ E sigma, m, for current total deformation z (m).
   double elasticSinkage(double sigma, double z) const
@@ -90,14 +90,28 @@ public:
   double k_phi = 0.0;               ///< N/m^(n+2)
 
 private:
-  /// kg/m^3 at stress sigma: the compression curve, same arithmetic as CompressionCurve.
-  double density(double sigma) const;
-  /// T2's new compaction (m) where the density is rho, over a point already at `plastic` (m).
-  double plasticIncrement(double rho, double plastic) const;
+  /// kg/m^3 at stress sigma: the compression curve, same arithmetic as CompressionCurve (so
+  /// that z_p matches plasticSinkage() to the bit). Inline: it runs for every loaded point.
+  double density(double sigma) const
+  {
+    if (sigma <= 0.0)
+      return rho_.front();
+    for (std::size_t k = 1; k < sigma_.size(); ++k)
+      if (sigma <= sigma_[k])
+        return rho_[k - 1] + (rho_[k] - rho_[k - 1]) * (sigma - sigma_[k - 1]) / (sigma_[k] - sigma_[k - 1]);
+    return rho_.back();
+  }
+  /// T2's new compaction (m) over a point already at `plastic` (m), given z_p there (m).
+  static double plasticIncrement(double z_p, double plastic)
+  {
+    const double increment = z_p - plastic;
+    return increment > 0.0 ? increment : 0.0;
+  }
 
   SinkageModel model_;
   std::vector<double> sigma_;  ///< compression curve breakpoints, Pa, sigma_[0] = 0
   std::vector<double> rho_;    ///< kg/m^3 at the breakpoints
+  std::vector<double> z_p_;    ///< m, T2 at the breakpoints (what plasticSinkage() gives there)
 };
 
 }  // namespace terrain

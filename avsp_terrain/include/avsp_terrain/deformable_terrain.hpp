@@ -33,16 +33,39 @@ struct WheelPatch
   Eigen::Vector3d velocity;  ///< m/s, velocity of the wheel centre in map
 };
 
-/// What the soil does to one wheel this step. Forces act on the wheel, in the wheel frame
-/// (longitudinal along heading, lateral to its left, normal up).
+/**
+ * @brief A track's ground contact, or one segment of it: a flat, horizontal rectangle (the
+ *        track's ground face) pressed into the soil, driven by a sprocket (T10).
+ *
+ * A vehicle may split a track into segments (one per road wheel, each at its own height):
+ * give each its place on the whole track (track_length, segment_offset) so that the shear
+ * displacement j = s x keeps growing from the whole track's leading edge (T7, T11) instead
+ * of restarting at every segment.
+ */
+struct TrackPatch
+{
+  Eigen::Vector3d centre;           ///< m, centre of the rectangle in map; z = height of the ground face
+  double heading = 0.0;             ///< rad, direction of the track's length (forward), from map x (CCW)
+  double length = 0.0;              ///< m, along heading, > 0
+  double width = 0.0;               ///< m, > 0
+  double sprocket_pitch = 0.0;      ///< m, track pitch p of T10, > 0
+  int sprocket_teeth = 0;           ///< N of T10, > 0
+  double sprocket_spin_rate = 0.0;  ///< rad/s, positive drives the vehicle forward
+  Eigen::Vector3d velocity;         ///< m/s, velocity of the patch in map
+  double track_length = 0.0;        ///< m, ground contact length of the whole track; 0: this patch is all of it
+  double segment_offset = 0.0;      ///< m, this patch's centre from the whole track's centre, + forward
+};
+
+/// What the soil does to one wheel or track patch this step. Forces act on the running gear,
+/// in its frame (longitudinal along heading, lateral to its left, normal up).
 struct ContactForces
 {
   double normal_force = 0.0;        ///< N
   double longitudinal_force = 0.0;  ///< N, traction (T7, T11), + pushes forward
   double lateral_force = 0.0;       ///< N, + pushes to the left
-  double resistance_force = 0.0;    ///< N, bulldozing + rolling (T12), opposes motion (>= 0)
-  double sinkage = 0.0;             ///< m, deepest point below the undeformed surface (incl. elastic)
-  double elastic_sinkage = 0.0;     ///< m, largest elastic part under the wheel (recovers on unloading)
+  double resistance_force = 0.0;    ///< N, opposes motion (>= 0): T12, or Bekker compaction resistance
+  double sinkage = 0.0;             ///< m, deepest grid point below the undeformed surface (incl. elastic)
+  double elastic_sinkage = 0.0;     ///< m, largest elastic part under the patch (recovers on unloading)
   double slip = 0.0;                ///< T8, [-1, 1]
   double slip_angle = 0.0;          ///< rad
   int contact_points = 0;           ///< grid points under load
@@ -57,7 +80,7 @@ struct PointDeformation
 };
 
 /**
- * @brief Elevation grid + soil map + sparse deformation state + wheel contact.
+ * @brief Elevation grid + soil map + sparse deformation state + wheel and track contact.
  *
  * Height of a point = base - z_p - (z_f - z_n); while loaded also - z_e (T3, T6).
  * Tiles of kTileSize x kTileSize points are allocated the first time a point in them
@@ -69,20 +92,22 @@ struct PointDeformation
  * - `simple` soils: the normal stress at which T2 compaction + T4 bearing flow (b1) + T3
  *   elastic sinkage absorb the penetration; T12 resistance.
  * - `bekker` soils: p = (k_c / b + k_phi) z^n with z the point's sinkage below its
- *   undeformed surface and b the wheel's width (as in T13). The soil is rigid-plastic: the
- *   sinkage stays (no rebound; a rut carries the pressure it was made with before it sinks
- *   further), which is what the rigid-wheel theory behind T13 assumes when the rear of a
- *   rolling wheel unloads. Resistance is Bekker's compaction resistance, the horizontal
- *   component of the rim pressure (so a wheel at rest, loaded front and back alike, has
- *   none). No T3 or T4-b1 terms: Bekker's law is the whole static sinkage; T4's
+ *   undeformed surface and b the wheel's width (as in T13) or a track's smaller dimension.
+ *   The soil is rigid-plastic: the sinkage stays (no rebound; a rut carries the pressure it
+ *   was made with before it sinks further), which is what the rigid-wheel theory behind T13
+ *   assumes when the rear of a rolling wheel unloads. Resistance is Bekker's compaction
+ *   resistance: for a wheel the horizontal component of the rim pressure (so a wheel at
+ *   rest, loaded front and back alike, has none), for a track the compaction work per metre
+ *   travelled, b k z^(n+1) / (n + 1). No T3 or T4-b1 terms: Bekker's law is the whole
+ *   static sinkage; T4's
  *   slip-driven flow (b2) and T5 transport still apply, so a slipping wheel in sand digs
  *   and piles soil.
  * - Both: T7 Mohr-Coulomb/Janosi shear with j = s x behind the leading edge (T11).
  *
- * Grid points along the footprint's side edges carry the share of their cell the footprint
- * covers (half when the edge passes through the point; the outermost point inside also takes
- * the sliver of the next cell), so the loaded width equals the wheel's width for any
- * alignment with the grid instead of rounding to whole cells.
+ * Grid points along the footprint's side edges (and a track's ends) carry the share of their
+ * cell the footprint covers (half when the edge passes through the point; the outermost point
+ * inside also takes the sliver of the next cell), so the loaded width (and a track's length)
+ * equals the running gear's for any alignment with the grid instead of rounding to whole cells.
  */
 class DeformableTerrain
 {
@@ -129,6 +154,17 @@ public:
    *        spin rate, radius or width not > 0, dt not finite or negative
    */
   ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform);
+
+  /**
+   * @brief Soil contact of a flat track patch for one step of length dt (s): slip from the
+   *        sprocket's theoretical speed (T10, T8), pressure per point as for wheels, shear
+   *        j = s x from the whole track's leading edge (T7, T11), T12 or Bekker compaction
+   *        resistance. Same `deform` semantics as wheelContact().
+   * @throw std::invalid_argument naming the field: non-finite values; length, width, pitch
+   *        or teeth not > 0; track_length neither 0 nor >= length; the patch not within the
+   *        track (segment_offset); dt not finite or negative
+   */
+  ContactForces trackContact(const TrackPatch& track, double dt, bool deform);
 
   /// m^3: soil volume that left points by flow so far, and volume that arrived by transport.
   double flowedVolume() const { return flowed_volume_; }
@@ -179,19 +215,29 @@ private:
   {
     std::uint32_t i, j;
     std::uint8_t soil;   ///< palette index
-    double weight;       ///< share of the point's cell under the footprint, (0, 1.5)
-    double along;        ///< m, position along the direction of travel (wheel frame)
+    double weight;       ///< share of the point's cell under the footprint, (0, 2.25)
+    double along;        ///< m, position along the direction of travel (footprint frame)
+    double x0, x1;       ///< m, its strip behind the leading edge (shear displacement, T11)
     double penetration;  ///< m, below the current unloaded surface
     double sigma;        ///< Pa
     double elastic;      ///< m
     double depth;        ///< m, Bekker soils: sinkage reached (plastic + penetration)
-    double rim_slope;    ///< Bekker soils: horizontal / vertical rim pressure, + opposes travel
+    double rim_slope;    ///< wheel on Bekker soil: horizontal / vertical rim pressure, + opposes travel
+    double flow_volume;  ///< m^3 that flowed away this step (T4), for transport (T5)
   };
+
+  /// Where a contact is and how it moves, shared by wheels and tracks.
+  struct Footprint;
 
   const PointDeformation* find(std::size_t i, std::size_t j) const;
   std::size_t tileIndex(std::size_t i, std::size_t j) const { return (j / kTileSize) * tiles_x_ + i / kTileSize; }
   PointDeformation& touch(std::size_t i, std::size_t j);
-  void spreadToNeighbours(std::size_t i, std::size_t j, double volume);
+  /// T5: hands each loaded point's flow_volume to its 8 neighbours.
+  void spreadFlow();
+  /// Slip and the points under the footprint with penetration, stress and strip (loaded_).
+  void collect(const Footprint& fp, ContactForces& out);
+  /// Forces from loaded_, then (deform) makes the step permanent.
+  void forcesAndDeform(const Footprint& fp, double dt, bool deform, ContactForces& out);
 
   ElevationGrid base_;
   std::vector<SoilParameters> palette_;
@@ -204,6 +250,7 @@ private:
   double flowed_volume_ = 0.0;
   double arrived_volume_ = 0.0;
   std::vector<LoadedPoint> loaded_;  ///< scratch of the current contact (kept: no allocation per call)
+  std::vector<double> arrivals_;     ///< scratch: soil arriving per point of the contact's window, m
 };
 
 /**
