@@ -217,6 +217,127 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
   return ElevationGrid::bilinear(h00, h10, h01, h11, u, v);
 }
 
+/// Where a wheel or track patch is, its shape, and how it moves (shared by both contacts).
+struct DeformableTerrain::Footprint
+{
+  bool wheel = true;
+  double cx = 0.0, cy = 0.0, cz = 0.0;  ///< m: wheel centre, or the track face's centre
+  double ca = 1.0, sa = 0.0;            ///< cos and sin of the heading
+  double half_length = 0.0;             ///< m: the wheel's radius, or half the track patch's length
+  double half_width = 0.0;              ///< m
+  double bekker_b = 0.0;                ///< m, b of k_c / b: wheel width; a track's smaller dimension
+  double track_length = 0.0;            ///< m, whole track's ground contact (tracks)
+  double segment_offset = 0.0;          ///< m, patch centre from the whole track's centre, + forward
+  double v_long = 0.0, v_lat = 0.0;     ///< m/s, in the footprint's frame
+  double v_theoretical = 0.0;           ///< m/s, T9 or T10
+  double travel = 1.0;                  ///< +1 moving forward, -1 backward
+};
+
+namespace
+{
+/// An oriented rectangle: centre, unit axis along its length, half length and half width.
+struct Box
+{
+  double x, y, ax, ay, half_length, half_width;
+
+  bool contains(double px, double py) const
+  {
+    const double dx = px - x, dy = py - y;
+    return std::abs(dx * ax + dy * ay) <= half_length && std::abs(-dx * ay + dy * ax) <= half_width;
+  }
+  /// Radius of the box projected on unit axis (nx, ny).
+  double reach(double nx, double ny) const
+  {
+    return half_length * std::abs(ax * nx + ay * ny) + half_width * std::abs(-ay * nx + ax * ny);
+  }
+};
+
+Box boxOf(const TerrainObject& o)
+{
+  return { o.x, o.y, std::cos(o.yaw), std::sin(o.yaw), 0.5 * o.length, 0.5 * o.width };
+}
+
+/// Separating-axis test of two rectangles (touching counts as overlapping): robust for a pole
+/// thinner than a grid cell, which point sampling could miss.
+bool overlap(const Box& a, const Box& b)
+{
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  for (const auto& [nx, ny] : { std::pair<double, double>{ a.ax, a.ay }, { -a.ay, a.ax }, { b.ax, b.ay },
+                                { -b.ay, b.ax } })
+    if (std::abs(dx * nx + dy * ny) > a.reach(nx, ny) + b.reach(nx, ny))
+      return false;
+  return true;
+}
+}  // namespace
+
+void DeformableTerrain::vegetation(const Footprint& fp, bool deform, ObjectSet& objects, ContactForces& out) const
+{
+  if (loaded_.empty())
+    return;
+  // The loaded footprint: the rectangle spanned by the loaded points, each with half a cell
+  // around it, within the wheel's or track's own outline.
+  const double dx = base_.dx(), dy = base_.dy();
+  const double along_half = 0.5 * (dx * std::abs(fp.ca) + dy * std::abs(fp.sa));
+  const double across_half = 0.5 * (dx * std::abs(fp.sa) + dy * std::abs(fp.ca));
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+  for (const LoadedPoint& p : loaded_)
+  {
+    const double px = base_.originX() + p.i * dx - fp.cx, py = base_.originY() + p.j * dy - fp.cy;
+    const double u = px * fp.ca + py * fp.sa, v = -px * fp.sa + py * fp.ca;
+    u0 = std::min(u0, u);
+    u1 = std::max(u1, u);
+    v0 = std::min(v0, v);
+    v1 = std::max(v1, v);
+  }
+  u0 = std::max(u0 - along_half, -fp.half_length);
+  u1 = std::min(u1 + along_half, fp.half_length);
+  v0 = std::max(v0 - across_half, -fp.half_width);
+  v1 = std::min(v1 + across_half, fp.half_width);
+  const double um = 0.5 * (u0 + u1), vm = 0.5 * (v0 + v1);
+  const Box footprint{ fp.cx + um * fp.ca - vm * fp.sa, fp.cy + um * fp.sa + vm * fp.ca, fp.ca, fp.sa,
+                       0.5 * (u1 - u0), 0.5 * (v1 - v0) };
+  const double reach_x = footprint.reach(1.0, 0.0), reach_y = footprint.reach(0.0, 1.0);
+  const std::vector<std::uint32_t> near =
+      objects.query(footprint.x - reach_x, footprint.y - reach_y, footprint.x + reach_x, footprint.y + reach_y);
+  if (near.empty())
+    return;
+
+  std::vector<std::pair<Box, double>> grass;  // patch, f
+  const double push = std::sqrt(out.normal_force * out.normal_force + out.longitudinal_force * out.longitudinal_force +
+                                out.lateral_force * out.lateral_force);
+  const double direction = std::atan2(fp.sa * fp.travel, fp.ca * fp.travel);
+  for (const std::uint32_t id : near)
+  {
+    const TerrainObject& o = objects.get(id);
+    if (o.type == ObjectType::kGrass)
+    {
+      if (o.rolling_resistance > 0.0)
+        grass.emplace_back(boxOf(o), o.rolling_resistance);
+      continue;
+    }
+    if (o.toppled || !overlap(footprint, boxOf(o)))
+      continue;
+    if (deform && objects.push(id, push, direction))
+      out.toppled_objects.push_back(id);
+    else
+      out.standing_objects.push_back(id);
+  }
+  if (grass.empty())
+    return;
+  // Grass: f of the patch times the load each loaded point carries inside it.
+  const double area = dx * dy;
+  for (const LoadedPoint& p : loaded_)
+  {
+    const double x = base_.originX() + p.i * dx, y = base_.originY() + p.j * dy;
+    double f = 0.0;
+    for (const auto& [box, coefficient] : grass)
+      if (coefficient > f && box.contains(x, y))
+        f = coefficient;
+    out.grass_resistance += f * p.sigma * area * p.weight;
+  }
+  out.resistance_force += out.grass_resistance;
+}
+
 void DeformableTerrain::spreadFlow()
 {
   // f(z_f, d) of T5: each point's flowed volume goes to its 8 neighbours weighted by 1/d, so
@@ -288,23 +409,8 @@ void DeformableTerrain::spreadFlow()
   }
 }
 
-/// Where a wheel or track patch is, its shape, and how it moves (shared by both contacts).
-struct DeformableTerrain::Footprint
-{
-  bool wheel = true;
-  double cx = 0.0, cy = 0.0, cz = 0.0;  ///< m: wheel centre, or the track face's centre
-  double ca = 1.0, sa = 0.0;            ///< cos and sin of the heading
-  double half_length = 0.0;             ///< m: the wheel's radius, or half the track patch's length
-  double half_width = 0.0;              ///< m
-  double bekker_b = 0.0;                ///< m, b of k_c / b: wheel width; a track's smaller dimension
-  double track_length = 0.0;            ///< m, whole track's ground contact (tracks)
-  double segment_offset = 0.0;          ///< m, patch centre from the whole track's centre, + forward
-  double v_long = 0.0, v_lat = 0.0;     ///< m/s, in the footprint's frame
-  double v_theoretical = 0.0;           ///< m/s, T9 or T10
-  double travel = 1.0;                  ///< +1 moving forward, -1 backward
-};
 
-ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt, bool deform)
+ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt, bool deform, ObjectSet* objects)
 {
   static const char* const kFn = "DeformableTerrain::wheelContact";
   for (int k = 0; k < 3; ++k)
@@ -334,11 +440,11 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) : (wheel.spin_rate < 0 ? -1.0 : 1.0);
   ContactForces out;
   collect(fp, out);
-  forcesAndDeform(fp, dt, deform, out);
+  forcesAndDeform(fp, dt, deform, objects, out);
   return out;
 }
 
-ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt, bool deform)
+ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt, bool deform, ObjectSet* objects)
 {
   static const char* const kFn = "DeformableTerrain::trackContact";
   for (int k = 0; k < 3; ++k)
@@ -384,7 +490,7 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
                                              (track.sprocket_spin_rate < 0 ? -1.0 : 1.0);
   ContactForces out;
   collect(fp, out);
-  forcesAndDeform(fp, dt, deform, out);
+  forcesAndDeform(fp, dt, deform, objects, out);
   return out;
 }
 
@@ -488,7 +594,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
   }
 }
 
-void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool deform, ContactForces& out)
+void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool deform, ObjectSet* objects,
+                                        ContactForces& out)
 {
   if (loaded_.empty())
     return;
@@ -552,6 +659,9 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   // is pushed back as much as forward: no net compaction resistance, never a negative one.
   out.resistance_force =
       bulldozing / total_weight * (2.0 * fp.half_width) * max_penetration + rolling + std::max(compaction, 0.0);
+
+  if (objects)
+    vegetation(fp, deform, *objects, out);
 
   if (!deform)
     return;

@@ -773,3 +773,146 @@ TEST(DeformableTerrain, BadTrackInputThrowsNamingTheField)
   expectRejected(p, "track.segment_offset");
   EXPECT_EQ(t.deformedPoints(), 0u);
 }
+
+namespace
+{
+TerrainObject objectAt(ObjectType type, double x, double y, double length, double width, double strength)
+{
+  TerrainObject o;
+  o.type = type;
+  o.x = x;
+  o.y = y;
+  o.length = length;
+  o.width = width;
+  o.height = 1.0;
+  o.strength = strength;
+  return o;
+}
+
+TerrainObject grassAt(double x, double y, double size, double f)
+{
+  TerrainObject o = objectAt(ObjectType::kGrass, x, y, size, size, 0.0);
+  o.rolling_resistance = f;
+  o.height = 0.4;
+  return o;
+}
+}  // namespace
+
+TEST(DeformableTerrain, GrassAddsItsCoefficientTimesTheNormalLoad)
+{
+  DeformableTerrain t = flat("sandy_loam", true);
+  WheelPatch w = wheelAt(3.0, 3.0, -0.03);
+  w.velocity = Eigen::Vector3d(1.0, 0, 0);
+  w.spin_rate = 1.1 / w.radius;
+  const ContactForces bare = t.wheelContact(w, 0.01, false);
+  ObjectSet meadow;
+  meadow.add(grassAt(3.0, 3.0, 4.0, 0.08));
+  const ContactForces grassy = t.wheelContact(w, 0.01, false, &meadow);
+  EXPECT_EQ(grassy.normal_force, bare.normal_force);
+  EXPECT_EQ(grassy.longitudinal_force, bare.longitudinal_force);
+  EXPECT_NEAR(grassy.grass_resistance, 0.08 * bare.normal_force, 1e-9 * bare.normal_force);
+  EXPECT_NEAR(grassy.resistance_force - bare.resistance_force, 0.08 * bare.normal_force, 1e-9 * bare.normal_force);
+  EXPECT_TRUE(grassy.toppled_objects.empty());
+  EXPECT_TRUE(grassy.standing_objects.empty());  // grass never blocks
+  EXPECT_FALSE(meadow.get(0).toppled);
+
+  // Overlapping patches: the larger f, not the sum.
+  meadow.add(grassAt(3.1, 2.9, 3.0, 0.05));
+  EXPECT_NEAR(t.wheelContact(w, 0.01, false, &meadow).grass_resistance, 0.08 * bare.normal_force,
+              1e-9 * bare.normal_force);
+
+  // A patch whose edge runs under the wheel's axle (x = 3.0, y beyond the wheel): about half
+  // of the load is on grass.
+  ObjectSet edge;
+  edge.add(grassAt(5.0, 3.0, 4.0, 0.08));
+  const double half = t.wheelContact(w, 0.01, false, &edge).grass_resistance;
+  EXPECT_GT(half, 0.3 * 0.08 * bare.normal_force);
+  EXPECT_LT(half, 0.7 * 0.08 * bare.normal_force);
+
+  // Under a track too.
+  TrackPatch track = trackAt(3.0, 3.0, -0.02);
+  const ContactForces track_bare = t.trackContact(track, 0.01, false);
+  EXPECT_NEAR(t.trackContact(track, 0.01, false, &meadow).resistance_force - track_bare.resistance_force,
+              0.08 * track_bare.normal_force, 1e-9 * track_bare.normal_force);
+}
+
+TEST(DeformableTerrain, ShrubInThePathTopplesBuildingDoesNot)
+{
+  DeformableTerrain t = flat("sandy_loam", true);
+  ObjectSet objects;
+  const std::uint32_t shrub = objects.add(objectAt(ObjectType::kShrub, 2.0, 2.0, 0.6, 0.6, 900.0));
+  const std::uint32_t building = objects.add(objectAt(ObjectType::kBuilding, 6.0, 4.0, 3.0, 3.0,
+                                                      std::numeric_limits<double>::infinity()));
+  const std::uint32_t aside = objects.add(objectAt(ObjectType::kShrub, 2.0, 2.6, 0.3, 0.3, 900.0));
+  WheelPatch w = wheelAt(2.0, 2.0, -0.03);
+  w.velocity = Eigen::Vector3d(1.0, 0, 0);
+  w.spin_rate = 1.1 / w.radius;
+
+  // A probe leaves objects as they were.
+  const ContactForces probe = t.wheelContact(w, 0.01, false, &objects);
+  ASSERT_GT(probe.normal_force, 900.0);  // the wheel's load exceeds the shrub's strength
+  EXPECT_FALSE(objects.get(shrub).toppled);
+  EXPECT_EQ(probe.standing_objects, std::vector<std::uint32_t>{ shrub });
+
+  const ContactForces run = t.wheelContact(w, 0.01, true, &objects);
+  EXPECT_EQ(run.toppled_objects, std::vector<std::uint32_t>{ shrub });
+  EXPECT_TRUE(objects.get(shrub).toppled);
+  EXPECT_NEAR(objects.get(shrub).fall_direction, 0.0, 1e-12);  // towards the direction of travel
+  EXPECT_FALSE(objects.get(aside).toppled);                    // 0.45 m off the wheel's side: not hit
+
+  // Into the building's wall (x = 4.5 m; the loaded patch reaches 0.17 m ahead of the axle):
+  // it takes the same push and stands, reported for the dynamics.
+  w.centre.x() = 4.45;
+  w.centre.y() = 4.0;
+  const ContactForces wall = t.wheelContact(w, 0.01, true, &objects);
+  EXPECT_FALSE(objects.get(building).toppled);
+  EXPECT_EQ(wall.standing_objects, std::vector<std::uint32_t>{ building });
+  EXPECT_TRUE(wall.toppled_objects.empty());
+
+  // Reversing over a small tree: it falls backwards.
+  const std::uint32_t tree = objects.add(objectAt(ObjectType::kTree, 1.0, 1.0, 0.2, 0.2, 800.0));
+  WheelPatch back = wheelAt(1.0, 1.0, -0.04);
+  back.velocity = Eigen::Vector3d(-1.0, 0, 0);
+  back.spin_rate = -1.0 / back.radius;
+  ASSERT_GT(t.wheelContact(back, 0.01, true, &objects).normal_force, 800.0);
+  EXPECT_TRUE(objects.get(tree).toppled);
+  EXPECT_NEAR(std::abs(objects.get(tree).fall_direction), M_PI, 1e-12);
+}
+
+TEST(DeformableTerrain, PushIsTheWholeContactForce)
+{
+  // The push on what the wheel runs over is |(N, F_long, F_lat)|: a shrub 1 % weaker than
+  // that falls, one 1 % stronger stands.
+  DeformableTerrain t = flat("clay", true);
+  WheelPatch w = wheelAt(3.0, 3.0, -0.03);
+  w.velocity = Eigen::Vector3d(1.0, 0.1, 0);
+  w.spin_rate = 1.2 / w.radius;
+  const ContactForces f = t.wheelContact(w, 0.01, false);
+  const double push = std::sqrt(f.normal_force * f.normal_force + f.longitudinal_force * f.longitudinal_force +
+                                f.lateral_force * f.lateral_force);
+  for (const double factor : { 0.99, 1.01 })
+  {
+    ObjectSet objects;
+    objects.add(objectAt(ObjectType::kShrub, 3.05, 3.0, 0.3, 0.3, factor * push));
+    DeformableTerrain fresh = flat("clay", true);
+    fresh.wheelContact(w, 0.01, true, &objects);
+    EXPECT_EQ(objects.get(0).toppled, factor < 1.0) << factor;
+  }
+}
+
+TEST(DeformableTerrain, ThinPoleBetweenGridPointsIsStillHit)
+{
+  // A 4 cm pole at 0.1 m cells can sit between grid points: the footprint's overlap is tested
+  // on the rectangles, not sampled at points. A track segment runs into it.
+  DeformableTerrain t = flat("sandy_loam", true, 60, 0.1);
+  ObjectSet objects;
+  const std::uint32_t pole = objects.add(objectAt(ObjectType::kPole, 3.05, 3.05, 0.04, 0.04, 3000.0));
+  TrackPatch track = trackAt(3.0, 3.0, -0.03, 1.0, 0.4);
+  track.velocity = Eigen::Vector3d(0.0, 1.0, 0);
+  track.heading = M_PI / 2;
+  track.sprocket_spin_rate = spinForSlip(track, 1.0, 0.1);
+  const ContactForces f = t.trackContact(track, 0.01, true, &objects);
+  ASSERT_GT(f.normal_force, 3000.0);
+  EXPECT_EQ(f.toppled_objects, std::vector<std::uint32_t>{ pole });
+  EXPECT_NEAR(objects.get(pole).fall_direction, M_PI / 2, 1e-12);
+}

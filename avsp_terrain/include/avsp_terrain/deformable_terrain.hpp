@@ -4,7 +4,8 @@
  * @brief Terrain that ruts: base heights (ElevationGrid), a soil per grid point (a palette of
  *        up to 256 soils and a uint8 soil map), per-point deformation (MODELS.md T2-T6)
  *        stored sparsely in tiles allocated only where running gear has touched, and the
- *        rigid-wheel soil contact (T7-T12) that deforms it.
+ *        rigid-wheel and track-patch soil contacts (T7-T13) that deform it, with grass
+ *        resistance and toppling vegetation (MODELS.md section 3).
  */
 #include <array>
 #include <cstdint>
@@ -17,6 +18,7 @@
 #include "avsp_terrain/contact_soil.hpp"
 #include "avsp_terrain/elevation_grid.hpp"
 #include "avsp_terrain/soil.hpp"
+#include "avsp_terrain/terrain_objects.hpp"
 
 namespace avsp
 {
@@ -56,19 +58,22 @@ struct TrackPatch
   double segment_offset = 0.0;      ///< m, this patch's centre from the whole track's centre, + forward
 };
 
-/// What the soil does to one wheel or track patch this step. Forces act on the running gear,
-/// in its frame (longitudinal along heading, lateral to its left, normal up).
+/// What the soil (and vegetation) does to one wheel or track patch this step. Forces act on the
+/// running gear, in its frame (longitudinal along heading, lateral to its left, normal up).
 struct ContactForces
 {
   double normal_force = 0.0;        ///< N
   double longitudinal_force = 0.0;  ///< N, traction (T7, T11), + pushes forward
   double lateral_force = 0.0;       ///< N, + pushes to the left
-  double resistance_force = 0.0;    ///< N, opposes motion (>= 0): T12, or Bekker compaction resistance
+  double resistance_force = 0.0;    ///< N, opposes motion (>= 0): T12 or Bekker compaction, plus grass
+  double grass_resistance = 0.0;    ///< N, the part of resistance_force due to grass patches
   double sinkage = 0.0;             ///< m, deepest grid point below the undeformed surface (incl. elastic)
   double elastic_sinkage = 0.0;     ///< m, largest elastic part under the patch (recovers on unloading)
   double slip = 0.0;                ///< T8, [-1, 1]
   double slip_angle = 0.0;          ///< rad
   int contact_points = 0;           ///< grid points under load
+  std::vector<std::uint32_t> toppled_objects;   ///< object ids this step pushed over
+  std::vector<std::uint32_t> standing_objects;  ///< object ids under the footprint still standing
 };
 
 /// Deformation of one grid point (what a rut remembers).
@@ -108,6 +113,20 @@ struct PointDeformation
  * cell the footprint covers (half when the edge passes through the point; the outermost point
  * inside also takes the sliver of the next cell), so the loaded width (and a track's length)
  * equals the running gear's for any alignment with the grid instead of rounding to whole cells.
+ *
+ * Vegetation (MODELS.md section 3), when the contact is given the ObjectSet:
+ * - A grass patch adds rolling resistance: its `rolling_resistance` f times the normal load
+ *   carried by the grid points inside it (the largest f where patches overlap: grass on grass
+ *   is still one sward). The default course gives its patches f = 0.05-0.10, an assumption
+ *   of the same order as a tyre on medium-hard soil (0.04-0.08 in the usual tables of
+ *   rolling-resistance coefficients); no public table gives grass alone.
+ * - Any other object standing (not toppled) whose footprint overlaps the loaded footprint is
+ *   run over and takes the running gear's whole contact force |(N, F_long, F_lat)| towards
+ *   the direction of travel -- an assumption: a stem or post under a wheel or track bears its
+ *   load until it gives. If that reaches its strength it topples (ObjectSet::push) and is
+ *   listed in `toppled_objects`; rigid or stronger ones are listed in `standing_objects` for
+ *   the dynamics to collide with (the soil contact cannot know the vehicle's momentum).
+ *   Probes (deform = false) push nothing over.
  */
 class DeformableTerrain
 {
@@ -148,23 +167,25 @@ public:
 
   /**
    * @brief Soil contact of a rigid wheel for one step of length dt (s).
-   * @param deform true: the step's compaction and flow become permanent (ruts); false: a
-   *        probe that leaves the terrain as it was
+   * @param deform true: the step's compaction and flow become permanent (ruts) and objects
+   *        pushed hard enough topple; false: a probe that leaves terrain and objects as they were
+   * @param objects if given: grass patches under the loaded footprint add resistance, other
+   *        objects it overlaps are pushed (see the class notes on vegetation)
    * @throw std::invalid_argument naming the field: non-finite centre, velocity, heading or
    *        spin rate, radius or width not > 0, dt not finite or negative
    */
-  ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform);
+  ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform, ObjectSet* objects = nullptr);
 
   /**
    * @brief Soil contact of a flat track patch for one step of length dt (s): slip from the
    *        sprocket's theoretical speed (T10, T8), pressure per point as for wheels, shear
    *        j = s x from the whole track's leading edge (T7, T11), T12 or Bekker compaction
-   *        resistance. Same `deform` semantics as wheelContact().
+   *        resistance. Same `deform` and `objects` semantics as wheelContact().
    * @throw std::invalid_argument naming the field: non-finite values; length, width, pitch
    *        or teeth not > 0; track_length neither 0 nor >= length; the patch not within the
    *        track (segment_offset); dt not finite or negative
    */
-  ContactForces trackContact(const TrackPatch& track, double dt, bool deform);
+  ContactForces trackContact(const TrackPatch& track, double dt, bool deform, ObjectSet* objects = nullptr);
 
   /// m^3: soil volume that left points by flow so far, and volume that arrived by transport.
   double flowedVolume() const { return flowed_volume_; }
@@ -237,7 +258,9 @@ private:
   /// Slip and the points under the footprint with penetration, stress and strip (loaded_).
   void collect(const Footprint& fp, ContactForces& out);
   /// Forces from loaded_, then (deform) makes the step permanent.
-  void forcesAndDeform(const Footprint& fp, double dt, bool deform, ContactForces& out);
+  void forcesAndDeform(const Footprint& fp, double dt, bool deform, ObjectSet* objects, ContactForces& out);
+  /// Grass resistance and pushes on the objects under the loaded footprint.
+  void vegetation(const Footprint& fp, bool deform, ObjectSet& objects, ContactForces& out) const;
 
   ElevationGrid base_;
   std::vector<SoilParameters> palette_;
