@@ -52,13 +52,25 @@ bool gridRange(double lo, double hi, double origin, double d, std::size_t count,
 /// sensible about the horizontal push (T13 itself holds only to z < D/6, i.e. 48 deg).
 constexpr double kMaxRimSlope = 3.7320508075688772;
 
+/// A point this close to an edge (m, relative to the spacing) is on it: far above the rounding
+/// of a point's computed position (~1e-16 relative), far below any physical distance. Without
+/// it an edge through a row of points could leave the row a hair outside while the next row
+/// in sits a hair beyond one spacing, and neither would take the edge's share.
+constexpr double kOnEdge = 1e-9;
+
+/// Whether a point `inside` m within a footprint edge (negative: outside) belongs to it.
+bool withinEdge(double inside, double spacing)
+{
+  return inside >= -kOnEdge * spacing;
+}
+
 /// Share of a grid point's cell inside a band edge (point `inside` m within the edge, cells
 /// `spacing` m apart across it): 1/2 on the edge, rising linearly; the outermost point inside
 /// (inside < spacing) also takes the part of the next cell out, so a lattice line of points
 /// across a band sums to exactly band width / spacing for any offset.
 double edgeWeight(double inside, double spacing)
 {
-  return inside < spacing ? inside / spacing + 0.5 : 1.0;
+  return inside < (1.0 - kOnEdge) * spacing ? inside / spacing + 0.5 : 1.0;
 }
 
 /// The palette prepared for the contact; errors name the palette entry.
@@ -503,10 +515,11 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
 
   loaded_.clear();
   const double ca = fp.ca, sa = fp.sa;
-  // Axis-aligned bounds of the footprint rectangle (the wheel's is 2r x w).
-  const double ext_x = fp.half_length * std::abs(ca) + fp.half_width * std::abs(sa);
-  const double ext_y = fp.half_length * std::abs(sa) + fp.half_width * std::abs(ca);
+  // Axis-aligned bounds of the footprint rectangle (the wheel's is 2r x w), widened by the
+  // on-edge tolerance so that the index range keeps a row of points lying on an edge.
   const double dx = base_.dx(), dy = base_.dy();
+  const double ext_x = fp.half_length * std::abs(ca) + fp.half_width * std::abs(sa) + kOnEdge * (dx + dy);
+  const double ext_y = fp.half_length * std::abs(sa) + fp.half_width * std::abs(ca) + kOnEdge * (dx + dy);
   const double ox = base_.originX(), oy = base_.originY();
   std::size_t i0 = 0, i1 = 0, j0 = 0, j1 = 0;
   if (!gridRange(fp.cx - ext_x, fp.cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
@@ -529,7 +542,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       const double px = ox + i * dx - fp.cx;
       const double u = px * ca + py_sa;
       const double v = -px * sa + py_ca;
-      if (std::abs(v) > fp.half_width || (fp.wheel ? std::abs(u) >= r : std::abs(u) > r))
+      if (!withinEdge(fp.half_width - std::abs(v), lateral_spacing) ||
+          (fp.wheel ? std::abs(u) >= r : !withinEdge(r - std::abs(u), along_spacing)))
         continue;
       const double bottom = fp.wheel ? fp.cz - std::sqrt(r2 - u * u) : fp.cz;
       // The point's tile changes every kTileSize columns: one directory lookup per tile.
@@ -554,8 +568,9 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         // over segments); the points nearest the patch's ends reach to them (edgeWeight).
         const double x = 0.5 * fp.track_length - (fp.segment_offset * fp.travel + p.along);
         const double to_lead = r - p.along, to_trail = r + p.along;
-        p.x0 = to_lead < along_spacing ? x - to_lead : x - 0.5 * along_spacing;
-        p.x1 = to_trail < along_spacing ? x + to_trail : x + 0.5 * along_spacing;
+        const double near_end = (1.0 - kOnEdge) * along_spacing;
+        p.x0 = to_lead < near_end ? x - to_lead : x - 0.5 * along_spacing;
+        p.x1 = to_trail < near_end ? x + to_trail : x + 0.5 * along_spacing;
         p.weight *= (p.x1 - p.x0) / along_spacing;
       }
       if (soil.model() == SinkageModel::kBekker)

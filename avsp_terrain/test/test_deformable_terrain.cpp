@@ -415,6 +415,22 @@ TEST(DeformableTerrain, LoadedWidthIsTheWheelWidthAtAnyGridOffset)
   for (const double width : { 0.13, 0.21, 0.37 })
     EXPECT_NEAR(t.wheelContact(wheelAt(3.0, 3.013, -0.02, 0.35, width), 0.01, false).normal_force,
                 reference * width / 0.25, 1e-9 * reference);
+  // Edges exactly on a row of points, where rounding puts the row a hair inside or outside:
+  // 0.30 m centred on a row, and 0.20 m centred between rows, at several places.
+  for (const double y : { 1.0, 2.0, 3.0, 4.45, 5.0 })
+  {
+    for (const double width : { 0.3, 0.2 })
+    {
+      const double centre = width == 0.3 ? y : y + 0.025;
+      EXPECT_NEAR(t.wheelContact(wheelAt(3.0, centre, -0.02, 0.35, width), 0.01, false).normal_force,
+                  reference * width / 0.25, 1e-9 * reference)
+          << "y " << centre << " width " << width;
+      WheelPatch across = wheelAt(centre, 3.0, -0.02, 0.35, width);
+      across.heading = -M_PI / 2;
+      EXPECT_NEAR(t.wheelContact(across, 0.01, false).normal_force, reference * width / 0.25, 1e-9 * reference)
+          << "x " << centre << " width " << width;
+    }
+  }
 }
 
 namespace
@@ -620,32 +636,37 @@ TEST(DeformableTerrain, TrackSettlesWhereSummedPressureEqualsLoad)
   // sinkage is the soil's own at that pressure. The track's ends and sides carry their cell
   // shares, so at any grid offset A is the track's L b and the closed forms hold to rounding.
   const double load = 30000.0;  // N, about a third of one M113 track's share
-  const TrackPatch track = trackAt(3.013, 3.021, 0.0);
-  const double area = track.length * track.width;
+  // Off the cells' lines, ends and sides on rows of points (where rounding decides which side
+  // a point falls), and halfway between rows.
+  for (const auto& [x, y] : { std::pair<double, double>{ 3.013, 3.021 }, { 3.0, 3.0 }, { 2.975, 3.025 } })
   {
-    // Bekker (dry sand): z = (W / (A k))^(1/n), k = k_c / b + k_phi, b = width (the smaller side).
-    const SoilParameters& sand = library().get("dry_sand");
-    DeformableTerrain t = flat("dry_sand", true);
-    const double k = sand.k_c / track.width + sand.k_phi;
-    const double expected = std::pow(load / (area * k), 1.0 / sand.n);
-    const double z = trackDepthCarrying(t, track, load);
-    EXPECT_NEAR(z, expected, 1e-9 * expected);
-    TrackPatch settled = track;
-    settled.centre.z() = -z;
-    const ContactForces f = t.trackContact(settled, 0.01, false);
-    EXPECT_NEAR(f.sinkage, z, 1e-9);
-    // Bekker's track compaction resistance, b k z^(n+1) / (n + 1), on a towed track.
-    EXPECT_NEAR(f.resistance_force, bekkerCompactionResistanceClosedForm(sand, track.width, z),
-                1e-9 * f.resistance_force);
-  }
-  {
-    // Simple model (sandy loam): the sinkage T2 + T4(b1) + T3 give at sigma = W / A.
-    const SoilParameters& loam = library().get("sandy_loam");
-    DeformableTerrain t = flat("sandy_loam", true);
-    const double sigma = load / area;
-    const double expected =
-        plasticSinkage(loam, sigma) + loam.b1 * sigma + elasticSinkage(loam, sigma, 0.0);
-    EXPECT_NEAR(trackDepthCarrying(t, track, load), expected, 1e-9 * expected);
+    const TrackPatch track = trackAt(x, y, 0.0);
+    const double area = track.length * track.width;
+    {
+      // Bekker (dry sand): z = (W / (A k))^(1/n), k = k_c / b + k_phi, b = width (the smaller side).
+      const SoilParameters& sand = library().get("dry_sand");
+      DeformableTerrain t = flat("dry_sand", true);
+      const double k = sand.k_c / track.width + sand.k_phi;
+      const double expected = std::pow(load / (area * k), 1.0 / sand.n);
+      const double z = trackDepthCarrying(t, track, load);
+      EXPECT_NEAR(z, expected, 1e-9 * expected);
+      TrackPatch settled = track;
+      settled.centre.z() = -z;
+      const ContactForces f = t.trackContact(settled, 0.01, false);
+      EXPECT_NEAR(f.sinkage, z, 1e-9);
+      // Bekker's track compaction resistance, b k z^(n+1) / (n + 1), on a towed track.
+      EXPECT_NEAR(f.resistance_force, bekkerCompactionResistanceClosedForm(sand, track.width, z),
+                  1e-9 * f.resistance_force);
+    }
+    {
+      // Simple model (sandy loam): the sinkage T2 + T4(b1) + T3 give at sigma = W / A.
+      const SoilParameters& loam = library().get("sandy_loam");
+      DeformableTerrain t = flat("sandy_loam", true);
+      const double sigma = load / area;
+      const double expected =
+          plasticSinkage(loam, sigma) + loam.b1 * sigma + elasticSinkage(loam, sigma, 0.0);
+      EXPECT_NEAR(trackDepthCarrying(t, track, load), expected, 1e-9 * expected);
+    }
   }
 }
 
