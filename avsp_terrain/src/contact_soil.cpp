@@ -124,11 +124,12 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
     const double qa = d * beta, qb = d * alpha + c * beta, qc = c * alpha - h0 * rho0;
     if (qa > 0.0)
     {
-      // Both factors are positive at the physical root, which is therefore the larger one;
-      // the product form of the roots avoids cancellation.
+      // Both factors are positive at the physical root, which is therefore the larger one.
+      // The roots are q / qa and qc / q (no cancellation); with qa > 0 the larger is qc / q
+      // when qb >= 0 (then q <= 0 and q / qa <= 0) and q / qa otherwise.
       const double root = std::sqrt(std::max(qb * qb - 4.0 * qa * qc, 0.0));
       const double q = -0.5 * (qb + std::copysign(root, qb));
-      sigma = (q != 0.0) ? std::max(q / qa, qc / q) : 0.0;
+      sigma = qb >= 0.0 ? (q != 0.0 ? qc / q : 0.0) : q / qa;
     }
     else
     {
@@ -138,7 +139,8 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
     // Just above sigma_max the float-stored plastic may exceed z_p(sigma) by a rounding: there
     // the compaction increment is clamped to 0 and e(sigma) is linear. (Virgin points cannot
     // be there; rho on this segment is alpha + beta sigma.)
-    if (plastic > 0.0 && d > 0.0 && h0 * (1.0 - rho0 / (alpha + beta * sigma)) < plastic)
+    // h0 (1 - rho0 / rho) < plastic, multiplied out by rho > 0.
+    if (plastic > 0.0 && d > 0.0 && (h0 - plastic) * (alpha + beta * sigma) < h0 * rho0)
       sigma = std::max((penetration + b1 * sigma_max) / d, lo);
   }
   return std::min(sigma, kRigidStress);

@@ -96,12 +96,14 @@ std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette
 }
 
 /// Mean of (1 - exp(-s x / K)) over the strip [x0, x1] (meanShearStress() without its
-/// strength factor), from e0 = exp(-s x0 / K) and e1 = exp(-s x1 / K) the caller has.
-double meanShearFactor(double s, double k, double x0, double x1, double e0, double e1)
+/// strength factor), from s / K, K / (s (x1 - x0)) and e0 = exp(-s x0 / K), e1 = exp(-s x1 / K)
+/// the caller has; for s x / K -> 0 the bracket vanishes like s: the limit form avoids the
+/// cancellation.
+double meanShearFactor(double s_over_k, double x0, double x1, double scale, double e0, double e1)
 {
-  if (s * x1 / k < 1e-8)
-    return s * (x0 + x1) / (2.0 * k);
-  return 1.0 - k / (s * (x1 - x0)) * (e0 - e1);
+  if (s_over_k * x1 < 1e-8)
+    return s_over_k * (x0 + x1) * 0.5;
+  return 1.0 - scale * (e0 - e1);
 }
 }  // namespace
 
@@ -381,43 +383,57 @@ void DeformableTerrain::spreadFlow()
   const double area = base_.dx() * base_.dy();
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
   double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
+  // Offsets in the window of the 8 neighbours, and their weights, in a fixed order.
+  const long w = static_cast<long>(width);
+  const std::array<long, 8> offsets{ -w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1 };
+  constexpr std::array<double, 8> kWeights{ M_SQRT1_2, 1.0, M_SQRT1_2, 1.0, 1.0, M_SQRT1_2, 1.0, M_SQRT1_2 };
   for (const LoadedPoint& p : loaded_)
   {
     if (!(p.flow_volume > 0.0))
       continue;
     const long i = p.i, j = p.j;
-    const auto inside = [&](long ni, long nj) { return ni >= 0 && nj >= 0 && ni < columns && nj < rows; };
-    double total = kInteriorTotal;
-    if (i == 0 || j == 0 || i + 1 == columns || j + 1 == rows)
+    double* centre = arrivals_.data() + (j - static_cast<long>(wj0)) * w + (i - static_cast<long>(wi0));
+    if (i > 0 && j > 0 && i + 1 < columns && j + 1 < rows)
     {
-      // On the grid's border: only the neighbours that exist share the volume.
-      total = 0.0;
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di)
-          if ((di != 0 || dj != 0) && inside(i + di, j + dj))
-            total += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+      // Per unit weight: volume (m^3) and height (m) at a neighbour; two divisions per point.
+      const double volume = p.flow_volume / kInteriorTotal, height = volume / area;
+      for (int k = 0; k < 8; ++k)
+        centre[offsets[k]] += height * kWeights[k];
+      arrived += volume * kInteriorTotal;
+      continue;
     }
-    // Per unit weight: volume (m^3) and height (m) at a neighbour; two divisions per point.
+    // On the grid's border only the neighbours that exist share the volume.
+    const auto inside = [&](long ni, long nj) { return ni >= 0 && nj >= 0 && ni < columns && nj < rows; };
+    double total = 0.0;
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di)
+        if ((di != 0 || dj != 0) && inside(i + di, j + dj))
+          total += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
     const double volume = p.flow_volume / total, height = volume / area;
     for (int dj = -1; dj <= 1; ++dj)
-    {
       for (int di = -1; di <= 1; ++di)
-      {
-        if ((di == 0 && dj == 0) || !inside(i + di, j + dj))
-          continue;
-        const double w = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-        arrivals_[(j + dj - wj0) * width + (i + di - wi0)] += height * w;
-        arrived += volume * w;
-      }
-    }
+        if ((di != 0 || dj != 0) && inside(i + di, j + dj))
+          centre[dj * w + di] += height * ((di != 0 && dj != 0) ? M_SQRT1_2 : 1.0);
+    arrived += volume * total;
   }
   arrived_volume_ += arrived;
   for (std::size_t j = wj0; j <= wj1; ++j)
   {
     const double* row = arrivals_.data() + (j - wj0) * width - wi0;
+    std::size_t tile_column = tiles_x_;  // none yet
+    Tile* tile = nullptr;
     for (std::size_t i = wi0; i <= wi1; ++i)
-      if (row[i] != 0.0)
-        touch(i, j).displaced -= static_cast<float>(row[i]);
+    {
+      if (row[i] == 0.0)
+        continue;
+      if (i / kTileSize != tile_column)
+      {
+        tile_column = i / kTileSize;
+        touch(i, j);  // allocates the tile if it is new
+        tile = tiles_[tileIndex(i, j)].get();
+      }
+      (*tile)[(j % kTileSize) * kTileSize + i % kTileSize].displaced -= static_cast<float>(row[i]);
+    }
   }
 }
 
@@ -545,7 +561,6 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       if (!withinEdge(fp.half_width - std::abs(v), lateral_spacing) ||
           (fp.wheel ? std::abs(u) >= r : !withinEdge(r - std::abs(u), along_spacing)))
         continue;
-      const double bottom = fp.wheel ? fp.cz - std::sqrt(r2 - u * u) : fp.cz;
       // The point's tile changes every kTileSize columns: one directory lookup per tile.
       if (i / kTileSize != tile_column)
       {
@@ -554,7 +569,17 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       }
       const PointDeformation state = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
       const double base_z = base_.pointHeight(i, j);
-      const double penetration = base_z - state.plastic - state.displaced - bottom;
+      const double surface = base_z - state.plastic - state.displaced;
+      if (fp.wheel)
+      {
+        // Most of a wheel's 2r x w box is not under its rim: rule those points out on squares
+        // (the rim is above a surface h below the axle where r^2 - u^2 <= h^2) before the sqrt.
+        const double below_axle = fp.cz - surface;
+        if (below_axle > 0.0 && below_axle * below_axle >= r2 - u * u)
+          continue;
+      }
+      const double bottom = fp.wheel ? fp.cz - std::sqrt(r2 - u * u) : fp.cz;
+      const double penetration = surface - bottom;
       if (!(penetration > 0.0))
         continue;
       const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
@@ -624,7 +649,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one
   // per change of soil or strip length along the loop for the half-strip factor.
   int strip_soil = -1;
-  double strip_half = -1.0, half_factor = 1.0;
+  double strip_half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, strip_scale = 0.0;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
   // Bekker points instead resist by compaction: a wheel's rim pushes back with
@@ -653,17 +678,20 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     }
     if (slip_magnitude > 0.0)
     {
-      const double k = soil.shear_modulus;
       const double half = 0.5 * (p.x1 - p.x0);
       if (p.soil != strip_soil || half != strip_half)
       {
+        const double k = soil.shear_modulus;
         strip_soil = p.soil;
         strip_half = half;
-        half_factor = std::exp(slip_magnitude * half / k);
+        inv_k = 1.0 / k;
+        half_factor = std::exp(slip_magnitude * half * inv_k);
+        inv_half_factor = 1.0 / half_factor;
+        strip_scale = k / (slip_magnitude * 2.0 * half);
       }
-      const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) / k);
+      const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
       const double e0 = p.x0 > 0.0 ? e_mid * half_factor : 1.0;
-      const double mean = meanShearFactor(slip_magnitude, k, p.x0, p.x1, e0, e_mid / half_factor);
+      const double mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip_scale, e0, e_mid * inv_half_factor);
       const double tau = strength * mean;
       out.longitudinal_force += fp.travel * (out.slip / slip_magnitude) * tau * area * p.weight;
       out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area * p.weight;
