@@ -146,9 +146,7 @@ DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParamet
 
 std::uint8_t DeformableTerrain::soilIndex(std::size_t i, std::size_t j) const
 {
-  if (i >= base_.columns() || j >= base_.rows())
-    throw std::out_of_range("DeformableTerrain::soilIndex: point (" + std::to_string(i) + ", " + std::to_string(j) +
-                            ") is outside the grid");
+  checkPoint("soilIndex", i, j);
   return soil_map_.empty() ? 0 : soil_map_[j * base_.columns() + i];
 }
 
@@ -179,8 +177,23 @@ PointDeformation& DeformableTerrain::touch(std::size_t i, std::size_t j)
   return (*tile)[(j % kTileSize) * kTileSize + i % kTileSize];
 }
 
+void DeformableTerrain::checkPoint(const char* function, std::size_t i, std::size_t j) const
+{
+  if (i >= base_.columns() || j >= base_.rows())
+    throw std::out_of_range(std::string("DeformableTerrain::") + function + ": point (" + std::to_string(i) + ", " +
+                            std::to_string(j) + ") is outside the " + std::to_string(base_.columns()) + " x " +
+                            std::to_string(base_.rows()) + " grid");
+}
+
+void DeformableTerrain::setDeformation(std::size_t i, std::size_t j, const PointDeformation& d)
+{
+  checkPoint("setDeformation", i, j);
+  touch(i, j) = d;
+}
+
 PointDeformation DeformableTerrain::deformation(std::size_t i, std::size_t j) const
 {
+  checkPoint("deformation", i, j);
   const PointDeformation* p = find(i, j);
   return p ? *p : PointDeformation{};
 }

@@ -336,7 +336,13 @@ TEST(DeformableTerrain, BadPaletteOrSoilMapThrowsNamingIt)
     all[k] = static_cast<std::uint8_t>(k % 256);
   EXPECT_EQ(DeformableTerrain(grid, std::vector<SoilParameters>(256, clay), all, {}).soilIndex(15, 12), 255);
   EXPECT_EQ(DeformableTerrain(grid, { clay }, std::vector<std::uint8_t>(n * n, 0), {}).soilMapBytes(), 0u);
-  EXPECT_THROW(DeformableTerrain(grid, clay, {}).soilIndex(n, 0), std::out_of_range);
+  DeformableTerrain single(grid, clay, {});
+  EXPECT_THROW(single.soilIndex(n, 0), std::out_of_range);
+  // Every point accessor refuses points outside the grid instead of reading past it.
+  EXPECT_THROW(single.deformation(0, n), std::out_of_range);
+  EXPECT_THROW(single.pointHeight(n + 100, 0), std::out_of_range);
+  EXPECT_THROW(single.setDeformation(n, n, PointDeformation{}), std::out_of_range);
+  EXPECT_THROW(single.soil(0, 1000000), std::out_of_range);
 }
 
 TEST(DeformableTerrain, SetSoilChangesThatPaletteEntryOnly)

@@ -104,9 +104,8 @@ struct PointDeformation
  *   resistance: for a wheel the horizontal component of the rim pressure (so a wheel at
  *   rest, loaded front and back alike, has none), for a track the compaction work per metre
  *   travelled, b k z^(n+1) / (n + 1). No T3 or T4-b1 terms: Bekker's law is the whole
- *   static sinkage; T4's
- *   slip-driven flow (b2) and T5 transport still apply, so a slipping wheel in sand digs
- *   and piles soil.
+ *   static sinkage; T4's slip-driven flow (b2) and T5 transport still apply, so a slipping
+ *   wheel in sand digs and piles soil.
  * - Both: T7 Mohr-Coulomb/Janosi shear with j = s x behind the leading edge (T11).
  *
  * Grid points along the footprint's side edges (and a track's ends) carry the share of their
@@ -135,6 +134,7 @@ public:
   /// Largest palette: soil indices are one byte.
   static constexpr std::size_t kMaxSoils = 256;
 
+  /// Behaviour switches.
   struct Options
   {
     bool transport = true;  ///< T5 on: flowed soil arrives at neighbours (berms); off: z_n = 0
@@ -159,10 +159,10 @@ public:
   /// Deformed (unloaded) height at (x, y), bilinear, m; nullopt outside the grid.
   std::optional<double> height(double x, double y) const;
 
-  /// Deformed (unloaded) height of grid point (i, j), m.
+  /// Deformed (unloaded) height of grid point (i, j), m. @throw std::out_of_range outside the grid
   double pointHeight(std::size_t i, std::size_t j) const;
 
-  /// Deformation of grid point (i, j) (zeros where never touched).
+  /// Deformation of grid point (i, j) (zeros where never touched). @throw std::out_of_range outside the grid
   PointDeformation deformation(std::size_t i, std::size_t j) const;
 
   /**
@@ -203,8 +203,8 @@ public:
   /// order then row-major within the tile: what a save must write to restore bit-exactly.
   std::vector<std::pair<std::size_t, std::size_t>> statefulPoints() const;
 
-  /// Restores one point's deformation (loading a saved terrain).
-  void setDeformation(std::size_t i, std::size_t j, const PointDeformation& d) { touch(i, j) = d; }
+  /// Restores one point's deformation (loading a saved terrain). @throw std::out_of_range outside the grid
+  void setDeformation(std::size_t i, std::size_t j, const PointDeformation& d);
   /// Restores the flow accounting (loading a saved terrain).
   void setVolumes(double flowed, double arrived)
   {
@@ -250,6 +250,8 @@ private:
   /// Where a contact is and how it moves, shared by wheels and tracks.
   struct Footprint;
 
+  /// @throw std::out_of_range naming `function` and the point when (i, j) is outside the grid
+  void checkPoint(const char* function, std::size_t i, std::size_t j) const;
   const PointDeformation* find(std::size_t i, std::size_t j) const;
   std::size_t tileIndex(std::size_t i, std::size_t j) const { return (j / kTileSize) * tiles_x_ + i / kTileSize; }
   PointDeformation& touch(std::size_t i, std::size_t j);
