@@ -169,10 +169,11 @@ int main(int argc, char** argv)
     }
     const double s = std::chrono::duration<double>(Clock::now() - t0).count();
     std::printf("traverse %.1f km at 0.1 m cells (%.1f s): %zu deformed points, %.2f MB of state, %.1f B per deformed "
-                "point (peer: 165 B; target <= 33 B), RSS growth %.1f MB; fixed tile directory %.2f MB\n",
+                "point (peer: 165 B; target <= 33 B), RSS growth %.1f MB; fixed tile directory %.2f MB, soil map "
+                "%.2f MB (1 B per grid point with several soils, 0 with one)\n",
                 km, s, t.deformedPoints(), t.deformationBytes() / 1e6,
                 double(t.deformationBytes()) / std::max<std::size_t>(t.deformedPoints(), 1), rssMegabytes() - rss0,
-                t.directoryBytes() / 1e6);
+                t.directoryBytes() / 1e6, t.soilMapBytes() / 1e6);
   }
 
   {  // Height queries on deformed terrain.
