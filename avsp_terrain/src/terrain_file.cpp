@@ -4,6 +4,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <vector>
 
 namespace avsp
@@ -13,6 +14,10 @@ namespace terrain
 namespace
 {
 constexpr char kMagic[8] = { 'A', 'V', 'S', 'P', 'T', 'R', 'N', '1' };
+/// 1: one soil name; 2: a palette of soil names and a soil map (1 is still read).
+constexpr std::uint32_t kVersion = 2;
+/// How the soil map is stored: one soil everywhere (nothing follows), or one byte per point.
+constexpr std::uint8_t kUniformSoil = 0, kSoilPerPoint = 1;
 
 std::uint64_t fnv1a(const char* data, std::size_t size)
 {
@@ -90,20 +95,28 @@ void saveTerrain(const std::string& path, const DeformableTerrain& terrain, cons
   const ElevationGrid& g = terrain.base();
   Writer w;
   w.bytes().insert(w.bytes().end(), kMagic, kMagic + sizeof(kMagic));
-  w.put<std::uint32_t>(1);  // version
+  w.put<std::uint32_t>(kVersion);
   w.put(g.originX());
   w.put(g.originY());
   w.put(g.dx());
   w.put(g.dy());
   w.put<std::uint64_t>(g.columns());
   w.put<std::uint64_t>(g.rows());
-  w.putString(terrain.soil().name);
+  w.put<std::uint32_t>(static_cast<std::uint32_t>(terrain.palette().size()));
+  for (const SoilParameters& soil : terrain.palette())
+    w.putString(soil.name);
   w.put<std::uint8_t>(terrain.options().transport ? 1 : 0);
   w.put(terrain.flowedVolume());
   w.put(terrain.arrivedVolume());
   for (std::size_t j = 0; j < g.rows(); ++j)
     for (std::size_t i = 0; i < g.columns(); ++i)
       w.put(static_cast<float>(g.pointHeight(i, j)));
+  const bool uniform = terrain.palette().size() == 1;
+  w.put<std::uint8_t>(uniform ? kUniformSoil : kSoilPerPoint);
+  if (!uniform)
+    for (std::size_t j = 0; j < g.rows(); ++j)
+      for (std::size_t i = 0; i < g.columns(); ++i)
+        w.put<std::uint8_t>(terrain.soilIndex(i, j));
   const auto points = terrain.statefulPoints();
   w.put<std::uint64_t>(points.size());
   for (const auto& [i, j] : points)
@@ -144,8 +157,9 @@ LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils)
     throw TerrainFileError(path + ": not an AVSP terrain file (bad magic or too short)");
   std::uint32_t version = 0;
   std::memcpy(&version, bytes.data() + sizeof(kMagic), sizeof(version));
-  if (version != 1)
-    throw TerrainFileError(path + ": terrain file version " + std::to_string(version) + " is not supported (1 is)");
+  if (version != 1 && version != kVersion)
+    throw TerrainFileError(path + ": terrain file version " + std::to_string(version) +
+                           " is not supported (1 and 2 are)");
   const std::size_t body = bytes.size() - sizeof(std::uint64_t);
   std::uint64_t stored = 0;
   std::memcpy(&stored, bytes.data() + body, sizeof(stored));
@@ -158,17 +172,48 @@ LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils)
   const auto columns = r.get<std::uint64_t>("columns"), rows = r.get<std::uint64_t>("rows");
   if (columns < 2 || rows < 2 || columns > (1ULL << 31) / rows || r.remaining() / sizeof(float) < columns * rows)
     r.fail("grid size " + std::to_string(columns) + " x " + std::to_string(rows) + " does not fit the file");
-  const std::string soil_name = r.getString("soil name");
-  if (!soils.contains(soil_name))
-    r.fail("soil '" + soil_name + "' is not in the soil library");
+  const std::uint32_t palette_size = version == 1 ? 1 : r.get<std::uint32_t>("palette size");
+  if (palette_size < 1 || palette_size > DeformableTerrain::kMaxSoils)
+    r.fail("palette of " + std::to_string(palette_size) + " soils (1 to 256 allowed)");
+  std::vector<SoilParameters> palette;
+  for (std::uint32_t k = 0; k < palette_size; ++k)
+  {
+    const std::string soil_name = r.getString("soil name");
+    if (!soils.contains(soil_name))
+      r.fail("soil '" + soil_name + "' is not in the soil library");
+    palette.push_back(soils.get(soil_name));
+  }
   const bool transport = r.get<std::uint8_t>("transport flag") != 0;
   const auto flowed = r.get<double>("flowed volume"), arrived = r.get<double>("arrived volume");
   std::vector<float> heights(columns * rows);
   for (float& h : heights)
     h = r.get<float>("heights");
-  LoadedTerrain out{ DeformableTerrain(ElevationGrid(ox, oy, dx, dy, columns, rows, std::move(heights)),
-                                       soils.get(soil_name), DeformableTerrain::Options{ transport }),
-                     ObjectSet() };
+  std::vector<std::uint8_t> soil_map(columns * rows, 0);
+  const std::uint8_t map_kind = version == 1 ? kUniformSoil : r.get<std::uint8_t>("soil map kind");
+  if (map_kind == kSoilPerPoint)
+  {
+    if (r.remaining() < soil_map.size())
+      r.fail("truncated while reading the soil map");
+    for (std::uint8_t& s : soil_map)
+      s = r.get<std::uint8_t>("soil map");
+  }
+  else if (map_kind != kUniformSoil)
+    r.fail("unknown soil map kind " + std::to_string(map_kind));
+  std::optional<DeformableTerrain> terrain;
+  try
+  {
+    terrain.emplace(ElevationGrid(ox, oy, dx, dy, columns, rows, std::move(heights)), std::move(palette),
+                    std::move(soil_map), DeformableTerrain::Options{ transport });
+  }
+  catch (const std::invalid_argument& e)
+  {
+    r.fail(e.what());  // e.g. a soil index outside the palette
+  }
+  catch (const GridError& e)
+  {
+    r.fail(e.what());
+  }
+  LoadedTerrain out{ std::move(*terrain), ObjectSet() };
   const auto points = r.get<std::uint64_t>("point count");
   if (points > columns * rows)
     r.fail("more stateful points than grid points");

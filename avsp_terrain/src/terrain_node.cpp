@@ -210,7 +210,6 @@ private:
       at::LoadedTerrain loaded = at::loadTerrain(terrain_file, soils_);
       terrain_ = std::make_unique<at::DeformableTerrain>(std::move(loaded.terrain));
       objects_ = std::move(loaded.objects);
-      soil_names_ = {terrain_->soil().name};
       source_ = terrain_file;
       return;
     }
@@ -229,7 +228,6 @@ private:
                              raster.rows, std::move(raster.heights));
       terrain_ = std::make_unique<at::DeformableTerrain>(std::move(grid), soils_.get(soil_name),
                                                          at::DeformableTerrain::Options{transport_});
-      soil_names_ = {soil_name};
       source_ = dem_file;
       return;
     }
@@ -245,10 +243,11 @@ private:
     try
     {
       at::Course course = at::makeDefaultCourse(options);
-      soil_names_ = course.soil_names;
-      soil_map_ = std::move(course.soil_map);
       objects_ = std::move(course.objects);
-      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(course.heights), soils_.get(soil_name),
+      // The course's own soil map (road asphalt, trail gravel, pond mud, ...).
+      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(course.heights),
+                                                         at::paletteFromNames(course.soil_names, soils_),
+                                                         std::move(course.soil_map),
                                                          at::DeformableTerrain::Options{transport_});
     }
     catch (const std::invalid_argument& e)
@@ -301,8 +300,7 @@ private:
     colour_ = [this, light](std::size_t i, std::size_t j) {
       const at::ElevationGrid& grid = terrain_->base();
       const double x = grid.originX() + i * grid.dx(), y = grid.originY() + j * grid.dy();
-      const std::size_t soil = soil_map_.empty() ? 0 : soil_map_[j * grid.columns() + i];
-      std::array<float, 3> c = soilColour(soil < soil_names_.size() ? soil_names_[soil] : "");
+      std::array<float, 3> c = soilColour(terrain_->soil(i, j).name);
       // Central-difference normal of the deformed surface for the hillshade.
       const std::size_t i0 = i > 0 ? i - 1 : i, i1 = std::min(i + 1, grid.columns() - 1);
       const std::size_t j0 = j > 0 ? j - 1 : j, j1 = std::min(j + 1, grid.rows() - 1);
@@ -586,8 +584,6 @@ private:
   at::SoilLibrary soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;
   at::ObjectSet objects_;
-  std::vector<std::string> soil_names_;
-  std::vector<std::uint8_t> soil_map_;  ///< per grid point (default course); empty: one soil
   std::unique_ptr<at::TerrainMesher> mesher_;
   at::PointColour colour_, rut_colour_;
   float rut_lift_ = 0.02f;

@@ -19,9 +19,8 @@ at::DeformableTerrain plane()
   for (std::size_t j = 0; j < ny; ++j)
     for (std::size_t i = 0; i < nx; ++i)
       h[j * nx + i] = static_cast<float>(0.1 * (-3 + 0.25 * i) - 0.05 * (4 + 0.25 * j) + 2.0);
-  at::SoilParameters soil;
-  soil.name = "test";
-  return at::DeformableTerrain(at::ElevationGrid(-3.0, 4.0, 0.25, 0.25, nx, ny, std::move(h)), soil,
+  static const at::SoilLibrary soils = at::SoilLibrary::load(AVSP_CONFIG_DIR "/soils.yaml");
+  return at::DeformableTerrain(at::ElevationGrid(-3.0, 4.0, 0.25, 0.25, nx, ny, std::move(h)), soils.get("sandy_loam"),
                                at::DeformableTerrain::Options{});
 }
 

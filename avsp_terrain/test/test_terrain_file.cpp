@@ -3,6 +3,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -62,6 +63,46 @@ std::vector<char> bytesOf(const std::string& path)
   std::ifstream in(path, std::ios::binary);
   return std::vector<char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
+
+/// FNV-1a 64 as the format specifies: lets a test write a file that is consistent but wrong.
+std::uint64_t fnv1a(const char* data, std::size_t size)
+{
+  std::uint64_t h = 1469598103934665603ULL;
+  for (std::size_t k = 0; k < size; ++k)
+  {
+    h ^= static_cast<unsigned char>(data[k]);
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+/// Replaces the trailing checksum with the right one for the (edited) bytes before it.
+void reseal(std::vector<char>& bytes)
+{
+  const std::size_t body = bytes.size() - sizeof(std::uint64_t);
+  const std::uint64_t h = fnv1a(bytes.data(), body);
+  std::memcpy(bytes.data() + body, &h, sizeof(h));
+}
+
+void writeBytes(const std::string& path, const std::vector<char>& bytes)
+{
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), bytes.size());
+}
+
+/// n x n points at 0.05 m on a bumpy base; three soils in diagonal bands.
+DeformableTerrain multiSoil(std::size_t n)
+{
+  std::vector<float> h(n * n);
+  std::vector<std::uint8_t> map(n * n);
+  for (std::size_t k = 0; k < h.size(); ++k)
+  {
+    h[k] = 0.01f * static_cast<float>(k % 37);
+    map[k] = static_cast<std::uint8_t>(((k % n) * 7 + (k / n) * 3) / 13 % 3);
+  }
+  return DeformableTerrain(ElevationGrid(0, 0, 0.05, 0.05, n, n, h),
+                           paletteFromNames({ "sandy_loam", "mud", "clay" }, library()), std::move(map),
+                           DeformableTerrain::Options{ true });
+}
 }  // namespace
 
 TEST(TerrainFile, RoundTripIsBitExactIncludingToppledObjects)
@@ -90,7 +131,7 @@ TEST(TerrainFile, RoundTripIsBitExactIncludingToppledObjects)
   }
   EXPECT_EQ(back.terrain.flowedVolume(), t.flowedVolume());
   EXPECT_EQ(back.terrain.arrivedVolume(), t.arrivedVolume());
-  EXPECT_EQ(back.terrain.soil().name, "mud");
+  EXPECT_EQ(back.terrain.soil(0, 0).name, "mud");
   EXPECT_TRUE(back.terrain.options().transport);
   ASSERT_EQ(back.objects.size(), 2u);
   EXPECT_TRUE(back.objects.get(0).toppled);
@@ -103,6 +144,130 @@ TEST(TerrainFile, RoundTripIsBitExactIncludingToppledObjects)
   EXPECT_EQ(bytesOf(path), bytesOf(again));
   std::remove(path.c_str());
   std::remove(again.c_str());
+}
+
+TEST(TerrainFile, MultiSoilRoundTripIsBitExact)
+{
+  const std::size_t n = 100;
+  DeformableTerrain t = multiSoil(n);
+  ObjectSet objects;
+  makeScene(t, objects);
+  ASSERT_GT(t.deformedPoints(), 100u);
+  const std::string path = scratchPath();
+  saveTerrain(path, t, objects);
+  const LoadedTerrain back = loadTerrain(path, library());
+  ASSERT_EQ(back.terrain.palette().size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_EQ(back.terrain.palette()[k].name, t.palette()[k].name);
+  std::set<int> seen;
+  for (std::size_t j = 0; j < n; ++j)
+  {
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      ASSERT_EQ(back.terrain.soilIndex(i, j), t.soilIndex(i, j)) << i << "," << j;
+      seen.insert(t.soilIndex(i, j));
+      const PointDeformation a = t.deformation(i, j), b = back.terrain.deformation(i, j);
+      ASSERT_EQ(std::memcmp(&a, &b, sizeof(a)), 0) << i << "," << j;
+      ASSERT_EQ(t.base().pointHeight(i, j), back.terrain.base().pointHeight(i, j));
+    }
+  }
+  EXPECT_EQ(seen.size(), 3u);
+  EXPECT_EQ(back.terrain.flowedVolume(), t.flowedVolume());
+  EXPECT_EQ(back.terrain.arrivedVolume(), t.arrivedVolume());
+  // Saving what was loaded gives the same bytes, and the loaded terrain drives the same.
+  const std::string again = scratchPath();
+  saveTerrain(again, back.terrain, back.objects);
+  EXPECT_EQ(bytesOf(path), bytesOf(again));
+  LoadedTerrain resumed = loadTerrain(again, library());
+  WheelPatch w;
+  w.radius = 0.35;
+  w.width = 0.25;
+  w.centre = Eigen::Vector3d(2.2, 2.0, 0.35 + 0.3);
+  w.velocity = Eigen::Vector3d(1.0, 0.0, 0.0);
+  w.spin_rate = 1.2 / 0.35;
+  for (double z = 0.36; z > 0.0; z -= 0.01)  // lower until it bears on the bumpy base
+  {
+    w.centre.z() = z;
+    if (t.wheelContact(w, 0.01, false).contact_points > 20)
+      break;
+  }
+  const ContactForces a = t.wheelContact(w, 0.01, true), b = resumed.terrain.wheelContact(w, 0.01, true);
+  EXPECT_GT(a.contact_points, 20);
+  EXPECT_EQ(a.normal_force, b.normal_force);
+  EXPECT_EQ(a.longitudinal_force, b.longitudinal_force);
+  std::remove(path.c_str());
+  std::remove(again.c_str());
+}
+
+TEST(TerrainFile, SoilIndexOutsideThePaletteIsNamed)
+{
+  // A file whose checksum is right but whose soil map points past its palette.
+  const std::size_t n = 12;
+  DeformableTerrain t = multiSoil(n);
+  const std::string path = scratchPath();
+  saveTerrain(path, t, ObjectSet());
+  std::vector<char> bytes = bytesOf(path);
+  // The map is the n*n bytes after the heights; with no deformation and no objects only the
+  // two counts (8 B each) and the checksum follow it.
+  const std::size_t map_end = bytes.size() - 3 * sizeof(std::uint64_t);
+  ASSERT_EQ(bytes[map_end - n * n - 1], 1) << "soil map kind byte not where expected";
+  bytes[map_end - n * n + 5 * n + 4] = 9;  // point (4, 5)
+  reseal(bytes);
+  writeBytes(path, bytes);
+  try
+  {
+    loadTerrain(path, library());
+    ADD_FAILURE() << "loaded a soil index outside the palette";
+  }
+  catch (const TerrainFileError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("index 9 at grid point (4, 5) is not in the palette of 3"),
+              std::string::npos)
+        << e.what();
+  }
+  std::remove(path.c_str());
+}
+
+TEST(TerrainFile, VersionOneFilesStillLoad)
+{
+  // Version 1 as it was written before soil maps: one soil name, no map.
+  const std::size_t n = 4;
+  std::vector<char> bytes;
+  const auto put = [&](const auto& v) {
+    const char* p = reinterpret_cast<const char*>(&v);
+    bytes.insert(bytes.end(), p, p + sizeof(v));
+  };
+  bytes.insert(bytes.end(), { 'A', 'V', 'S', 'P', 'T', 'R', 'N', '1' });
+  put(std::uint32_t{ 1 });
+  for (const double v : { 0.0, 0.0, 0.5, 0.5 })
+    put(v);
+  put(std::uint64_t{ n });
+  put(std::uint64_t{ n });
+  put(std::uint32_t{ 3 });
+  bytes.insert(bytes.end(), { 'm', 'u', 'd' });
+  put(std::uint8_t{ 1 });
+  put(0.25);  // flowed
+  put(0.125);  // arrived
+  for (std::size_t k = 0; k < n * n; ++k)
+    put(static_cast<float>(k));
+  put(std::uint64_t{ 1 });  // one stateful point: (2, 1)
+  put(std::uint64_t{ 1 * n + 2 });
+  for (const float v : { 0.01f, -0.002f, 12345.f })
+    put(v);
+  put(std::uint64_t{ 0 });  // no objects
+  put(std::uint64_t{ 0 });  // checksum placeholder
+  reseal(bytes);
+  const std::string path = scratchPath();
+  writeBytes(path, bytes);
+  const LoadedTerrain back = loadTerrain(path, library());
+  ASSERT_EQ(back.terrain.palette().size(), 1u);
+  EXPECT_EQ(back.terrain.soil(3, 3).name, "mud");
+  EXPECT_EQ(back.terrain.base().pointHeight(3, 2), 11.f);
+  EXPECT_EQ(back.terrain.deformation(2, 1).sigma_max, 12345.f);
+  EXPECT_EQ(back.terrain.flowedVolume(), 0.25);
+  EXPECT_TRUE(back.terrain.options().transport);
+  std::remove(path.c_str());
 }
 
 TEST(TerrainFile, ResumingOnSavedRutsDrivesTheSame)

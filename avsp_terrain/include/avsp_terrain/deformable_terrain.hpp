@@ -1,19 +1,24 @@
 #pragma once
 /**
  * @file deformable_terrain.hpp
- * @brief Terrain that ruts: base heights (ElevationGrid) plus per-point deformation
- *        (MODELS.md T2-T6) stored sparsely in tiles allocated only where running gear has
- *        touched, and the rigid-wheel soil contact (T7-T12) that deforms it.
+ * @brief Terrain that ruts: base heights (ElevationGrid), a soil per grid point (a palette of
+ *        up to 256 soils and a uint8 soil map), per-point deformation (MODELS.md T2-T6)
+ *        stored sparsely in tiles allocated only where running gear has touched, and the
+ *        rigid-wheel and track-patch soil contacts (T7-T13) that deform it, with grass
+ *        resistance and toppling vegetation (MODELS.md section 3).
  */
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "avsp_terrain/contact_soil.hpp"
 #include "avsp_terrain/elevation_grid.hpp"
 #include "avsp_terrain/soil.hpp"
+#include "avsp_terrain/terrain_objects.hpp"
 
 namespace avsp
 {
@@ -23,71 +28,164 @@ namespace terrain
 struct WheelPatch
 {
   Eigen::Vector3d centre;    ///< m, wheel centre in map
-  double radius = 0.0;       ///< m
-  double width = 0.0;        ///< m
+  double radius = 0.0;       ///< m, > 0
+  double width = 0.0;        ///< m, > 0
   double heading = 0.0;      ///< rad, direction the wheel rolls towards, from map x (CCW)
   double spin_rate = 0.0;    ///< rad/s, positive rolls the wheel forward
   Eigen::Vector3d velocity;  ///< m/s, velocity of the wheel centre in map
 };
 
-/// What the soil does to one wheel this step. Forces act on the wheel, in the wheel frame
-/// (longitudinal along heading, lateral to its left, normal up).
+/**
+ * @brief A track's ground contact, or one segment of it: a flat, horizontal rectangle (the
+ *        track's ground face) pressed into the soil, driven by a sprocket (T10).
+ *
+ * A vehicle may split a track into segments (one per road wheel, each at its own height):
+ * give each its place on the whole track (track_length, segment_offset) so that the shear
+ * displacement j = s x keeps growing from the whole track's leading edge (T7, T11) instead
+ * of restarting at every segment.
+ */
+struct TrackPatch
+{
+  Eigen::Vector3d centre;           ///< m, centre of the rectangle in map; z = height of the ground face
+  double heading = 0.0;             ///< rad, direction of the track's length (forward), from map x (CCW)
+  double length = 0.0;              ///< m, along heading, > 0
+  double width = 0.0;               ///< m, > 0
+  double sprocket_pitch = 0.0;      ///< m, track pitch p of T10, > 0
+  int sprocket_teeth = 0;           ///< N of T10, > 0
+  double sprocket_spin_rate = 0.0;  ///< rad/s, positive drives the vehicle forward
+  Eigen::Vector3d velocity;         ///< m/s, velocity of the patch in map
+  double track_length = 0.0;        ///< m, ground contact length of the whole track; 0: this patch is all of it
+  double segment_offset = 0.0;      ///< m, this patch's centre from the whole track's centre, + forward
+};
+
+/// What the soil (and vegetation) does to one wheel or track patch this step. Forces act on the
+/// running gear, in its frame (longitudinal along heading, lateral to its left, normal up).
 struct ContactForces
 {
   double normal_force = 0.0;        ///< N
   double longitudinal_force = 0.0;  ///< N, traction (T7, T11), + pushes forward
   double lateral_force = 0.0;       ///< N, + pushes to the left
-  double resistance_force = 0.0;    ///< N, bulldozing + rolling (T12), opposes motion (>= 0)
-  double sinkage = 0.0;             ///< m, deepest point below the undeformed surface (incl. elastic)
-  double elastic_sinkage = 0.0;     ///< m, largest elastic part under the wheel (recovers on unloading)
+  double resistance_force = 0.0;    ///< N, opposes motion (>= 0): T12 or Bekker compaction, plus grass
+  double grass_resistance = 0.0;    ///< N, the part of resistance_force due to grass patches
+  double sinkage = 0.0;             ///< m, deepest grid point below the undeformed surface (incl. elastic)
+  double elastic_sinkage = 0.0;     ///< m, largest elastic part under the patch (recovers on unloading)
   double slip = 0.0;                ///< T8, [-1, 1]
   double slip_angle = 0.0;          ///< rad
   int contact_points = 0;           ///< grid points under load
+  std::vector<std::uint32_t> toppled_objects;   ///< object ids this step pushed over
+  std::vector<std::uint32_t> standing_objects;  ///< object ids under the footprint still standing
 };
 
 /// Deformation of one grid point (what a rut remembers).
 struct PointDeformation
 {
-  float plastic = 0.f;    ///< m, z_p (T2), only grows
+  float plastic = 0.f;    ///< m, z_p (T2; Bekker soils: the sinkage reached), only grows
   float displaced = 0.f;  ///< m, z_f - z_n (T4, T5): soil pushed away minus soil received
   float sigma_max = 0.f;  ///< Pa, largest normal stress seen (governs T2 and T4's b1 term)
 };
 
 /**
- * @brief Elevation grid + one soil + sparse deformation state + wheel contact.
+ * @brief Elevation grid + soil map + sparse deformation state + wheel and track contact.
  *
  * Height of a point = base - z_p - (z_f - z_n); while loaded also - z_e (T3, T6).
  * Tiles of kTileSize x kTileSize points are allocated the first time a point in them
- * deforms; untouched terrain costs its base heights plus one pointer per tile (a dense
- * directory: 8 B per 64 points, so lookups are an index, not a hash).
+ * deforms; untouched terrain costs its base heights, one soil byte per point (none with a
+ * single soil) and one pointer per tile (a dense directory: 8 B per 64 points, so lookups
+ * are an index, not a hash).
+ *
+ * Per point the contact uses that point's soil:
+ * - `simple` soils: the normal stress at which T2 compaction + T4 bearing flow (b1) + T3
+ *   elastic sinkage absorb the penetration; T12 resistance.
+ * - `bekker` soils: p = (k_c / b + k_phi) z^n with z the point's sinkage below its
+ *   undeformed surface and b the wheel's width (as in T13) or a track's smaller dimension.
+ *   The soil is rigid-plastic: the sinkage stays (no rebound; a rut carries the pressure it
+ *   was made with before it sinks further), which is what the rigid-wheel theory behind T13
+ *   assumes when the rear of a rolling wheel unloads. Resistance is Bekker's compaction
+ *   resistance: for a wheel the horizontal component of the rim pressure (so a wheel at
+ *   rest, loaded front and back alike, has none), for a track the compaction work per metre
+ *   travelled, b k z^(n+1) / (n + 1). No T3 or T4-b1 terms: Bekker's law is the whole
+ *   static sinkage; T4's slip-driven flow (b2) and T5 transport still apply, so a slipping
+ *   wheel in sand digs and piles soil.
+ * - Both: T7 Mohr-Coulomb/Janosi shear with j = s x behind the leading edge (T11).
+ *
+ * Grid points along the footprint's side edges (and a track's ends) carry the share of their
+ * cell the footprint covers (half when the edge passes through the point; the outermost point
+ * inside also takes the sliver of the next cell), so the loaded width (and a track's length)
+ * equals the running gear's for any alignment with the grid instead of rounding to whole cells.
+ *
+ * Vegetation (MODELS.md section 3), when the contact is given the ObjectSet:
+ * - A grass patch adds rolling resistance: its `rolling_resistance` f times the normal load
+ *   carried by the grid points inside it (the largest f where patches overlap: grass on grass
+ *   is still one sward). The default course gives its patches f = 0.05-0.10, an assumption
+ *   of the same order as a tyre on medium-hard soil (0.04-0.08 in the usual tables of
+ *   rolling-resistance coefficients); no public table gives grass alone.
+ * - Any other object standing (not toppled) whose footprint overlaps the loaded footprint is
+ *   run over and takes the running gear's whole contact force |(N, F_long, F_lat)| towards
+ *   the direction of travel -- an assumption: a stem or post under a wheel or track bears its
+ *   load until it gives. If that reaches its strength it topples (ObjectSet::push) and is
+ *   listed in `toppled_objects`; rigid or stronger ones are listed in `standing_objects` for
+ *   the dynamics to collide with (the soil contact cannot know the vehicle's momentum).
+ *   Probes (deform = false) push nothing over.
  */
 class DeformableTerrain
 {
 public:
   static constexpr int kTileSize = 8;
+  /// Largest palette: soil indices are one byte.
+  static constexpr std::size_t kMaxSoils = 256;
 
+  /// Behaviour switches.
   struct Options
   {
     bool transport = true;  ///< T5 on: flowed soil arrives at neighbours (berms); off: z_n = 0
   };
 
+  /**
+   * @brief One soil everywhere (no soil map is stored).
+   * @throw std::invalid_argument naming the soil field when `soil` is unusable (see ContactSoil)
+   */
   DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options);
+
+  /**
+   * @brief A soil per grid point.
+   * @param palette the soils, 1 to kMaxSoils of them
+   * @param soil_map index into `palette` per grid point (index j * columns + i), columns * rows entries
+   * @throw std::invalid_argument naming `palette` or `soil_map` and the reason: empty or too
+   *        large palette, an unusable soil, a map of the wrong size, an index not in the palette
+   */
+  DeformableTerrain(ElevationGrid base, std::vector<SoilParameters> palette, std::vector<std::uint8_t> soil_map,
+                    Options options);
 
   /// Deformed (unloaded) height at (x, y), bilinear, m; nullopt outside the grid.
   std::optional<double> height(double x, double y) const;
 
-  /// Deformed (unloaded) height of grid point (i, j), m.
+  /// Deformed (unloaded) height of grid point (i, j), m. @throw std::out_of_range outside the grid
   double pointHeight(std::size_t i, std::size_t j) const;
 
-  /// Deformation of grid point (i, j) (zeros where never touched).
+  /// Deformation of grid point (i, j) (zeros where never touched). @throw std::out_of_range outside the grid
   PointDeformation deformation(std::size_t i, std::size_t j) const;
 
   /**
    * @brief Soil contact of a rigid wheel for one step of length dt (s).
-   * @param deform true: the step's compaction and flow become permanent (ruts); false: a
-   *        probe that leaves the terrain as it was
+   * @param deform true: the step's compaction and flow become permanent (ruts) and objects
+   *        pushed hard enough topple; false: a probe that leaves terrain and objects as they were
+   * @param objects if given: grass patches under the loaded footprint add resistance, other
+   *        objects it overlaps are pushed (see the class notes on vegetation)
+   * @throw std::invalid_argument naming the field: non-finite centre, velocity, heading or
+   *        spin rate, radius or width not > 0, dt not finite or negative
    */
-  ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform);
+  ContactForces wheelContact(const WheelPatch& wheel, double dt, bool deform, ObjectSet* objects = nullptr);
+
+  /**
+   * @brief Soil contact of a flat track patch for one step of length dt (s): slip from the
+   *        sprocket's theoretical speed (T10, T8), pressure per point as for wheels, shear
+   *        j = s x from the whole track's leading edge (T7, T11), T12 or Bekker compaction
+   *        resistance. Same `deform` and `objects` semantics as wheelContact().
+   * @throw std::invalid_argument naming the field: non-finite values; length, width, pitch
+   *        or teeth not > 0; track_length neither 0 nor >= length; the patch not within the
+   *        track (segment_offset); dt not finite or negative
+   */
+  ContactForces trackContact(const TrackPatch& track, double dt, bool deform, ObjectSet* objects = nullptr);
 
   /// m^3: soil volume that left points by flow so far, and volume that arrived by transport.
   double flowedVolume() const { return flowed_volume_; }
@@ -98,13 +196,15 @@ public:
   std::size_t deformationBytes() const;
   /// Bytes of the tile directory: fixed per grid (8 B per kTileSize^2 points).
   std::size_t directoryBytes() const;
+  /// Bytes of the soil map: fixed per grid, 1 B per grid point (0 with a single soil).
+  std::size_t soilMapBytes() const { return soil_map_.size(); }
 
   /// Grid points (i, j) that carry state (all points of allocated tiles), in row-major tile
   /// order then row-major within the tile: what a save must write to restore bit-exactly.
   std::vector<std::pair<std::size_t, std::size_t>> statefulPoints() const;
 
-  /// Restores one point's deformation (loading a saved terrain).
-  void setDeformation(std::size_t i, std::size_t j, const PointDeformation& d) { touch(i, j) = d; }
+  /// Restores one point's deformation (loading a saved terrain). @throw std::out_of_range outside the grid
+  void setDeformation(std::size_t i, std::size_t j, const PointDeformation& d);
   /// Restores the flow accounting (loading a saved terrain).
   void setVolumes(double flowed, double arrived)
   {
@@ -114,29 +214,75 @@ public:
   const Options& options() const { return options_; }
 
   const ElevationGrid& base() const { return base_; }
-  const SoilParameters& soil() const { return soil_; }
+
+  /// The soils, indexed by the soil map.
+  const std::vector<SoilParameters>& palette() const { return palette_; }
+  /// Palette index of grid point (i, j). @throw std::out_of_range outside the grid
+  std::uint8_t soilIndex(std::size_t i, std::size_t j) const;
+  /// Soil of grid point (i, j). @throw std::out_of_range outside the grid
+  const SoilParameters& soil(std::size_t i, std::size_t j) const { return palette_[soilIndex(i, j)]; }
+  /**
+   * @brief Replaces palette entry `index` (e.g. the same soil at a new moisture, dynamic_soil.hpp);
+   *        every point mapped to it uses the new parameters from the next contact on.
+   * @throw std::invalid_argument naming `index` (not in the palette) or the soil field
+   */
+  void setSoil(std::size_t index, SoilParameters soil);
 
 private:
   using Tile = std::array<PointDeformation, kTileSize * kTileSize>;
 
+  /// A grid point under the running gear this step.
+  struct LoadedPoint
+  {
+    std::uint32_t i, j;
+    std::uint8_t soil;   ///< palette index
+    double weight;       ///< share of the point's cell under the footprint, (0, 2.25)
+    double along;        ///< m, position along the direction of travel (footprint frame)
+    double x0, x1;       ///< m, its strip behind the leading edge (shear displacement, T11)
+    double penetration;  ///< m, below the current unloaded surface
+    double sigma;        ///< Pa
+    double elastic;      ///< m
+    double depth;        ///< m, Bekker soils: sinkage reached (plastic + penetration)
+    double rim_slope;    ///< wheel on Bekker soil: horizontal / vertical rim pressure, + opposes travel
+    double flow_volume;  ///< m^3 that flowed away this step (T4), for transport (T5)
+  };
+
+  /// Where a contact is and how it moves, shared by wheels and tracks.
+  struct Footprint;
+
+  /// @throw std::out_of_range naming `function` and the point when (i, j) is outside the grid
+  void checkPoint(const char* function, std::size_t i, std::size_t j) const;
   const PointDeformation* find(std::size_t i, std::size_t j) const;
   std::size_t tileIndex(std::size_t i, std::size_t j) const { return (j / kTileSize) * tiles_x_ + i / kTileSize; }
   PointDeformation& touch(std::size_t i, std::size_t j);
-  /// Normal stress (Pa) at which the point absorbs `penetration` (m) of new deformation.
-  double stressForPenetration(const PointDeformation& state, double penetration) const;
-  /// Extra sinkage (m) the point takes under stress sigma (Pa): T2 + T4 (b1) + T3 increments.
-  double extraSinkage(const PointDeformation& state, double sigma) const;
-  void spreadToNeighbours(std::size_t i, std::size_t j, double volume);
+  /// T5: hands each loaded point's flow_volume to its 8 neighbours.
+  void spreadFlow();
+  /// Slip and the points under the footprint with penetration, stress and strip (loaded_).
+  void collect(const Footprint& fp, ContactForces& out);
+  /// Forces from loaded_, then (deform) makes the step permanent.
+  void forcesAndDeform(const Footprint& fp, double dt, bool deform, ObjectSet* objects, ContactForces& out);
+  /// Grass resistance and pushes on the objects under the loaded footprint.
+  void vegetation(const Footprint& fp, bool deform, ObjectSet& objects, ContactForces& out) const;
 
   ElevationGrid base_;
-  SoilParameters soil_;
+  std::vector<SoilParameters> palette_;
+  std::vector<ContactSoil> contact_soils_;  ///< palette_ prepared for the contact's inner loop
+  std::vector<std::uint8_t> soil_map_;      ///< per grid point; empty: index 0 everywhere
   Options options_;
   std::size_t tiles_x_;
   std::vector<std::unique_ptr<Tile>> tiles_;  ///< tile directory, row-major, null = untouched
   std::size_t allocated_tiles_ = 0;
   double flowed_volume_ = 0.0;
   double arrived_volume_ = 0.0;
+  std::vector<LoadedPoint> loaded_;  ///< scratch of the current contact (kept: no allocation per call)
+  std::vector<double> arrivals_;     ///< scratch: soil arriving per point of the contact's window, m
 };
+
+/**
+ * @brief The palette for `names` (e.g. Course::soil_names) from the soil library, in order.
+ * @throw SoilError naming the soil when the library has no soil of that name
+ */
+std::vector<SoilParameters> paletteFromNames(const std::vector<std::string>& names, const SoilLibrary& library);
 
 }  // namespace terrain
 }  // namespace avsp

@@ -1,13 +1,15 @@
 #pragma once
 /**
  * @file terrain_file.hpp
- * @brief Saves a deformed terrain (base heights, per-point deformation, flow accounting,
- *        objects with their toppled state) to one binary file and loads it back bit-exactly,
- *        so a run can resume on yesterday's ruts.
+ * @brief Saves a deformed terrain (base heights, soil map and palette, per-point deformation,
+ *        flow accounting, objects with their toppled state) to one binary file and loads it
+ *        back bit-exactly, so a run can resume on yesterday's ruts.
  *
- * Format (little-endian): "AVSPTRN1", grid (origin, spacing, size), soil name, transport
- * flag, flow volumes, base heights, stateful points, objects, then an FNV-1a 64-bit checksum
- * of everything before it.
+ * Format version 2 (little-endian): "AVSPTRN1", version, grid (origin, spacing, size),
+ * palette (count, soil names), transport flag, flow volumes, base heights, soil map (a kind
+ * byte: 0 = palette entry 0 everywhere, 1 = one index byte per grid point follows), stateful
+ * points, objects, then an FNV-1a 64-bit checksum of everything before it. Version 1 (one
+ * soil name, no soil map) is still read.
  */
 #include <stdexcept>
 #include <string>
@@ -37,9 +39,12 @@ struct LoadedTerrain
 };
 
 /**
- * @brief Loads a file written by saveTerrain(); the soil is looked up by its saved name.
+ * @brief Loads a file written by saveTerrain(); the palette's soils are looked up by their
+ *        saved names (a soil changed with DeformableTerrain::setSoil() comes back as the
+ *        library has it).
  * @throw TerrainFileError naming the file: missing, not a terrain file, other version,
- *        truncated, checksum mismatch, inconsistent sizes, or a soil not in `soils`
+ *        truncated, checksum mismatch, inconsistent sizes, a soil not in `soils`, a soil
+ *        index outside the palette
  */
 LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils);
 
