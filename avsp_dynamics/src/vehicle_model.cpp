@@ -85,7 +85,13 @@ public:
       const double tol = 1e-9 * ev.maxCoeff();
       if (ev(0) + ev(1) < ev(2) - tol || ev(0) + ev(2) < ev(1) - tol || ev(1) + ev(2) < ev(0) - tol)
         fail("link '" + link->name + "': principal inertias violate the triangle inequality");
-      out.push_back(Body{ link->name, in.mass, ev, restPose(link->name).translation() });
+      // The dynamics lumps and places bodies in base_link: express the tensor there, about
+      // the centre of mass (URDF gives it in the <inertial> origin's frame).
+      const Eigen::Isometry3d link_pose = restPose(link->name);
+      const Eigen::Isometry3d inertial_pose = link_pose * toIsometry(in.origin);
+      const Eigen::Matrix3d r = inertial_pose.linear();
+      out.push_back(Body{ link->name, in.mass, ev, link_pose.translation(), inertial_pose.translation(),
+                          r * inertia * r.transpose() });
     }
     if (out.empty())
       fail("no link has an <inertial>: the vehicle has no mass");

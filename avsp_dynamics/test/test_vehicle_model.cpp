@@ -171,6 +171,33 @@ TEST(VehicleModel, SuspensionPreloadMatchesCornerWeight)
   }
 }
 
+// The dynamics lumps bodies in base_link: each body's centre of mass and inertia tensor must be
+// expressed there, including a rotated and offset <inertial> origin.
+TEST(VehicleModel, BodyInertiaIsInBaseLinkAboutItsCentreOfMass)
+{
+  ScratchConfig c("fed_alpha");
+  c.editUrdf(R"(<origin xyz="0 0 0" rpy="0 0 0"/>
+      <mass value="5240"/>)",
+             R"(<origin xyz="0.2 0 0.1" rpy="0 0 1.5707963267948966"/>
+      <mass value="5240"/>)");
+  const VehicleModel m = loadVehicleModel(c.write());
+  for (const auto& b : m.bodies)
+  {
+    if (b.link != "chassis")
+      continue;
+    // Chassis joint at z = 0.55; the inertial origin adds (0.2, 0, 0.1).
+    EXPECT_NEAR((b.com - Eigen::Vector3d(0.2, 0.0, 0.65)).norm(), 0.0, 1e-12);
+    EXPECT_NEAR(b.rest_position.z(), 0.55, 1e-12);
+    // Yawed 90 degrees: the URDF's ixx (2742.27) lies along base y, iyy (11113.2) along base x.
+    EXPECT_NEAR(b.inertia(0, 0), 11113.2, 1e-6);
+    EXPECT_NEAR(b.inertia(1, 1), 2742.27, 1e-6);
+    EXPECT_NEAR(b.inertia(2, 2), 12597.8, 1e-6);
+    EXPECT_NEAR(b.inertia(0, 1), 0.0, 1e-6);
+    return;
+  }
+  FAIL() << "no chassis body";
+}
+
 TEST(VehicleModel, AckermannSteeringWithinJointLimits)
 {
   const VehicleModel m = loadVehicleModel(kConfigDir + "/fed_alpha.yaml");

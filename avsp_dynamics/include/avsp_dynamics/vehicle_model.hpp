@@ -44,6 +44,8 @@ struct Body
   double mass;                           ///< kg, > 0
   Eigen::Vector3d principal_inertia;     ///< kg m^2, eigenvalues of the inertia tensor
   Eigen::Vector3d rest_position;         ///< m, link origin in base_link with all joints at 0
+  Eigen::Vector3d com;                   ///< m, centre of mass in base_link with all joints at 0
+  Eigen::Matrix3d inertia;               ///< kg m^2, about the centre of mass, in base_link axes
 };
 
 /// A road wheel of a wheeled vehicle, with its suspension and (optional) steering joints.

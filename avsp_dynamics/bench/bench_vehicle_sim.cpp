@@ -1,0 +1,127 @@
+// Prints the vehicle simulation's figures (not a test): real-time factor at a 1 ms physics step
+// of one fed_alpha 4x4 driving on deformable soil, and microseconds per vehicle-step split
+// into ODE step, soil contact, stiffness probes and the rest; the terrain update is the
+// contact's extra cost with deformation on over the same run with it off.
+// Usage: bench_vehicle_sim SOILS.yaml FED_ALPHA.yaml [seconds, default 60] [soil ...]
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <avsp_terrain/deformable_terrain.hpp>
+#include <avsp_terrain/soil.hpp>
+
+#include "avsp_dynamics/vehicle_sim.hpp"
+
+using namespace avsp;
+using Clock = std::chrono::steady_clock;
+
+namespace
+{
+struct Run
+{
+  double wall = 0.0;      ///< s
+  double sim = 0.0;       ///< s
+  double distance = 0.0;  ///< m
+  double max_rut = 0.0;   ///< m, deepest sinkage seen
+  dynamics::StepTimes times;
+};
+
+/// fed_alpha on a flat 200 m x 200 m terrain at 0.1 m cells (the founding report's site
+/// resolution), holding 5 m/s with a slowly swinging steering so it keeps to fresh soil.
+Run drive(const terrain::SoilParameters& soil, const dynamics::VehicleModel& model, double seconds,
+          const dynamics::WorldOptions& options)
+{
+  const double size = 200.0, res = 0.1;
+  const std::size_t n = static_cast<std::size_t>(size / res) + 1;
+  terrain::DeformableTerrain ground(
+      terrain::ElevationGrid(-0.5 * size, -0.5 * size, res, res, n, n, std::vector<float>(n * n, 0.f)), soil,
+      terrain::DeformableTerrain::Options{ true });
+  dynamics::World world(ground, options);
+  const std::size_t id = world.addVehicle(model, world.restingPose(model, -60.0, 0.0, 0.0, 0.01));
+  Run run;
+  double integral = 0.0;
+  Eigen::Vector3d last = world.state(id).pose.translation();
+  const auto t0 = Clock::now();
+  const auto steps = static_cast<long>(std::lround(seconds / options.step));
+  for (long k = 0; k < steps; ++k)
+  {
+    const dynamics::VehicleState& s = world.state(id);
+    const double error = 5.0 - s.body_velocity.x();
+    integral = std::clamp(integral + 0.3 * error * options.step, 0.0, 1.0);
+    dynamics::DriveCommand c;
+    c.throttle = std::clamp(0.5 * error + integral, 0.0, 1.0);
+    c.steering = 0.15 * std::sin(2.0 * M_PI * world.time() / 40.0);
+    world.setCommand(id, c);
+    world.step();
+    const dynamics::VehicleState& after = world.state(id);
+    run.distance += (after.pose.translation() - last).head<2>().norm();
+    last = after.pose.translation();
+    for (const dynamics::WheelState& w : after.wheels)
+      run.max_rut = std::max(run.max_rut, w.sinkage);
+  }
+  run.wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  run.sim = world.time();
+  run.times = world.times();
+  return run;
+}
+
+void print(const char* label, const Run& r)
+{
+  const double per = 1e6 / static_cast<double>(r.times.steps);
+  std::printf("  %-34s real-time factor %6.1fx  (%.1f s simulated in %.2f s, %.0f m, sinkage up to %.1f mm)\n", label,
+              r.sim / r.wall, r.sim, r.wall, r.distance, 1e3 * r.max_rut);
+  std::printf("  %-34s us per vehicle-step: ODE %.1f, soil contact %.1f, stiffness probes %.1f, rest %.1f "
+              "(total %.1f)\n",
+              "", r.times.ode * per, r.times.contact * per, r.times.probe * per, r.times.other * per,
+              (r.times.ode + r.times.contact + r.times.probe + r.times.other) * per);
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  if (argc < 3)
+  {
+    std::fprintf(stderr, "usage: bench_vehicle_sim SOILS.yaml FED_ALPHA.yaml [seconds] [soil ...]\n");
+    return 2;
+  }
+  try
+  {
+    const terrain::SoilLibrary soils = terrain::SoilLibrary::load(argv[1]);
+    const dynamics::VehicleModel model = dynamics::loadVehicleModel(argv[2]);
+    const double seconds = argc > 3 ? std::atof(argv[3]) : 60.0;
+    std::vector<std::string> names;
+    for (int k = 4; k < argc; ++k)
+      names.push_back(argv[k]);
+    if (names.empty())
+      names = { "gravel", "sandy_loam" };
+    std::printf("%s at 5 m/s on a 200 m x 200 m terrain at 0.1 m cells, 1 ms physics step, %.0f s per run\n",
+                model.model.c_str(), seconds);
+    for (const std::string& name : names)
+    {
+      std::printf("%s:\n", name.c_str());
+      dynamics::WorldOptions options;
+      options.profile = true;
+      const Run deforming = drive(soils.get(name), model, seconds, options);
+      print("deformable (ruts), exact solver", deforming);
+      options.deform_terrain = false;
+      const Run rigid = drive(soils.get(name), model, seconds, options);
+      print("same without deformation", rigid);
+      const double per_d = 1e6 / static_cast<double>(deforming.times.steps);
+      const double per_r = 1e6 / static_cast<double>(rigid.times.steps);
+      std::printf("  %-34s terrain update (contact with ruts - without) %.1f us per vehicle-step\n", "",
+                  deforming.times.contact * per_d - rigid.times.contact * per_r);
+      options.deform_terrain = true;
+      options.solver = dynamics::Solver::kIterative;
+      print("deformable, iterative solver (20 it.)", drive(soils.get(name), model, seconds, options));
+    }
+  }
+  catch (const std::exception& e)
+  {
+    std::fprintf(stderr, "bench_vehicle_sim: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,195 @@
+#pragma once
+/**
+ * @file vehicle_sim.hpp
+ * @brief The vehicle simulation: an ODE world with a fixed step that drives vehicles built
+ *        from a VehicleModel over a DeformableTerrain. The soil, not ODE friction, makes the
+ *        wheel-ground forces (avsp_terrain's T7-T12 contact, every step, with ruts).
+ *
+ * What a wheeled vehicle is in ODE:
+ *  - a chassis body: every non-wheel URDF link lumped (mass, centre of mass, inertia tensor
+ *    by the parallel-axis theorem);
+ *  - one body per wheel (the wheel link's mass and inertia), joined to the chassis by a
+ *    hinge2: axis 1 = chassis z (steering, and the suspension travels along it), axis 2 =
+ *    the axle. The suspension spring-damper is the hinge2's implicit suspension
+ *    (ERP = h k / (h k + c), CFM = 1 / (h k + c)), plus the YAML preload k * preload as a
+ *    force pair so the URDF pose is the static ride height, plus bump stops at the URDF
+ *    travel limits;
+ *  - steering: a rate-limited actuator on the bicycle angle, Ackermann angles per wheel
+ *    (AckermannGeometry), each tracked by the hinge2's axis-1 motor; unsteered wheels are
+ *    locked by axis-1 stops at 0;
+ *  - drivetrain: engine torque and power limit through gear ratio and efficiency (Ackermann)
+ *    or one speed-servoed motor per side (skid-steer); open differentials split torque
+ *    equally, locked ones hold equal speeds (see README: transfer torque solved each step);
+ *    brakes are axis-2 velocity motors with the brake torque as their limit.
+ *
+ * Soil contact, per wheel per step: a WheelPatch from the wheel body's pose and velocity,
+ * terrain.wheelContact(patch, h, deform), and its forces handed to ODE as one contact joint
+ * at the wheel's lowest point: the normal force as an implicit spring-damper whose stiffness
+ * is the soil's own (probed), traction and lateral force as friction rows bounded by what the
+ * soil gives at the current slip (force-dependent slip = the soil's slip velocity per newton),
+ * rolling and bulldozing resistance as a force at the wheel centre. README.md explains why.
+ */
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include <avsp_terrain/deformable_terrain.hpp>
+
+#include "avsp_dynamics/drivetrain.hpp"
+#include "avsp_dynamics/vehicle_model.hpp"
+
+namespace avsp
+{
+namespace dynamics
+{
+/// ODE's solvers: exact (dWorldStep, Dantzig LCP) or iterative (dWorldQuickStep, SOR).
+enum class Solver
+{
+  kExact,     ///< constraints met to rounding: brakes hold, no creep (default)
+  kIterative  ///< cheaper per row for large worlds; a braked vehicle creeps (mm/s at 20 iterations)
+};
+
+/// Settings of a World. Invalid values throw std::invalid_argument naming the field.
+struct WorldOptions
+{
+  double step = 0.001;       ///< s, fixed physics step (> 0, <= 0.01)
+  double gravity = 9.81;     ///< m/s^2, along -z of the map (>= 0)
+  std::uint64_t seed = 0;    ///< seeds ODE's solver (constraint order); same seed = same run
+  Solver solver = Solver::kExact;
+  int solver_iterations = 20;  ///< QuickStep iterations with Solver::kIterative (>= 1)
+  int stiffness_probe_interval = 10;  ///< steps a wheel's soil stiffness probe is reused (>= 1)
+  bool deform_terrain = true;  ///< false: contacts leave no ruts (the terrain stays as it is)
+  double contact_damping_ratio = 0.7;  ///< of a wheel's vertical mode on the soil, [0, 2]
+  bool profile = false;      ///< accumulate step timings (World::times())
+};
+
+/// What one wheel does this step (the contract's WheelContact, plus joint state). SI units.
+struct WheelState
+{
+  std::string name;
+  bool in_contact = false;
+  double normal_force = 0.0;      ///< N, the soil's normal reaction (terrain model)
+  double applied_normal_force = 0.0;  ///< N, normal force ODE applied over the last step
+  double sinkage = 0.0;           ///< m, below the undeformed surface
+  double slip = 0.0;              ///< T8, [-1, 1]
+  double slip_angle = 0.0;        ///< rad
+  double traction_force = 0.0;    ///< N, longitudinal soil force applied over the last step, + forward
+  double lateral_force = 0.0;     ///< N, lateral soil force applied over the last step, + to the left
+  double resistance_force = 0.0;  ///< N, bulldozing + rolling (T12), >= 0
+  int contact_points = 0;         ///< terrain grid points under load
+  double spin_rate = 0.0;         ///< rad/s relative to the chassis, + rolls forward
+  double steering_angle = 0.0;    ///< rad, + = left
+  double suspension_deflection = 0.0;  ///< m along chassis z from the URDF rest pose, + = up (bump)
+  double drive_torque = 0.0;      ///< N m applied by the drivetrain this step
+  double brake_torque_limit = 0.0;  ///< N m, the brake's torque limit this step
+};
+
+/// A vehicle's state after the last step.
+struct VehicleState
+{
+  std::string name;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< base_link in map
+  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();   ///< m/s, base_link origin, map
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< rad/s, map
+  Eigen::Vector3d body_velocity = Eigen::Vector3d::Zero();     ///< m/s, base_link origin, base_link axes
+  Eigen::Vector3d centre_of_mass = Eigen::Vector3d::Zero();    ///< m, all bodies, map
+  double steering_angle = 0.0;  ///< rad, Ackermann bicycle angle (AckermannGeometry), + = left
+  double engine_speed = 0.0;    ///< rad/s (skid-steer: mean of the side motors)
+  double engine_torque = 0.0;   ///< N m at the crankshaft (skid-steer: sum of the side motors)
+  DriveCommand command;         ///< the command in force (clamped)
+  std::vector<WheelState> wheels;  ///< in model.wheels order
+};
+
+/// Accumulated wall time of World::step() by part (World options.profile).
+struct StepTimes
+{
+  std::uint64_t steps = 0;
+  double ode = 0.0;        ///< s in dWorldQuickStep
+  double contact = 0.0;    ///< s in wheelContact with deform = options.deform_terrain
+  double probe = 0.0;      ///< s in the stiffness probes (wheelContact without deformation)
+  double other = 0.0;      ///< s in the rest (actuators, drivetrain, joints, telemetry)
+};
+
+class SimVehicle;  // one vehicle's ODE bodies and joints (vehicle_sim.cpp)
+
+/**
+ * @brief An ODE world with a fixed step driving vehicles over a deformable terrain.
+ *
+ * Single-threaded and deterministic: the same terrain, vehicles, commands and seed give
+ * bit-identical trajectories (ODE's solver randomness is seeded per world and its state
+ * saved between steps, so other worlds in the process do not disturb it).
+ */
+class World
+{
+public:
+  /**
+   * @param terrain the ground; must outlive the World (it is deformed by the wheels)
+   * @throw std::invalid_argument naming the WorldOptions field that is out of range
+   */
+  explicit World(terrain::DeformableTerrain& terrain, const WorldOptions& options = WorldOptions());
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  /**
+   * @brief Builds a vehicle's ODE bodies and joints at `pose` (base_link in map), at rest,
+   *        suspension at its URDF rest position.
+   * @param name used in telemetry and errors; the model name when empty
+   * @return the vehicle's index
+   * @throw ConfigError naming the model's YAML and the key/link when the model cannot be
+   *        simulated (tracked vehicles are not supported yet; a wheel link without mass)
+   * @throw std::invalid_argument when the pose is not finite
+   */
+  std::size_t addVehicle(const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name = "");
+
+  /**
+   * @brief Sets the command a vehicle follows from the next step on (fields clamped).
+   * @throw CommandError naming the field when a field is NaN or infinite (the previous
+   *        command stays in force)
+   * @throw std::out_of_range for an unknown vehicle index
+   */
+  void setCommand(std::size_t vehicle, const DriveCommand& command);
+
+  /// One physics step of options().step seconds.
+  void step();
+  /// Steps until `seconds` more have elapsed (rounded to whole steps).
+  void advance(double seconds);
+
+  double time() const { return static_cast<double>(steps_) * options_.step; }  ///< s
+  std::uint64_t stepCount() const { return steps_; }
+  const WorldOptions& options() const { return options_; }
+  std::size_t vehicleCount() const;
+
+  /// State after the last step. @throw std::out_of_range for an unknown vehicle index
+  const VehicleState& state(std::size_t vehicle) const;
+  /// @throw std::out_of_range naming the vehicle and the wheel if it has no such wheel
+  const WheelState& wheel(std::size_t vehicle, const std::string& wheel_name) const;
+
+  /**
+   * @brief A base_link pose at (x, y) with heading yaw (rad) whose lowest wheel sits
+   *        `clearance` m above the terrain there, level (roll = pitch = 0).
+   * @throw std::invalid_argument if (x, y) is off the terrain
+   */
+  Eigen::Isometry3d restingPose(const VehicleModel& model, double x, double y, double yaw,
+                                double clearance = 0.0) const;
+
+  const StepTimes& times() const { return times_; }
+  terrain::DeformableTerrain& terrain() { return terrain_; }
+
+private:
+  struct Ode;  // ODE handles
+  terrain::DeformableTerrain& terrain_;
+  WorldOptions options_;
+  std::unique_ptr<Ode> ode_;
+  std::vector<std::unique_ptr<SimVehicle>> vehicles_;
+  std::uint64_t steps_ = 0;
+  unsigned long rng_state_ = 0;  ///< ODE's dRand state between this world's steps
+  StepTimes times_;
+};
+
+}  // namespace dynamics
+}  // namespace avsp

@@ -1,0 +1,882 @@
+#include "avsp_dynamics/vehicle_sim.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+
+#include <ode/ode.h>
+
+namespace avsp
+{
+namespace dynamics
+{
+namespace
+{
+using Clock = std::chrono::steady_clock;
+
+static_assert(sizeof(dReal) == sizeof(double), "avsp_dynamics needs ODE built in double precision (libode-dev)");
+
+void initOde()
+{
+  static std::once_flag once;
+  std::call_once(once, [] { dInitODE2(0); });
+}
+
+Eigen::Vector3d vec(const dReal* v)
+{
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+Eigen::Matrix3d rotationOf(dBodyID body)
+{
+  const dReal* r = dBodyGetRotation(body);  // 3x4, row-major
+  Eigen::Matrix3d m;
+  m << r[0], r[1], r[2], r[4], r[5], r[6], r[8], r[9], r[10];
+  return m;
+}
+
+void setRotation(dBodyID body, const Eigen::Matrix3d& m)
+{
+  dMatrix3 r = { m(0, 0), m(0, 1), m(0, 2), 0.0, m(1, 0), m(1, 1), m(1, 2), 0.0, m(2, 0), m(2, 1), m(2, 2), 0.0 };
+  dBodySetRotation(body, r);
+}
+
+void setMass(dBodyID body, double mass, const Eigen::Matrix3d& inertia)
+{
+  dMass m;
+  dMassSetParameters(&m, mass, 0.0, 0.0, 0.0, inertia(0, 0), inertia(1, 1), inertia(2, 2), inertia(0, 1),
+                     inertia(0, 2), inertia(1, 2));
+  dBodySetMass(body, &m);
+}
+
+/// Parallel-axis term: inertia of a point mass m at offset d.
+Eigen::Matrix3d pointInertia(double m, const Eigen::Vector3d& d)
+{
+  return m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+}
+
+double seconds(Clock::time_point a, Clock::time_point b)
+{
+  return std::chrono::duration<double>(b - a).count();
+}
+
+/// m: the stiffness probe lowers the wheel this much (far above float rounding of the
+/// terrain's state, ~1e-9 m, far below any sinkage that matters).
+constexpr double kProbeDepth = 1e-5;
+/// m: the normal row's virtual penetration (soil force / stiffness) never exceeds this, so a
+/// contact whose probe found no stiffness (no new grid point loaded) still acts as a spring.
+constexpr double kMaxVirtualDepth = 0.02;
+/// m/s: resistance (T12) is a kinetic force; below this wheel speed it fades linearly to 0 so
+/// a wheel at rest is not pushed back and forth by a force whose direction flips each step.
+constexpr double kResistanceFadeSpeed = 0.1;
+}  // namespace
+
+struct World::Ode
+{
+  dWorldID world = nullptr;
+  dJointGroupID contacts = nullptr;
+  ~Ode()
+  {
+    if (contacts)
+      dJointGroupDestroy(contacts);
+    if (world)
+      dWorldDestroy(world);
+  }
+};
+
+/// One wheeled vehicle's ODE bodies, joints and actuators.
+class SimVehicle
+{
+public:
+  SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name,
+             const WorldOptions& options);
+  ~SimVehicle();
+  SimVehicle(const SimVehicle&) = delete;
+  SimVehicle& operator=(const SimVehicle&) = delete;
+
+  void setCommand(const DriveCommand& command) { command_ = command; }
+  void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
+  void afterStep(double time);
+  const VehicleState& state() const { return state_; }
+
+private:
+  struct Wheel
+  {
+    const WheelSpec* spec = nullptr;
+    dBodyID body = nullptr;
+    dJointID joint = nullptr;
+    double mass = 0.0;
+    double spin_inertia = 0.0;  ///< kg m^2 about the axle
+    double lower = 0.0, upper = 0.0;  ///< m, suspension travel
+    double drive_torque = 0.0;  ///< N m this step
+    double brake_limit = 0.0;   ///< N m this step
+    bool contact = false;       ///< a contact joint was made this step
+    Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< contact frame of this step
+    Eigen::Vector3d t1 = Eigen::Vector3d::UnitX(), t2 = Eigen::Vector3d::UnitY();
+    terrain::ContactForces soil;
+    dJointFeedback feedback{};
+    // Last stiffness probe: kept while the contact looks the same (see soilContact).
+    double stiffness = 0.0;       ///< N/m, 0 = none
+    double probed_force = 0.0;    ///< N, soil normal force when probed
+    int steps_since_probe = 0;
+  };
+
+  /// Two wheels a locked differential turns at the same speed: an ODE angular motor between
+  /// them holding zero relative spin about the bisector of their axles (exact for steered
+  /// wheels too: both spins project on it by the same cos(half the angle between them)).
+  struct Coupling
+  {
+    std::size_t a, b;
+    dJointID motor;
+  };
+
+  /// rad/s relative to the chassis, + rolls forward (ODE's hinge2 rate is body 1 relative
+  /// to body 2, i.e. the opposite sign).
+  double spinRate(const Wheel& w) const { return -dJointGetHinge2Angle2Rate(w.joint); }
+  /// rad, + = left (counter-clockwise about chassis z); ODE's hinge2 angle 1 has the
+  /// opposite sign, and so has its axis-1 motor velocity.
+  double steerAngle(const Wheel& w) const { return -dJointGetHinge2Angle1(w.joint); }
+  void updateSteering();
+  void updateDrivetrain();
+  void updateCouplings();
+  void updateSuspension();
+  void soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
+  Eigen::Vector3d surfaceNormal(const terrain::DeformableTerrain& terrain, const Eigen::Vector3d& centre,
+                                const Eigen::Vector3d& forward, double radius, double width) const;
+  void couple(const std::string& key, const std::vector<std::pair<std::size_t, std::size_t>>& pairs);
+
+  VehicleModel model_;
+  WorldOptions options_;
+  dWorldID world_;
+  dBodyID chassis_ = nullptr;
+  Eigen::Vector3d chassis_com_;  ///< m, lumped centre of mass in base_link
+  double chassis_mass_ = 0.0;
+  std::vector<Wheel> wheels_;
+  std::unique_ptr<AckermannGeometry> geometry_;
+  double steer_ = 0.0;  ///< rad, the actuator's bicycle angle
+  double steer_torque_limit_ = 0.0;
+  /// m/s or rad/s: velocity error the constraint regularizations allow at full load.
+  const double regularization_ = 1e-5;
+  std::vector<std::size_t> driven_front_, driven_rear_, driven_left_, driven_right_;
+  std::vector<Coupling> couplings_;
+  double side_integral_[2] = { 0.0, 0.0 };  ///< skid-steer speed servo integrators, N m
+  double engine_speed_ = 0.0, engine_torque_ = 0.0;
+  DriveCommand command_;
+  VehicleState state_;
+};
+
+SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::Isometry3d& pose,
+                       const std::string& name, const WorldOptions& options)
+  : model_(model), options_(options), world_(world)
+{
+  // Everything that can reject the model is checked before the first ODE object exists, so
+  // a rejected vehicle leaves nothing behind in the world.
+  if (model_.drive_type == DriveType::kTracked)
+    throw ConfigError(model_.yaml_path + ": key 'drive_type': tracked vehicles are not simulated yet " +
+                      "(avsp_dynamics builds wheeled vehicles: ackermann, skid_steer)");
+  if (model_.wheels.empty())
+    throw ConfigError(model_.yaml_path + ": key 'wheels': a wheeled vehicle needs wheels");
+  std::vector<const Body*> wheel_bodies(model_.wheels.size(), nullptr);
+  for (std::size_t i = 0; i < model_.wheels.size(); ++i)
+  {
+    const WheelSpec& spec = model_.wheels[i];
+    for (const Body& b : model_.bodies)
+      if (b.link == spec.link)
+        wheel_bodies[i] = &b;
+    if (!wheel_bodies[i])
+      throw ConfigError(model_.yaml_path + ": key 'wheels': wheel '" + spec.name + "': link '" + spec.link +
+                        "' is not a body with mass in " + model_.urdf_path);
+    if ((wheel_bodies[i]->com - spec.rest_position).norm() > 1e-3)
+      throw ConfigError(model_.urdf_path + ": link '" + spec.link +
+                        "': the centre of mass must be on the axle (inertial origin at the wheel centre)");
+  }
+  if (model_.drive_type == DriveType::kAckermann)
+    geometry_ = std::make_unique<AckermannGeometry>(model_);
+
+  // Chassis = every body that is not a wheel, lumped rigidly at the rest pose: mass, centre
+  // of mass, inertia about it by the parallel-axis theorem.
+  auto isWheel = [&](const Body& b) {
+    return std::find(wheel_bodies.begin(), wheel_bodies.end(), &b) != wheel_bodies.end();
+  };
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  for (const Body& b : model_.bodies)
+  {
+    if (!isWheel(b))
+    {
+      chassis_mass_ += b.mass;
+      moment += b.mass * b.com;
+    }
+  }
+  if (!(chassis_mass_ > 0.0))
+    throw ConfigError(model_.urdf_path + ": no link other than the wheels has mass: the chassis would be massless");
+  chassis_com_ = moment / chassis_mass_;
+  Eigen::Matrix3d chassis_inertia = Eigen::Matrix3d::Zero();
+  for (const Body& b : model_.bodies)
+    if (!isWheel(b))
+      chassis_inertia += b.inertia + pointInertia(b.mass, b.com - chassis_com_);
+
+  const Eigen::Matrix3d rot = pose.linear();
+  chassis_ = dBodyCreate(world_);
+  setMass(chassis_, chassis_mass_, chassis_inertia);
+  const Eigen::Vector3d cp = pose * chassis_com_;
+  dBodySetPosition(chassis_, cp.x(), cp.y(), cp.z());
+  setRotation(chassis_, rot);
+
+  const double h = options_.step;
+  const double k = model_.suspension.stiffness, c = model_.suspension.damping;
+  wheels_.resize(model_.wheels.size());
+  for (std::size_t i = 0; i < model_.wheels.size(); ++i)
+  {
+    const WheelSpec& spec = model_.wheels[i];
+    const Body& body = *wheel_bodies[i];
+    Wheel& w = wheels_[i];
+    w.spec = &spec;
+    w.mass = body.mass;
+    w.spin_inertia = body.inertia(1, 1);
+    w.lower = spec.suspension_lower;
+    w.upper = spec.suspension_upper;
+    w.body = dBodyCreate(world_);
+    setMass(w.body, body.mass, body.inertia);
+    const Eigen::Vector3d wp = pose * spec.rest_position;
+    dBodySetPosition(w.body, wp.x(), wp.y(), wp.z());
+    setRotation(w.body, rot);
+    // A fast-spinning wheel integrated with the plain exponential map drifts off its axle;
+    // ODE's finite rotation about the axle keeps it true (axis refreshed every step).
+    dBodySetFiniteRotationMode(w.body, 1);
+
+    w.joint = dJointCreateHinge2(world_, nullptr);
+    dJointAttach(w.joint, chassis_, w.body);
+    dJointSetHinge2Anchor(w.joint, wp.x(), wp.y(), wp.z());
+    const Eigen::Vector3d a1 = rot * Eigen::Vector3d::UnitZ(), a2 = rot * Eigen::Vector3d::UnitY();
+    const dReal axis1[3] = { a1.x(), a1.y(), a1.z() }, axis2[3] = { a2.x(), a2.y(), a2.z() };
+    dJointSetHinge2Axes(w.joint, axis1, axis2);
+    // Implicit spring-damper along axis 1 (ODE manual: ERP = hk/(hk+c), CFM = 1/(hk+c)).
+    dJointSetHinge2Param(w.joint, dParamSuspensionERP, h * k / (h * k + c));
+    dJointSetHinge2Param(w.joint, dParamSuspensionCFM, 1.0 / (h * k + c));
+    if (spec.steering_joint.empty())
+    {
+      dJointSetHinge2Param(w.joint, dParamLoStop, 0.0);
+      dJointSetHinge2Param(w.joint, dParamHiStop, 0.0);
+    }
+    else
+    {
+      // The geometry never asks more than max_angle of a wheel; the stops are a backstop.
+      dJointSetHinge2Param(w.joint, dParamLoStop, -model_.steering.max_angle - 0.05);
+      dJointSetHinge2Param(w.joint, dParamHiStop, model_.steering.max_angle + 0.05);
+    }
+    // Steering motor limit: half a wheel's share of the weight at its radius, far above what
+    // turning the wheel about its own axis needs, so the actuator's rate sets the pace.
+    steer_torque_limit_ =
+        std::max(steer_torque_limit_, 0.5 * model_.total_mass * 9.81 / model_.wheels.size() * spec.radius);
+  }
+
+  // Driven wheels by axle (Ackermann) or side (skid-steer), and the locked differentials.
+  double mean_x = 0.0;
+  for (const WheelSpec& w : model_.wheels)
+    mean_x += w.rest_position.x() / model_.wheels.size();
+  for (std::size_t i = 0; i < model_.wheels.size(); ++i)
+  {
+    const WheelSpec& w = model_.wheels[i];
+    if (!w.driven)
+      continue;
+    (w.rest_position.x() > mean_x ? driven_front_ : driven_rear_).push_back(i);
+    (w.rest_position.y() > 0.0 ? driven_left_ : driven_right_).push_back(i);
+  }
+  // Locked differentials as wheel pairs held at equal speed: an axle (or a skid-steer side)
+  // chains its driven wheels; a centre lock pairs each front wheel with the rear wheel on its
+  // side (with open axle differentials this also keeps left-right speed differences equal
+  // front and rear: see README, a slightly stiffer coupling than an ideal centre lock).
+  auto chain = [](const std::vector<std::size_t>& wheels) {
+    std::vector<std::pair<std::size_t, std::size_t>> out;
+    for (std::size_t n = 1; n < wheels.size(); ++n)
+      out.emplace_back(wheels[n - 1], wheels[n]);
+    return out;
+  };
+  if (model_.drive_type == DriveType::kAckermann)
+  {
+    couple("front", chain(driven_front_));
+    couple("rear", chain(driven_rear_));
+    std::vector<std::pair<std::size_t, std::size_t>> sides;
+    for (std::size_t f : driven_front_)
+    {
+      // The rear wheel nearest in y on the same side.
+      const double yf = model_.wheels[f].rest_position.y();
+      std::size_t best = wheels_.size();
+      double best_dy = std::numeric_limits<double>::infinity();
+      for (std::size_t r : driven_rear_)
+      {
+        const double yr = model_.wheels[r].rest_position.y();
+        if ((yr > 0.0) == (yf > 0.0) && std::abs(yr - yf) < best_dy)
+        {
+          best = r;
+          best_dy = std::abs(yr - yf);
+        }
+      }
+      if (best < wheels_.size())
+        sides.emplace_back(f, best);
+    }
+    couple("center", sides);
+  }
+  else
+  {
+    couple("left", chain(driven_left_));
+    couple("right", chain(driven_right_));
+  }
+
+  state_.name = name;
+  state_.wheels.resize(wheels_.size());
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+    state_.wheels[i].name = model_.wheels[i].name;
+  afterStep(0.0);
+}
+
+SimVehicle::~SimVehicle()
+{
+  for (Coupling& c : couplings_)
+    dJointDestroy(c.motor);
+  for (Wheel& w : wheels_)
+  {
+    if (w.joint)
+      dJointDestroy(w.joint);
+    if (w.body)
+      dBodyDestroy(w.body);
+  }
+  if (chassis_)
+    dBodyDestroy(chassis_);
+}
+
+void SimVehicle::couple(const std::string& key, const std::vector<std::pair<std::size_t, std::size_t>>& pairs)
+{
+  const auto it = model_.drivetrain.differentials.find(key);
+  if (it == model_.drivetrain.differentials.end() || it->second != Differential::kLocked)
+    return;
+  for (const auto& p : pairs)
+  {
+    const dJointID motor = dJointCreateAMotor(world_, nullptr);
+    dJointAttach(motor, wheels_[p.first].body, wheels_[p.second].body);
+    dJointSetAMotorMode(motor, dAMotorUser);
+    dJointSetAMotorNumAxes(motor, 1);
+    dJointSetAMotorParam(motor, dParamVel, 0.0);
+    // A locked differential transmits whatever torque it must: an unbounded motor. A tiny
+    // compliance (1e-5 rad/s at the brake torque) keeps the exact solver's matrix regular
+    // when the coupling is redundant with locked brakes or sticking tyres.
+    dJointSetAMotorParam(motor, dParamFMax, dInfinity);
+    dJointSetAMotorParam(motor, dParamCFM, regularization_ / model_.brakes.max_torque);
+    couplings_.push_back(Coupling{ p.first, p.second, motor });
+  }
+  updateCouplings();
+}
+
+void SimVehicle::updateCouplings()
+{
+  for (Coupling& c : couplings_)
+  {
+    const Eigen::Vector3d axis = rotationOf(wheels_[c.a].body).col(1) + rotationOf(wheels_[c.b].body).col(1);
+    const Eigen::Vector3d b = axis.normalized();
+    dJointSetAMotorAxis(c.motor, 0, 0, b.x(), b.y(), b.z());
+  }
+}
+
+void SimVehicle::updateSteering()
+{
+  const double h = options_.step;
+  for (Wheel& w : wheels_)
+    dJointSetHinge2Param(w.joint, dParamFMax, 0.0);
+  if (!geometry_)
+    return;
+  const double target = command_.steering * geometry_->maxCentreAngle();
+  const double max_step = model_.steering.max_rate * h;
+  steer_ += std::clamp(target - steer_, -max_step, max_step);
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+  {
+    Wheel& w = wheels_[i];
+    if (w.spec->steering_joint.empty())
+      continue;
+    const double angle = geometry_->wheelAngle(i, steer_);
+    // Velocity motor closing the angle error over 4 steps: implicit in ODE, so it tracks the
+    // actuator without overshoot at any stiffness.
+    dJointSetHinge2Param(w.joint, dParamVel, -(angle - steerAngle(w)) / (4.0 * h));
+    dJointSetHinge2Param(w.joint, dParamFMax, steer_torque_limit_);
+  }
+}
+
+void SimVehicle::updateDrivetrain()
+{
+  const double h = options_.step;
+  const DrivetrainSpec& d = model_.drivetrain;
+  for (Wheel& w : wheels_)
+  {
+    w.drive_torque = 0.0;
+    w.brake_limit = command_.brake * model_.brakes.max_torque;
+  }
+  auto meanSpeed = [&](const std::vector<std::size_t>& ids, double& radius) {
+    double s = 0.0;
+    radius = 0.0;
+    for (std::size_t i : ids)
+    {
+      s += spinRate(wheels_[i]) / ids.size();
+      radius += wheels_[i].spec->radius / ids.size();
+    }
+    return s;
+  };
+
+  if (model_.drive_type == DriveType::kAckermann)
+  {
+    std::vector<std::size_t> driven = driven_front_;
+    driven.insert(driven.end(), driven_rear_.begin(), driven_rear_.end());
+    double radius = 0.0;
+    const double speed = meanSpeed(driven, radius);
+    engine_speed_ = d.gear_ratio * speed;
+    const double total = command_.throttle * wheelTorqueAvailable(d, speed, radius);
+    engine_torque_ = total / (d.efficiency * d.gear_ratio);
+    // Open differentials split torque equally: centre between the driven axles, each axle
+    // between its wheels. Locked ones move torque between their wheels through the couplings.
+    const bool both = !driven_front_.empty() && !driven_rear_.empty();
+    for (const auto* axle : { &driven_front_, &driven_rear_ })
+      for (std::size_t i : *axle)
+        wheels_[i].drive_torque = (both ? 0.5 : 1.0) * total / axle->size();
+  }
+  else
+  {
+    // One motor per side, speed-servoed to its share of max_speed (skid-steer mixing).
+    const auto sides = skidSteerSides(command_.throttle, command_.steering);
+    const double fraction[2] = { sides.first, sides.second };
+    const std::vector<std::size_t>* ids[2] = { &driven_left_, &driven_right_ };
+    engine_speed_ = engine_torque_ = 0.0;
+    for (int s = 0; s < 2; ++s)
+    {
+      if (ids[s]->empty())
+        continue;
+      double radius = 0.0;
+      const double speed = meanSpeed(*ids[s], radius);
+      const double available = wheelTorqueAvailable(d, speed, radius);
+      double inertia = 0.0;
+      for (std::size_t i : *ids[s])
+        inertia += wheels_[i].spin_inertia;
+      double torque = 0.0;
+      if (command_.brake > 0.0)
+      {
+        side_integral_[s] = 0.0;  // braking has priority; the servo restarts from rest
+      }
+      else
+      {
+        const double error = fraction[s] * d.max_speed / radius - speed;
+        // Proportional gain: half dead-beat on the bare wheels (the vehicle's mass behind
+        // them only slows the loop); integral over 0.1 s removes the load's steady error.
+        const double kp = 0.5 * inertia / h;
+        const double proposal = side_integral_[s] + kp * error;
+        torque = std::clamp(proposal, -available, available);
+        if (torque == proposal)  // integrate only when not saturated (no wind-up)
+          side_integral_[s] = std::clamp(side_integral_[s] + kp / 0.1 * error * h, -available, available);
+      }
+      for (std::size_t i : *ids[s])
+        wheels_[i].drive_torque = torque / ids[s]->size();
+      engine_speed_ += 0.5 * d.gear_ratio * std::abs(speed);
+      engine_torque_ += std::abs(torque) / (d.efficiency * d.gear_ratio);
+    }
+  }
+  updateCouplings();
+
+  for (Wheel& w : wheels_)
+  {
+    // ODE's hinge torque acts +axis on body 1 and -axis on body 2; the wheel is body 2.
+    dJointAddHinge2Torques(w.joint, 0.0, -w.drive_torque);
+    // Brake: a velocity motor holding zero spin relative to the chassis, up to its torque.
+    dJointSetHinge2Param(w.joint, dParamVel2, 0.0);
+    dJointSetHinge2Param(w.joint, dParamFMax2, w.brake_limit);
+    dJointSetHinge2Param(w.joint, dParamCFM2, regularization_ / model_.brakes.max_torque);
+  }
+}
+
+void SimVehicle::updateSuspension()
+{
+  const double k = model_.suspension.stiffness;
+  const double c = model_.suspension.damping;
+  // Bump stops: 20x the spring, critically damped on the wheel; explicit, and stable since
+  // sqrt(20 k / m_wheel) * h stays far below 2 for any plausible wheel.
+  const double k_stop = 20.0 * k;
+  for (Wheel& w : wheels_)
+  {
+    dVector3 a1, a2, axis;
+    dJointGetHinge2Anchor(w.joint, a1);
+    dJointGetHinge2Anchor2(w.joint, a2);
+    dJointGetHinge2Axis1(w.joint, axis);
+    const Eigen::Vector3d n = vec(axis);
+    const double q = (vec(a2) - vec(a1)).dot(n);
+    dVector3 vw, vc;
+    dBodyGetPointVel(w.body, a2[0], a2[1], a2[2], vw);
+    dBodyGetPointVel(chassis_, a1[0], a1[1], a1[2], vc);
+    const double q_rate = (vec(vw) - vec(vc)).dot(n);
+    // The hinge2 spring is zero at the URDF pose; the preload makes that pose the static ride
+    // height (k * preload_deflection carries the corner's weight there).
+    double force = k * model_.suspension.preload_deflection;
+    const double c_stop = 2.0 * std::sqrt(k_stop * w.mass) + c;
+    if (q > w.upper)
+      force += std::max(k_stop * (q - w.upper) + c_stop * q_rate, 0.0);
+    else if (q < w.lower)
+      force += std::min(k_stop * (q - w.lower) + c_stop * q_rate, 0.0);
+    dBodyAddForceAtPos(chassis_, force * n.x(), force * n.y(), force * n.z(), a1[0], a1[1], a1[2]);
+    dBodyAddForce(w.body, -force * n.x(), -force * n.y(), -force * n.z());
+  }
+}
+
+Eigen::Vector3d SimVehicle::surfaceNormal(const terrain::DeformableTerrain& terrain, const Eigen::Vector3d& centre,
+                                          const Eigen::Vector3d& forward, double radius, double width) const
+{
+  // The ground's slope around the wheel from four heights beside its own rut (outside the
+  // wheel's width, ahead and behind): the rut's walls must not tilt the normal, or its
+  // back-and-front depth difference would act as a second, spurious rolling resistance.
+  const Eigen::Vector3d left = Eigen::Vector3d::UnitZ().cross(forward);
+  const double a = radius, b = 0.5 * width + 0.5 * radius;
+  double hgt[2][2];
+  for (int i = 0; i < 2; ++i)
+  {
+    for (int j = 0; j < 2; ++j)
+    {
+      const Eigen::Vector3d p = centre + (i ? a : -a) * forward + (j ? b : -b) * left;
+      const auto z = terrain.height(p.x(), p.y());
+      if (!z)
+        return Eigen::Vector3d::UnitZ();
+      hgt[i][j] = *z;
+    }
+  }
+  const double slope_fwd = (hgt[1][0] + hgt[1][1] - hgt[0][0] - hgt[0][1]) / (4.0 * a);
+  const double slope_left = (hgt[0][1] + hgt[1][1] - hgt[0][0] - hgt[1][0]) / (4.0 * b);
+  return (Eigen::Vector3d::UnitZ() - slope_fwd * forward - slope_left * left).normalized();
+}
+
+void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts,
+                             StepTimes* times)
+{
+  const double h = options_.step;
+  w.contact = false;
+  w.soil = terrain::ContactForces();
+  const Eigen::Vector3d centre = vec(dBodyGetPosition(w.body));
+  const Eigen::Vector3d velocity = vec(dBodyGetLinearVel(w.body));
+  const Eigen::Vector3d omega = vec(dBodyGetAngularVel(w.body));
+  const Eigen::Vector3d axle = rotationOf(w.body).col(1);
+  dBodySetFiniteRotationAxis(w.body, axle.x(), axle.y(), axle.z());
+  Eigen::Vector3d forward = axle.cross(Eigen::Vector3d::UnitZ());
+  if (forward.norm() < 0.3)
+    return;  // wheel lying on its side: the terrain's upright-wheel contact does not apply
+  forward.normalize();
+
+  terrain::WheelPatch patch;
+  patch.centre = centre;
+  patch.radius = w.spec->radius;
+  patch.width = w.spec->width;
+  patch.heading = std::atan2(forward.y(), forward.x());
+  patch.spin_rate = omega.dot(axle);
+  patch.velocity = velocity;
+  const auto start = times ? Clock::now() : Clock::time_point();
+  w.soil = terrain.wheelContact(patch, h, options_.deform_terrain);
+  const auto contacted = times ? Clock::now() : Clock::time_point();
+  if (times)
+    times->contact += seconds(start, contacted);
+  if (w.soil.contact_points == 0 || !(w.soil.normal_force > 0.0))
+  {
+    w.stiffness = 0.0;  // airborne: the next touchdown probes afresh
+    return;
+  }
+
+  // The soil's own vertical stiffness at this state, probed 10 um deeper without deforming.
+  // A probe costs as much as the contact, so it is reused while the contact keeps its load
+  // (within 10 %) for up to stiffness_probe_interval steps: the implicit normal row stays
+  // stable as long as its stiffness is not below half the soil's (README).
+  const double f_n = w.soil.normal_force;
+  ++w.steps_since_probe;
+  if (w.stiffness <= 0.0 || w.steps_since_probe >= options_.stiffness_probe_interval ||
+      std::abs(f_n - w.probed_force) > 0.1 * w.probed_force)
+  {
+    terrain::WheelPatch probe = patch;
+    probe.centre.z() -= kProbeDepth;
+    const double probed = terrain.wheelContact(probe, h, false).normal_force;
+    if (times)
+      times->probe += seconds(contacted, Clock::now());
+    w.stiffness = (probed - f_n) / kProbeDepth;
+    w.probed_force = f_n;
+    w.steps_since_probe = 0;
+  }
+  const double kp = std::max({ w.stiffness, f_n / kMaxVirtualDepth, 1e3 });
+  const double kd = 2.0 * options_.contact_damping_ratio * std::sqrt(kp * w.mass);
+
+  const Eigen::Vector3d n = surfaceNormal(terrain, centre, forward, w.spec->radius, w.spec->width);
+  const Eigen::Vector3d t1 = (forward - forward.dot(n) * n).normalized();
+  const Eigen::Vector3d t2 = n.cross(t1);
+  w.normal = n;
+  w.t1 = t1;
+  w.t2 = t2;
+  const Eigen::Vector3d point = centre - w.spec->radius * n;
+  const Eigen::Vector3d point_velocity = velocity + omega.cross(point - centre);
+
+  dContact ct{};
+  ct.surface.mode = dContactSoftERP | dContactSoftCFM | dContactMu2 | dContactFDir1 | dContactSlip1 | dContactSlip2;
+  // Normal row = implicit spring (kp) + damper (kd) whose force at the current state is the
+  // soil's: depth = F / kp. Stiff soils (asphalt) stay stable at any step: the solver takes
+  // the stiffness implicitly instead of the step overshooting it.
+  ct.surface.soft_erp = h * kp / (h * kp + kd);
+  ct.surface.soft_cfm = 1.0 / (h * kp + kd);
+  ct.geom.depth = f_n / kp;
+  for (int a = 0; a < 3; ++a)
+  {
+    ct.geom.pos[a] = point[a];
+    ct.geom.normal[a] = n[a];
+    ct.fdir1[a] = t1[a];
+  }
+  // Friction rows: force-dependent slip v = slip * F reproduces the soil's force at the
+  // current slip velocity (slip = |v| / |F|) and, being implicit, can only bring the slip
+  // velocity towards zero within the step, never across it; the bound |F| keeps the row
+  // from giving more than the soil does at this slip (T7's limit). The row takes the soil's
+  // magnitude and always opposes the contact's sliding: shear on a wheel never pushes along
+  // the slip (at near-zero or reversing speeds T8's sign is ill-conditioned; applied as an
+  // explicit force it fed the wheel's spin back on itself within a few steps).
+  const double soil_force[2] = { w.soil.longitudinal_force, w.soil.lateral_force };
+  const Eigen::Vector3d dirs[2] = { t1, t2 };
+  double bound[2] = { 0.0, 0.0 }, slip[2] = { 0.0, 0.0 };
+  for (int r = 0; r < 2; ++r)
+  {
+    // A row bounded by a force far below the load (rounding, no slip) is left out: its
+    // [-bound, bound] box is degenerate for the exact LCP solver.
+    bound[r] = std::abs(soil_force[r]) > 1e-6 * f_n ? std::abs(soil_force[r]) : 0.0;
+    if (bound[r] > 0.0)
+      slip[r] = std::abs(point_velocity.dot(dirs[r])) / bound[r];
+  }
+  ct.surface.mu = bound[0];
+  ct.surface.mu2 = bound[1];
+  // A floor on the slip (1e-5 m/s at the vehicle's weight) keeps sticking rows from being
+  // exactly rigid, hence redundant with the brakes and couplings, for the exact solver.
+  const double min_slip = regularization_ / (model_.total_mass * 9.81);
+  ct.surface.slip1 = std::max(slip[0], min_slip);
+  ct.surface.slip2 = std::max(slip[1], min_slip);
+  const dJointID joint = dJointCreateContact(world_, contacts, &ct);
+  dJointAttach(joint, w.body, nullptr);
+  dJointSetFeedback(joint, &w.feedback);
+  w.contact = true;
+
+  // Resistance (T12) opposes the wheel's travel, through the axle: bulldozing and compaction
+  // pressures act radially on a rigid wheel, so they exert no torque about its centre.
+  const double v_travel = velocity.dot(t1);
+  const double fade = std::max(kResistanceFadeSpeed, h * w.soil.resistance_force / w.mass);
+  const double r_force = -w.soil.resistance_force * std::clamp(v_travel / fade, -1.0, 1.0);
+  dBodyAddForce(w.body, r_force * t1.x(), r_force * t1.y(), r_force * t1.z());
+}
+
+void SimVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
+{
+  updateSteering();
+  updateDrivetrain();
+  updateSuspension();
+  for (Wheel& w : wheels_)
+    soilContact(w, terrain, contacts, times);
+}
+
+void SimVehicle::afterStep(double time)
+{
+  const Eigen::Vector3d p = vec(dBodyGetPosition(chassis_));
+  const Eigen::Matrix3d r = rotationOf(chassis_);
+  const Eigen::Vector3d v = vec(dBodyGetLinearVel(chassis_));
+  const Eigen::Vector3d omega = vec(dBodyGetAngularVel(chassis_));
+  if (!p.allFinite() || !v.allFinite() || !omega.allFinite() || !r.allFinite())
+  {
+    std::ostringstream why;
+    why << "vehicle '" << state_.name << "' (" << model_.model << "): the physics diverged at t = " << time
+        << " s (non-finite chassis state)";
+    throw std::runtime_error(why.str());
+  }
+  state_.pose.linear() = r;
+  state_.pose.translation() = p - r * chassis_com_;
+  state_.linear_velocity = v + omega.cross(state_.pose.translation() - p);
+  state_.angular_velocity = omega;
+  state_.body_velocity = r.transpose() * state_.linear_velocity;
+  state_.steering_angle = steer_;
+  state_.engine_speed = engine_speed_;
+  state_.engine_torque = engine_torque_;
+  state_.command = command_;
+  Eigen::Vector3d moment = chassis_mass_ * p;
+  double mass = chassis_mass_;
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+  {
+    const Wheel& w = wheels_[i];
+    WheelState& s = state_.wheels[i];
+    moment += w.mass * vec(dBodyGetPosition(w.body));
+    mass += w.mass;
+    s.in_contact = w.soil.contact_points > 0;
+    s.normal_force = w.soil.normal_force;
+    s.applied_normal_force = w.contact ? vec(w.feedback.f1).dot(w.normal) : 0.0;
+    s.sinkage = w.soil.sinkage;
+    s.slip = w.soil.slip;
+    s.slip_angle = w.soil.slip_angle;
+    // What the rows applied (feedback), the soil's force as it acted on the vehicle.
+    s.traction_force = w.contact ? vec(w.feedback.f1).dot(w.t1) : 0.0;
+    s.lateral_force = w.contact ? vec(w.feedback.f1).dot(w.t2) : 0.0;
+    s.resistance_force = w.soil.resistance_force;
+    s.contact_points = w.soil.contact_points;
+    s.spin_rate = spinRate(w);
+    s.steering_angle = steerAngle(w);
+    dVector3 a1, a2, axis;
+    dJointGetHinge2Anchor(w.joint, a1);
+    dJointGetHinge2Anchor2(w.joint, a2);
+    dJointGetHinge2Axis1(w.joint, axis);
+    s.suspension_deflection = (vec(a2) - vec(a1)).dot(vec(axis));
+    s.drive_torque = w.drive_torque;
+    s.brake_torque_limit = w.brake_limit;
+  }
+  state_.centre_of_mass = moment / mass;
+}
+
+// ---------------------------------------------------------------------------------------
+
+World::World(terrain::DeformableTerrain& terrain, const WorldOptions& options)
+  : terrain_(terrain), options_(options), ode_(std::make_unique<Ode>())
+{
+  auto require = [](bool ok, const std::string& what) {
+    if (!ok)
+      throw std::invalid_argument("WorldOptions." + what);
+  };
+  require(std::isfinite(options.step) && options.step > 0.0 && options.step <= 0.01,
+          "step must be in (0, 0.01] s, got " + std::to_string(options.step));
+  require(std::isfinite(options.gravity) && options.gravity >= 0.0,
+          "gravity must be finite and >= 0, got " + std::to_string(options.gravity));
+  require(options.solver_iterations >= 1,
+          "solver_iterations must be >= 1, got " + std::to_string(options.solver_iterations));
+  require(options.stiffness_probe_interval >= 1,
+          "stiffness_probe_interval must be >= 1, got " + std::to_string(options.stiffness_probe_interval));
+  require(std::isfinite(options.contact_damping_ratio) && options.contact_damping_ratio >= 0.0 &&
+              options.contact_damping_ratio <= 2.0,
+          "contact_damping_ratio must be in [0, 2], got " + std::to_string(options.contact_damping_ratio));
+  initOde();
+  ode_->world = dWorldCreate();
+  ode_->contacts = dJointGroupCreate(0);
+  dWorldSetGravity(ode_->world, 0.0, 0.0, -options.gravity);
+  dWorldSetQuickStepNumIterations(ode_->world, options.solver_iterations);
+  dWorldSetAutoDisableFlag(ode_->world, 0);
+  rng_state_ = static_cast<unsigned long>(options.seed);
+}
+
+World::~World()
+{
+  vehicles_.clear();  // bodies and joints before the world
+}
+
+std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name)
+{
+  if (!pose.matrix().allFinite())
+    throw std::invalid_argument("World::addVehicle: pose of '" + (name.empty() ? model.model : name) +
+                                "' is not finite");
+  vehicles_.push_back(
+      std::make_unique<SimVehicle>(ode_->world, model, pose, name.empty() ? model.model : name, options_));
+  return vehicles_.size() - 1;
+}
+
+std::size_t World::vehicleCount() const
+{
+  return vehicles_.size();
+}
+
+void World::setCommand(std::size_t vehicle, const DriveCommand& command)
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::setCommand: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  vehicles_[vehicle]->setCommand(clampedCommand(command));
+}
+
+void World::step()
+{
+  StepTimes* times = options_.profile ? &times_ : nullptr;
+  const double contacts_before = times ? times->contact + times->probe : 0.0;
+  const auto t0 = times ? Clock::now() : Clock::time_point();
+  for (auto& v : vehicles_)
+    v->beforeStep(terrain_, ode_->contacts, times);
+  const auto t1 = times ? Clock::now() : Clock::time_point();
+  // ODE's QuickStep may shuffle constraints with its global generator: run it from this
+  // world's own state so results do not depend on other worlds or earlier runs.
+  dRandSetSeed(rng_state_);
+  if (options_.solver == Solver::kExact)
+    dWorldStep(ode_->world, options_.step);
+  else
+    dWorldQuickStep(ode_->world, options_.step);
+  rng_state_ = dRandGetSeed();
+  const auto t2 = times ? Clock::now() : Clock::time_point();
+  dJointGroupEmpty(ode_->contacts);
+  ++steps_;
+  for (auto& v : vehicles_)
+    v->afterStep(time());
+  if (times)
+  {
+    const auto t3 = Clock::now();
+    const double contacts = times->contact + times->probe;
+    times->ode += seconds(t1, t2);
+    // beforeStep's time less what the contacts added to their own counters this step.
+    times->other += seconds(t0, t1) - (contacts - contacts_before) + seconds(t2, t3);
+    ++times->steps;
+  }
+}
+
+void World::advance(double seconds_to_go)
+{
+  const auto n = static_cast<std::uint64_t>(std::llround(seconds_to_go / options_.step));
+  for (std::uint64_t k = 0; k < n; ++k)
+    step();
+}
+
+const VehicleState& World::state(std::size_t vehicle) const
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::state: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  return vehicles_[vehicle]->state();
+}
+
+const WheelState& World::wheel(std::size_t vehicle, const std::string& wheel_name) const
+{
+  const VehicleState& s = state(vehicle);
+  std::string known;
+  for (const WheelState& w : s.wheels)
+  {
+    if (w.name == wheel_name)
+      return w;
+    known += (known.empty() ? "" : ", ") + w.name;
+  }
+  throw std::out_of_range("vehicle '" + s.name + "' has no wheel '" + wheel_name + "' (wheels: " + known + ")");
+}
+
+Eigen::Isometry3d World::restingPose(const VehicleModel& model, double x, double y, double yaw,
+                                     double clearance) const
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translate(Eigen::Vector3d(x, y, 0.0));
+  pose.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  double z = -std::numeric_limits<double>::infinity();
+  for (const WheelSpec& w : model.wheels)
+  {
+    const Eigen::Vector3d p = pose * w.rest_position;
+    const auto ground = terrain_.height(p.x(), p.y());
+    if (!ground)
+    {
+      std::ostringstream why;
+      why << "World::restingPose: wheel '" << w.name << "' of '" << model.model << "' at (" << p.x() << ", "
+          << p.y() << ") is off the terrain";
+      throw std::invalid_argument(why.str());
+    }
+    z = std::max(z, *ground + w.radius - w.rest_position.z());
+  }
+  for (const TrackSpec& t : model.tracks)
+    for (const RoadWheelSpec& w : t.road_wheels)
+    {
+      const Eigen::Vector3d p = pose * w.rest_position;
+      const auto ground = terrain_.height(p.x(), p.y());
+      if (ground)
+        z = std::max(z, *ground + w.radius - w.rest_position.z());
+    }
+  if (!std::isfinite(z))
+    throw std::invalid_argument("World::restingPose: '" + model.model + "' has no wheels to rest on");
+  pose.translation().z() = z + clearance;
+  return pose;
+}
+
+}  // namespace dynamics
+}  // namespace avsp
