@@ -27,6 +27,12 @@ void requireFinite(const char* function, const char* field, double value)
     rejectArgument(function, field, "finite", value);
 }
 
+void requireFinite(const char* function, const char* field, const Eigen::Vector3d& value)
+{
+  for (int k = 0; k < 3; ++k)
+    requireFinite(function, field, value[k]);
+}
+
 void requirePositive(const char* function, const char* field, double value)
 {
   if (!(value > 0.0) || !std::isfinite(value))
@@ -454,11 +460,8 @@ void DeformableTerrain::spreadFlow()
 ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt, bool deform, ObjectSet* objects)
 {
   static const char* const kFn = "DeformableTerrain::wheelContact";
-  for (int k = 0; k < 3; ++k)
-  {
-    requireFinite(kFn, "wheel.centre", wheel.centre[k]);
-    requireFinite(kFn, "wheel.velocity", wheel.velocity[k]);
-  }
+  requireFinite(kFn, "wheel.centre", wheel.centre);
+  requireFinite(kFn, "wheel.velocity", wheel.velocity);
   requirePositive(kFn, "wheel.radius", wheel.radius);
   requirePositive(kFn, "wheel.width", wheel.width);
   requireFinite(kFn, "wheel.heading", wheel.heading);
@@ -488,11 +491,8 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
 ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt, bool deform, ObjectSet* objects)
 {
   static const char* const kFn = "DeformableTerrain::trackContact";
-  for (int k = 0; k < 3; ++k)
-  {
-    requireFinite(kFn, "track.centre", track.centre[k]);
-    requireFinite(kFn, "track.velocity", track.velocity[k]);
-  }
+  requireFinite(kFn, "track.centre", track.centre);
+  requireFinite(kFn, "track.velocity", track.velocity);
   requirePositive(kFn, "track.length", track.length);
   requirePositive(kFn, "track.width", track.width);
   requireFinite(kFn, "track.heading", track.heading);
