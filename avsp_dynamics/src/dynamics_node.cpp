@@ -23,6 +23,7 @@
 
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/VehicleTelemetry.h>
 #include <avsp_msgs/drive_command_conversions.hpp>
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Twist.h>
@@ -126,13 +127,15 @@ struct VehicleIo
   std::string name;
   std::size_t id = 0;
   ad::VehicleModel model;
-  std::string cmd_topic;
-  ros::Subscriber cmd_sub;
-  ros::Publisher odom_pub, joint_pub;
+  std::string cmd_topic, drive_topic;
+  ros::Subscriber cmd_sub, drive_sub;
+  ros::Publisher odom_pub, joint_pub, telemetry_pub;
   std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
+  double stuck_since = -1.0;                ///< world time the stuck condition began, s; < 0: not
+  bool stuck = false;
   // Area the wheels ran over since the last rut publication (map x, y, m).
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
   bool ran = false;
@@ -208,7 +211,11 @@ public:
       VehicleIo* raw = v.get();
       v->cmd_sub = vnh.subscribe<geometry_msgs::Twist>(
           "avt_341/cmd_vel", 10, [this, raw](const geometry_msgs::Twist::ConstPtr& msg) { onCmdVel(*raw, *msg); });
+      v->drive_topic = vnh.resolveName("cmd_drive");
+      v->drive_sub = vnh.subscribe<avsp_msgs::DriveCommand>(
+          "cmd_drive", 10, [this, raw](const avsp_msgs::DriveCommand::ConstPtr& msg) { onCmdDrive(*raw, *msg); });
       v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", 50);
+      v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", 50);
       v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
       vehicles_.push_back(std::move(v));
     }
@@ -237,7 +244,6 @@ public:
       }
     }
     const ros::WallTime wall_start = ros::WallTime::now();
-    std::optional<ros::Time> follow_start;
     while (ros::ok())
     {
       ros::spinOnce();
@@ -264,9 +270,9 @@ public:
           ros::WallDuration(0.001).sleep();
           continue;
         }
-        if (!follow_start)
-          follow_start = now;
-        const double target = (now - *follow_start).toSec();
+        if (!follow_start_)
+          follow_start_ = now;
+        const double target = (now - *follow_start_).toSec();
         if (world_->time() + 0.5 * world_->options().step >= target)
         {
           ros::WallDuration(0.0005).sleep();
@@ -337,6 +343,42 @@ private:
     v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
   }
 
+  void onCmdDrive(VehicleIo& v, const avsp_msgs::DriveCommand& msg)
+  {
+    avsp_msgs::DriveCommand cmd = msg;
+    std::string why;
+    const avsp::msgs::CommandCheck check = avsp::msgs::sanitizeDriveCommand(cmd, why);
+    if (check == avsp::msgs::CommandCheck::kRejected)
+    {
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", v.drive_topic.c_str(), why.c_str());
+      return;
+    }
+    if (check == avsp::msgs::CommandCheck::kClamped)
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", v.drive_topic.c_str(), why.c_str());
+    // Taken like cmd_vel (its stamp is not trusted for the timeout: publishers' clocks differ).
+    v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
+  }
+
+  /// Stuck (VehicleTelemetry.stuck): throttle on and the driven wheels in contact slipping at
+  /// >= 0.95 on average, continuously for 2 s of world time.
+  void updateStuck(VehicleIo& v, const ad::VehicleState& s, double now)
+  {
+    double slip = 0.0;
+    int driven = 0;
+    for (std::size_t w = 0; w < s.wheels.size(); ++w)
+      if (v.model.wheels[w].driven && s.wheels[w].in_contact)
+      {
+        slip += s.wheels[w].slip;
+        ++driven;
+      }
+    const bool spinning = s.command.throttle > 0.0 && driven > 0 && slip / driven >= 0.95;
+    if (!spinning)
+      v.stuck_since = -1.0;
+    else if (v.stuck_since < 0.0)
+      v.stuck_since = now;
+    v.stuck = spinning && now - v.stuck_since >= 2.0;
+  }
+
   /// One physics step: commands in (with the timeout on world time), step, publications out.
   void step()
   {
@@ -361,6 +403,7 @@ private:
     for (auto& v : vehicles_)
     {
       const ad::VehicleState& s = world_->state(v->id);
+      updateStuck(*v, s, world_->time());
       for (std::size_t w = 0; w < s.wheels.size(); ++w)
       {
         v->spin_angle[w] = std::remainder(v->spin_angle[w] + s.wheels[w].spin_rate * h, 2.0 * M_PI);
@@ -390,11 +433,13 @@ private:
     v.max_y = std::max(v.max_y, c.y());
   }
 
+  /// The sim time of the last step: world time, offset by the external clock's value when the
+  /// node started following it (so a catch-up burst of steps still gets distinct stamps).
   ros::Time stamp() const
   {
-    if (publish_clock_)
+    if (publish_clock_ || !follow_start_)
       return ros::Time(world_->time());
-    return ros::Time::now();
+    return *follow_start_ + ros::Duration(world_->time());
   }
 
   void publishClock()
@@ -461,6 +506,37 @@ private:
         }
       }
       v->joint_pub.publish(js);
+
+      avsp_msgs::VehicleTelemetry tm;
+      tm.header.stamp = t;
+      tm.header.frame_id = odom.child_frame_id;
+      tm.vehicle_id = v->name;
+      tm.command.header.stamp = t;
+      tm.command.throttle = s.command.throttle;
+      tm.command.brake = s.command.brake;
+      tm.command.steering = s.command.steering;
+      const at::ElevationGrid& g = terrain_->base();
+      for (std::size_t w = 0; w < v->model.wheels.size(); ++w)
+      {
+        const ad::WheelState& ws = s.wheels[w];
+        avsp_msgs::WheelContact c;
+        c.name = v->model.wheels[w].link;
+        c.normal_force = ws.normal_force;
+        c.sinkage = ws.sinkage;
+        c.slip = ws.slip;
+        c.slip_angle = ws.slip_angle;
+        c.traction_force = ws.traction_force;
+        c.resistance_force = ws.resistance_force;
+        // The soil at the grid point nearest the wheel centre.
+        const Eigen::Vector3d centre = s.pose * v->model.wheels[w].rest_position;
+        const double fi = std::round((centre.x() - g.originX()) / g.dx());
+        const double fj = std::round((centre.y() - g.originY()) / g.dy());
+        if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
+          c.soil = terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
+        tm.contacts.push_back(c);
+      }
+      tm.stuck = v->stuck;
+      v->telemetry_pub.publish(tm);
     }
   }
 
@@ -515,6 +591,7 @@ private:
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
   bool wait_for_command_ = false;
+  std::optional<ros::Time> follow_start_;  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher ruts_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_;

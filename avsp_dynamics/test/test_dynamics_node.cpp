@@ -15,12 +15,16 @@
 #include <tuple>
 #include <vector>
 
+#include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/VehicleTelemetry.h>
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
+
+#include "avsp_dynamics/vehicle_model.hpp"
 
 namespace
 {
@@ -64,8 +68,9 @@ struct Ego
   std::vector<nav_msgs::Odometry> odom;
   std::vector<avsp_msgs::TerrainPatch> ruts;
   std::vector<std::string> warnings;
-  ros::Subscriber odom_sub, ruts_sub, log_sub;
-  ros::Publisher cmd_pub;
+  avsp_msgs::VehicleTelemetry telemetry;  ///< the latest
+  ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub;
+  ros::Publisher cmd_pub, drive_pub;
 
   Ego()
   {
@@ -77,7 +82,10 @@ struct Ego
       if (m->level >= rosgraph_msgs::Log::WARN)
         warnings.push_back(m->msg);
     });
+    telemetry_sub = nh.subscribe<avsp_msgs::VehicleTelemetry>(
+        "/ego/telemetry", 100, [this](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { telemetry = *m; });
     cmd_pub = nh.advertise<geometry_msgs::Twist>("/ego/avt_341/cmd_vel", 10);
+    drive_pub = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 10);
   }
 
   double now() const { return odom.empty() ? 0.0 : odom.back().header.stamp.toSec(); }
@@ -93,6 +101,20 @@ struct Ego
         seen = odom.size();
         cmd_pub.publish(every_other && sent % 2 == 1 ? *every_other : cmd);
         ++sent;
+      }
+      return now() >= until;
+    });
+  }
+
+  /// Sends `cmd` on /ego/cmd_drive on every new odometry message until sim time `until`.
+  bool driveCommand(const avsp_msgs::DriveCommand& cmd, double until)
+  {
+    std::size_t seen = odom.size();
+    return spinUntil([&] {
+      if (odom.size() > seen)
+      {
+        seen = odom.size();
+        drive_pub.publish(cmd);
       }
       return now() >= until;
     });
@@ -122,6 +144,26 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
   ASSERT_TRUE(ego.idle(2.0));
   EXPECT_LT(std::abs(ego.odom.back().pose.pose.position.x - settled.pose.pose.position.x), 0.01);
   EXPECT_LT(speedOf(ego.odom.back()), 0.02);
+  // Telemetry at rest: braked (no command), the soil carries the vehicle's weight.
+  {
+    std::string config_dir;
+    ASSERT_TRUE(ros::NodeHandle("~").getParam("config_dir", config_dir));
+    const avsp::dynamics::VehicleModel model = avsp::dynamics::loadVehicleModel(config_dir + "/fed_alpha.yaml");
+    const avsp_msgs::VehicleTelemetry tm = ego.telemetry;
+    EXPECT_EQ(tm.vehicle_id, "ego");
+    EXPECT_EQ(tm.command.throttle, 0.0);
+    EXPECT_EQ(tm.command.brake, 1.0);
+    EXPECT_FALSE(tm.stuck);
+    ASSERT_EQ(tm.contacts.size(), model.wheels.size());
+    double load = 0.0;
+    for (std::size_t w = 0; w < tm.contacts.size(); ++w)
+    {
+      EXPECT_EQ(tm.contacts[w].name, model.wheels[w].link);
+      EXPECT_EQ(tm.contacts[w].soil, "gravel");
+      load += tm.contacts[w].normal_force;
+    }
+    EXPECT_NEAR(load, model.total_mass * 9.81, 0.02 * model.total_mass * 9.81);
+  }
 
   // Throttle step (NaN commands interleaved: rejected, the last good one stays in force).
   ASSERT_TRUE(ego.cmd_pub.getNumSubscribers() > 0 || spinUntil([&] { return ego.cmd_pub.getNumSubscribers() > 0; }));
@@ -150,6 +192,7 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
   // Full brake (avt_341's -1) stops it.
   ASSERT_TRUE(ego.drive(twist(0.0, -1.0, 0.0), 10.0));
   EXPECT_LT(speedOf(ego.odom.back()), 0.05);
+  EXPECT_EQ(ego.telemetry.command.brake, 1.0);
 
   // Moving again, then silence: the stale command (0.5 s) becomes zero throttle, full brake.
   ASSERT_TRUE(ego.drive(twist(0.4, 0.0, 0.0), 11.5));
@@ -160,6 +203,15 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
   EXPECT_GT(speedOf(ego.odom.back()), 0.8 * v_before) << "braked before the command went stale";
   ASSERT_TRUE(ego.idle(silent_from + 4.0));
   EXPECT_LT(speedOf(ego.odom.back()), 0.05) << "a stale command must brake the vehicle to a stop";
+  EXPECT_EQ(ego.telemetry.command.throttle, 0.0);
+  EXPECT_EQ(ego.telemetry.command.brake, 1.0);
+
+  // The same vehicle through cmd_drive (avsp_msgs/DriveCommand).
+  avsp_msgs::DriveCommand drive;
+  drive.throttle = 0.4;
+  ASSERT_TRUE(ego.driveCommand(drive, ego.now() + 1.5));
+  EXPECT_GT(speedOf(ego.odom.back()), 0.5);
+  EXPECT_NEAR(ego.telemetry.command.throttle, 0.4, 1e-12);
 
   // Ruts of the drive on /terrain/ruts: well-formed patches, the track below the flat surface.
   ASSERT_FALSE(ego.ruts.empty());
@@ -203,6 +255,8 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
     ASSERT_EQ(pa_.orientation.w, pb_.orientation.w) << "message " << k;
     ASSERT_EQ(ta.linear.x, tb.linear.x) << "message " << k;
     ASSERT_EQ(ta.angular.z, tb.angular.z) << "message " << k;
+    // Following /clock, stamps are world time from where the node started: 100 Hz exactly.
+    ASSERT_NEAR((a[k].header.stamp - a[0].header.stamp).toSec(), 0.01 * k, 1e-6) << "message " << k;
   }
   // Not trivially equal: the vehicles moved and turned.
   EXPECT_GT(std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
