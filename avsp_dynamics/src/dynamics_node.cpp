@@ -1,0 +1,617 @@
+// dynamics_node: simulates one or more wheeled vehicles in one avsp::dynamics::World on
+// avsp_terrain's deformable soil, driven through each vehicle's avt_341/cmd_vel, publishing
+// odometry, TF odom -> <vehicle>/base_link, joint_states and the ruts (/terrain/ruts).
+//
+// Thin: the physics is avsp_dynamics_core, the command checks are avsp_msgs' conversions; this
+// file converts parameters and messages and keeps time. Parameters and topics: README.md.
+//
+// Time. With ~publish_clock the node is the clock source: it advances the physics in fixed
+// steps and publishes /clock = the world's time, as fast as it can (~real_time_factor 0) or
+// paced to the wall clock. Without it, the node follows /clock from elsewhere: it steps the
+// physics until its world time catches up with ros::Time::now(). Every time it uses (command
+// age, publication periods) is the world's time, so a run does not depend on the wall clock.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/VehicleTelemetry.h>
+#include <avsp_msgs/drive_command_conversions.hpp>
+#include <geometry_msgs/TransformStamped.h>
+#include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/JointState.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <avsp_terrain/default_course.hpp>
+#include <avsp_terrain/height_patch.hpp>
+#include <avsp_terrain/soil.hpp>
+
+#include "avsp_dynamics/vehicle_model.hpp"
+#include "avsp_dynamics/vehicle_sim.hpp"
+
+namespace ad = avsp::dynamics;
+namespace at = avsp::terrain;
+
+namespace
+{
+/// A start-up problem: the node logs it (naming the parameter, vehicle or file) and exits 1.
+struct StartupError : std::runtime_error
+{
+  using std::runtime_error::runtime_error;
+};
+
+/// A private double parameter that must be finite and inside [min, max].
+double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min, double max)
+{
+  double value = fallback;
+  pnh.param(key, value, fallback);
+  if (!std::isfinite(value) || value < min || value > max)
+    throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and in [" +
+                       std::to_string(min) + ", " + std::to_string(max) + "]");
+  return value;
+}
+
+/// Number of a vehicle entry's key (int or double XML-RPC value), or the fallback if absent.
+double numberOf(XmlRpc::XmlRpcValue& entry, const std::string& key, double fallback, const std::string& where)
+{
+  if (!entry.hasMember(key))
+    return fallback;
+  XmlRpc::XmlRpcValue& v = entry[key];
+  double value;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+    value = static_cast<int>(v);
+  else if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    value = static_cast<double>(v);
+  else
+    throw StartupError(where + "." + key + " must be a number");
+  if (!std::isfinite(value))
+    throw StartupError(where + "." + key + " must be finite");
+  return value;
+}
+
+struct VehicleSpec
+{
+  std::string name, model;
+  double x = 0.0, y = 0.0, yaw = 0.0;
+};
+
+std::vector<VehicleSpec> vehicleSpecs(const ros::NodeHandle& pnh)
+{
+  XmlRpc::XmlRpcValue list;
+  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+    throw StartupError("parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
+  std::vector<VehicleSpec> specs;
+  std::set<std::string> names;
+  for (int k = 0; k < list.size(); ++k)
+  {
+    const std::string where = "parameter ~vehicles[" + std::to_string(k) + "]";
+    XmlRpc::XmlRpcValue& entry = list[k];
+    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("name") ||
+        !entry.hasMember("model") || entry["name"].getType() != XmlRpc::XmlRpcValue::TypeString ||
+        entry["model"].getType() != XmlRpc::XmlRpcValue::TypeString)
+      throw StartupError(where + " must have string keys 'name' and 'model'");
+    VehicleSpec s;
+    s.name = static_cast<std::string>(entry["name"]);
+    s.model = static_cast<std::string>(entry["model"]);
+    std::string error;
+    // The name becomes a namespace and a frame prefix, so it must be a plain ROS name.
+    if (s.name.empty() || s.name.find('/') != std::string::npos || !ros::names::validate(s.name, error))
+      throw StartupError(where + ".name '" + s.name + "' must be a valid ROS name without '/'");
+    if (!names.insert(s.name).second)
+      throw StartupError(where + ".name '" + s.name + "' is used twice");
+    if (s.model.empty() || s.model.find('/') != std::string::npos)
+      throw StartupError(where + ".model '" + s.model + "' must be a model name (config_dir/<model>.yaml)");
+    s.x = numberOf(entry, "x", 0.0, where);
+    s.y = numberOf(entry, "y", 0.0, where);
+    s.yaw = numberOf(entry, "yaw", 0.0, where);
+    specs.push_back(s);
+  }
+  return specs;
+}
+
+/// One simulated vehicle's ROS side.
+struct VehicleIo
+{
+  std::string name;
+  std::size_t id = 0;
+  ad::VehicleModel model;
+  std::string cmd_topic, drive_topic;
+  ros::Subscriber cmd_sub, drive_sub;
+  ros::Publisher odom_pub, joint_pub, telemetry_pub;
+  std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
+  std::optional<ad::DriveCommand> last;     ///< last good command
+  double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
+  std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
+  double stuck_since = -1.0;                ///< world time the stuck condition began, s; < 0: not
+  bool stuck = false;
+  // Area the wheels ran over since the last rut publication (map x, y, m).
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+  bool ran = false;
+};
+
+class DynamicsNode
+{
+public:
+  DynamicsNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh)
+  {
+    const std::vector<VehicleSpec> specs = vehicleSpecs(pnh_);
+    std::string config_dir, soils_file;
+    pnh_.param<std::string>("config_dir", config_dir, ros::package::getPath("avsp") + "/config/vehicles");
+    pnh_.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+    try
+    {
+      soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError("parameter ~soils_file: " + std::string(e.what()));
+    }
+
+    ad::WorldOptions options;
+    options.step = boundedParam(pnh_, "step", 0.001, 1e-5, 0.01);
+    int seed = 0;
+    pnh_.param("seed", seed, 0);
+    if (seed < 0)
+      throw StartupError("parameter ~seed must be >= 0");
+    options.seed = static_cast<std::uint64_t>(seed);
+    pnh_.param("deform_terrain", options.deform_terrain, true);
+    command_timeout_ = boundedParam(pnh_, "command_timeout", 0.5, 0.0, 3600.0);
+    const double odom_rate = boundedParam(pnh_, "odometry_rate", 100.0, 1.0, 1.0 / options.step);
+    const double clock_rate = boundedParam(pnh_, "clock_rate", 500.0, 1.0, 1.0 / options.step);
+    const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
+    real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
+    pnh_.param("publish_clock", publish_clock_, true);
+    pnh_.param("wait_for_command", wait_for_command_, false);
+    // Publication periods in whole steps, so they fall on the same steps in every run.
+    odom_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (odom_rate * options.step)));
+    clock_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (clock_rate * options.step)));
+    ruts_every_ = ruts_rate > 0.0 ? std::max<std::uint64_t>(1, std::llround(1.0 / (ruts_rate * options.step))) : 0;
+
+    loadTerrain();
+    try
+    {
+      world_ = std::make_unique<ad::World>(*terrain_, options);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(e.what());
+    }
+
+    for (const VehicleSpec& s : specs)
+    {
+      auto v = std::make_unique<VehicleIo>();
+      v->name = s.name;
+      const std::string yaml = config_dir + "/" + s.model + ".yaml";
+      try
+      {
+        v->model = ad::loadVehicleModel(yaml);
+        // Lowest wheel 1 cm above the ground: it settles in the first fraction of a second.
+        v->id = world_->addVehicle(v->model, world_->restingPose(v->model, s.x, s.y, s.yaw, 0.01), s.name);
+      }
+      catch (const std::exception& e)
+      {
+        throw StartupError("vehicle '" + s.name + "' (model '" + s.model + "', ~vehicles, ~config_dir " +
+                           config_dir + "): " + e.what());
+      }
+      v->spin_angle.assign(v->model.wheels.size(), 0.0);
+      ros::NodeHandle vnh(nh_, s.name);
+      v->cmd_topic = vnh.resolveName("avt_341/cmd_vel");
+      VehicleIo* raw = v.get();
+      v->cmd_sub = vnh.subscribe<geometry_msgs::Twist>(
+          "avt_341/cmd_vel", 10, [this, raw](const geometry_msgs::Twist::ConstPtr& msg) { onCmdVel(*raw, *msg); });
+      v->drive_topic = vnh.resolveName("cmd_drive");
+      v->drive_sub = vnh.subscribe<avsp_msgs::DriveCommand>(
+          "cmd_drive", 10, [this, raw](const avsp_msgs::DriveCommand::ConstPtr& msg) { onCmdDrive(*raw, *msg); });
+      v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", 50);
+      v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", 50);
+      v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
+      vehicles_.push_back(std::move(v));
+    }
+    ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
+    if (publish_clock_)
+      clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
+             source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
+             real_time_factor_);
+  }
+
+  /// Runs until shutdown.
+  void run()
+  {
+    if (publish_clock_)
+      publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
+    if (wait_for_command_)
+    {
+      // Physics starts once every vehicle has a command, so a command published before the
+      // start acts from step 0 in every run (the determinism test relies on it).
+      ros::WallRate idle(200.0);
+      while (ros::ok() && !std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending; }))
+      {
+        ros::spinOnce();
+        idle.sleep();
+      }
+    }
+    const ros::WallTime wall_start = ros::WallTime::now();
+    while (ros::ok())
+    {
+      ros::spinOnce();
+      if (publish_clock_)
+      {
+        // One clock period of physics per loop, commands taken at its start.
+        for (std::uint64_t k = 0; k < clock_every_ && ros::ok(); ++k)
+          step();
+        publishClock();
+        if (real_time_factor_ > 0.0)
+        {
+          const ros::WallTime due = wall_start + ros::WallDuration(world_->time() / real_time_factor_);
+          const ros::WallDuration wait = due - ros::WallTime::now();
+          if (wait > ros::WallDuration(0))
+            wait.sleep();
+        }
+      }
+      else
+      {
+        // Follow the external clock: catch up with it, then wait for it to move on.
+        const ros::Time now = ros::Time::now();
+        if (now.isZero())
+        {
+          ros::WallDuration(0.001).sleep();
+          continue;
+        }
+        if (!follow_start_)
+          follow_start_ = now;
+        const double target = (now - *follow_start_).toSec();
+        if (world_->time() + 0.5 * world_->options().step >= target)
+        {
+          ros::WallDuration(0.0005).sleep();
+          continue;
+        }
+        while (world_->time() + 0.5 * world_->options().step < target && ros::ok())
+          step();
+      }
+    }
+  }
+
+private:
+  void loadTerrain()
+  {
+    std::string flat_soil;
+    pnh_.param<std::string>("flat_soil", flat_soil, "");
+    if (!flat_soil.empty())
+    {
+      // A level square of one soil centred on the map origin: for tests and benchmarks.
+      if (!soils_->contains(flat_soil))
+        throw StartupError("parameter ~flat_soil: no soil '" + flat_soil + "' in the soil library");
+      const double size = boundedParam(pnh_, "flat_size", 100.0, 1.0, 10000.0);
+      const double cell = boundedParam(pnh_, "flat_cell_size", 0.1, 0.005, 10.0);
+      const auto n = static_cast<std::size_t>(std::llround(size / cell)) + 1;
+      at::ElevationGrid grid(-0.5 * size, -0.5 * size, cell, cell, n, n, std::vector<float>(n * n, 0.0f));
+      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(grid), soils_->get(flat_soil),
+                                                         at::DeformableTerrain::Options{true});
+      source_ = "flat " + flat_soil + " " + std::to_string(size) + " m";
+      return;
+    }
+    at::CourseOptions options;
+    int seed = 1;
+    pnh_.param("course_seed", seed, 1);
+    if (seed < 0)
+      throw StartupError("parameter ~course_seed must be >= 0");
+    options.seed = static_cast<std::uint64_t>(seed);
+    options.cell_size = boundedParam(pnh_, "course_cell_size", 0.1, 1e-3, 100.0);
+    options.length_x = boundedParam(pnh_, "course_length_x", 600.0, 1.0, 1e5);
+    options.length_y = boundedParam(pnh_, "course_length_y", 400.0, 1.0, 1e5);
+    try
+    {
+      at::Course course = at::makeDefaultCourse(options);
+      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(course.heights),
+                                                         at::paletteFromNames(course.soil_names, *soils_),
+                                                         std::move(course.soil_map),
+                                                         at::DeformableTerrain::Options{true});
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(std::string("default course (~course_*): ") + e.what());
+    }
+    source_ = "the default course (seed " + std::to_string(seed) + ")";
+  }
+
+  void onCmdVel(VehicleIo& v, const geometry_msgs::Twist& twist)
+  {
+    avsp_msgs::DriveCommand cmd;
+    std::string why;
+    const avsp::msgs::CommandCheck check = avsp::msgs::driveCommandFromTwist(twist, cmd, why);
+    if (check == avsp::msgs::CommandCheck::kRejected)
+    {
+      // The last good command stays in force (and ages towards the timeout).
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", v.cmd_topic.c_str(), why.c_str());
+      return;
+    }
+    if (check == avsp::msgs::CommandCheck::kClamped)
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", v.cmd_topic.c_str(), why.c_str());
+    v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
+  }
+
+  void onCmdDrive(VehicleIo& v, const avsp_msgs::DriveCommand& msg)
+  {
+    avsp_msgs::DriveCommand cmd = msg;
+    std::string why;
+    const avsp::msgs::CommandCheck check = avsp::msgs::sanitizeDriveCommand(cmd, why);
+    if (check == avsp::msgs::CommandCheck::kRejected)
+    {
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", v.drive_topic.c_str(), why.c_str());
+      return;
+    }
+    if (check == avsp::msgs::CommandCheck::kClamped)
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", v.drive_topic.c_str(), why.c_str());
+    // Taken like cmd_vel (its stamp is not trusted for the timeout: publishers' clocks differ).
+    v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
+  }
+
+  /// Stuck (VehicleTelemetry.stuck): throttle on and the driven wheels in contact slipping at
+  /// >= 0.95 on average, continuously for 2 s of world time.
+  void updateStuck(VehicleIo& v, const ad::VehicleState& s, double now)
+  {
+    double slip = 0.0;
+    int driven = 0;
+    for (std::size_t w = 0; w < s.wheels.size(); ++w)
+      if (v.model.wheels[w].driven && s.wheels[w].in_contact)
+      {
+        slip += s.wheels[w].slip;
+        ++driven;
+      }
+    const bool spinning = s.command.throttle > 0.0 && driven > 0 && slip / driven >= 0.95;
+    if (!spinning)
+      v.stuck_since = -1.0;
+    else if (v.stuck_since < 0.0)
+      v.stuck_since = now;
+    v.stuck = spinning && now - v.stuck_since >= 2.0;
+  }
+
+  /// One physics step: commands in (with the timeout on world time), step, publications out.
+  void step()
+  {
+    const double now = world_->time();
+    for (auto& v : vehicles_)
+    {
+      if (v->pending)
+      {
+        v->last = v->pending;
+        v->last_time = now;
+        v->pending.reset();
+      }
+      ad::DriveCommand cmd{0.0, 1.0, 0.0};  // none yet, or stale: zero throttle, full brake
+      if (v->last && now - v->last_time <= command_timeout_)
+        cmd = *v->last;
+      else if (v->last)
+        cmd.steering = v->last->steering;  // the steering stays where it was
+      world_->setCommand(v->id, cmd);
+    }
+    world_->step();
+    const double h = world_->options().step;
+    for (auto& v : vehicles_)
+    {
+      const ad::VehicleState& s = world_->state(v->id);
+      updateStuck(*v, s, world_->time());
+      for (std::size_t w = 0; w < s.wheels.size(); ++w)
+      {
+        v->spin_angle[w] = std::remainder(v->spin_angle[w] + s.wheels[w].spin_rate * h, 2.0 * M_PI);
+        if (s.wheels[w].in_contact && ruts_every_ > 0)
+          coverWheel(*v, s.pose * v->model.wheels[w].rest_position);
+      }
+    }
+    const std::uint64_t n = world_->stepCount();
+    if (n % odom_every_ == 0)
+      publishStates();
+    if (ruts_every_ > 0 && n % ruts_every_ == 0)
+      publishRuts();
+  }
+
+  void coverWheel(VehicleIo& v, const Eigen::Vector3d& c)
+  {
+    if (!v.ran)
+    {
+      v.min_x = v.max_x = c.x();
+      v.min_y = v.max_y = c.y();
+      v.ran = true;
+      return;
+    }
+    v.min_x = std::min(v.min_x, c.x());
+    v.max_x = std::max(v.max_x, c.x());
+    v.min_y = std::min(v.min_y, c.y());
+    v.max_y = std::max(v.max_y, c.y());
+  }
+
+  /// The sim time of the last step: world time, offset by the external clock's value when the
+  /// node started following it (so a catch-up burst of steps still gets distinct stamps).
+  ros::Time stamp() const
+  {
+    if (publish_clock_ || !follow_start_)
+      return ros::Time(world_->time());
+    return *follow_start_ + ros::Duration(world_->time());
+  }
+
+  void publishClock()
+  {
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(world_->time());
+    clock_pub_.publish(c);
+  }
+
+  void publishStates()
+  {
+    const ros::Time t = stamp();
+    for (auto& v : vehicles_)
+    {
+      const ad::VehicleState& s = world_->state(v->id);
+      const Eigen::Quaterniond q(s.pose.linear());
+      const Eigen::Vector3d w_body = s.pose.linear().transpose() * s.angular_velocity;
+      nav_msgs::Odometry odom;
+      odom.header.stamp = t;
+      odom.header.frame_id = "odom";  // identity child of map: the simulator knows ground truth
+      odom.child_frame_id = v->name + "/base_link";
+      odom.pose.pose.position.x = s.pose.translation().x();
+      odom.pose.pose.position.y = s.pose.translation().y();
+      odom.pose.pose.position.z = s.pose.translation().z();
+      odom.pose.pose.orientation.w = q.w();
+      odom.pose.pose.orientation.x = q.x();
+      odom.pose.pose.orientation.y = q.y();
+      odom.pose.pose.orientation.z = q.z();
+      odom.twist.twist.linear.x = s.body_velocity.x();
+      odom.twist.twist.linear.y = s.body_velocity.y();
+      odom.twist.twist.linear.z = s.body_velocity.z();
+      odom.twist.twist.angular.x = w_body.x();
+      odom.twist.twist.angular.y = w_body.y();
+      odom.twist.twist.angular.z = w_body.z();
+      v->odom_pub.publish(odom);
+
+      geometry_msgs::TransformStamped tf;
+      tf.header = odom.header;
+      tf.child_frame_id = odom.child_frame_id;
+      tf.transform.translation.x = odom.pose.pose.position.x;
+      tf.transform.translation.y = odom.pose.pose.position.y;
+      tf.transform.translation.z = odom.pose.pose.position.z;
+      tf.transform.rotation = odom.pose.pose.orientation;
+      tf_.sendTransform(tf);
+
+      // URDF joint names (robot_state_publisher in the vehicle's namespace prefixes frames).
+      sensor_msgs::JointState js;
+      js.header.stamp = t;
+      for (std::size_t w = 0; w < v->model.wheels.size(); ++w)
+      {
+        const ad::WheelSpec& spec = v->model.wheels[w];
+        const ad::WheelState& ws = s.wheels[w];
+        js.name.push_back(spec.spin_joint);
+        js.position.push_back(v->spin_angle[w]);
+        js.velocity.push_back(ws.spin_rate);
+        js.name.push_back(spec.suspension_joint);
+        js.position.push_back(ws.suspension_deflection);
+        js.velocity.push_back(0.0);
+        if (!spec.steering_joint.empty())
+        {
+          js.name.push_back(spec.steering_joint);
+          js.position.push_back(ws.steering_angle);
+          js.velocity.push_back(0.0);
+        }
+      }
+      v->joint_pub.publish(js);
+
+      avsp_msgs::VehicleTelemetry tm;
+      tm.header.stamp = t;
+      tm.header.frame_id = odom.child_frame_id;
+      tm.vehicle_id = v->name;
+      tm.command.header.stamp = t;
+      tm.command.throttle = s.command.throttle;
+      tm.command.brake = s.command.brake;
+      tm.command.steering = s.command.steering;
+      const at::ElevationGrid& g = terrain_->base();
+      for (std::size_t w = 0; w < v->model.wheels.size(); ++w)
+      {
+        const ad::WheelState& ws = s.wheels[w];
+        avsp_msgs::WheelContact c;
+        c.name = v->model.wheels[w].link;
+        c.normal_force = ws.normal_force;
+        c.sinkage = ws.sinkage;
+        c.slip = ws.slip;
+        c.slip_angle = ws.slip_angle;
+        c.traction_force = ws.traction_force;
+        c.resistance_force = ws.resistance_force;
+        // The soil at the grid point nearest the wheel centre.
+        const Eigen::Vector3d centre = s.pose * v->model.wheels[w].rest_position;
+        const double fi = std::round((centre.x() - g.originX()) / g.dx());
+        const double fj = std::round((centre.y() - g.originY()) / g.dy());
+        if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
+          c.soil = terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
+        tm.contacts.push_back(c);
+      }
+      tm.stuck = v->stuck;
+      v->telemetry_pub.publish(tm);
+    }
+  }
+
+  /// The grid points under each vehicle's wheels since the last call, as one TerrainPatch per
+  /// vehicle: the bounding box of the wheel centres widened by a wheel's radius and width plus
+  /// two cells (flowed soil lands on the neighbours of a contact).
+  void publishRuts()
+  {
+    const at::ElevationGrid& g = terrain_->base();
+    for (auto& v : vehicles_)
+    {
+      if (!v->ran)
+        continue;
+      v->ran = false;
+      double margin = 0.0;
+      for (const ad::WheelSpec& w : v->model.wheels)
+        margin = std::max(margin, w.radius + w.width);
+      margin += 2.0 * g.dx();
+      auto index = [](double value, double origin, double d, std::size_t n) {
+        const double f = std::floor((value - origin) / d);
+        return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(n - 1)));
+      };
+      at::PointRange r;
+      r.i0 = index(v->min_x - margin, g.originX(), g.dx(), g.columns());
+      r.i1 = index(v->max_x + margin + g.dx(), g.originX(), g.dx(), g.columns());
+      r.j0 = index(v->min_y - margin, g.originY(), g.dy(), g.rows());
+      r.j1 = index(v->max_y + margin + g.dy(), g.originY(), g.dy(), g.rows());
+      if (r.i1 <= r.i0 || r.j1 <= r.j0)
+        continue;
+      const at::HeightPatch p = at::extractPatch(*terrain_, r);
+      avsp_msgs::TerrainPatch msg;
+      msg.header.stamp = stamp();
+      msg.header.frame_id = "map";
+      msg.origin.x = p.origin_x;
+      msg.origin.y = p.origin_y;
+      msg.resolution = p.resolution;
+      msg.width = static_cast<std::uint32_t>(p.width);
+      msg.height = static_cast<std::uint32_t>(p.height);
+      msg.heights = p.heights;
+      ruts_pub_.publish(msg);
+    }
+  }
+
+  ros::NodeHandle& nh_;
+  ros::NodeHandle& pnh_;
+  std::unique_ptr<at::SoilLibrary> soils_;
+  std::unique_ptr<at::DeformableTerrain> terrain_;  // declared before world_: outlives it
+  std::unique_ptr<ad::World> world_;
+  std::vector<std::unique_ptr<VehicleIo>> vehicles_;
+  std::string source_;
+  double command_timeout_ = 0.5;
+  double real_time_factor_ = 0.0;
+  bool publish_clock_ = true;
+  bool wait_for_command_ = false;
+  std::optional<ros::Time> follow_start_;  ///< external clock when following began
+  std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
+  ros::Publisher ruts_pub_, clock_pub_;
+  tf2_ros::TransformBroadcaster tf_;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ros::init(argc, argv, "dynamics_node");
+  ros::NodeHandle nh, pnh("~");
+  std::unique_ptr<DynamicsNode> node;
+  try
+  {
+    node = std::make_unique<DynamicsNode>(nh, pnh);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("dynamics_node: %s", e.what());
+    return 1;
+  }
+  node->run();
+  return 0;
+}

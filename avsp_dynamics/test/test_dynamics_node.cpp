@@ -1,0 +1,321 @@
+// rostest of dynamics_node (test/dynamics_node.test): the vehicle is driven only through
+// avt_341/cmd_vel and judged only by what the node publishes (odometry, /terrain/ruts,
+// /rosout). Time is the node's sim time (odometry stamps); wall deadlines only guard a hang.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/VehicleTelemetry.h>
+#include <geometry_msgs/Twist.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Log.h>
+
+#include "avsp_dynamics/vehicle_model.hpp"
+
+namespace
+{
+/// Spins until `done` holds or `timeout` (wall s) passes.
+bool spinUntil(const std::function<bool()>& done, double timeout = 60.0)
+{
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (ros::ok() && !done())
+  {
+    if (ros::WallTime::now() > deadline)
+      return false;
+    ros::spinOnce();
+    ros::WallDuration(0.001).sleep();
+  }
+  return done();
+}
+
+geometry_msgs::Twist twist(double throttle, double brake_y, double steering)
+{
+  geometry_msgs::Twist t;
+  t.linear.x = throttle;
+  t.linear.y = brake_y;  // avt_341 sends the brake as [-1, 0]
+  t.angular.z = steering;
+  return t;
+}
+
+double yawOf(const nav_msgs::Odometry& o)
+{
+  const auto& q = o.pose.pose.orientation;
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+}
+
+double speedOf(const nav_msgs::Odometry& o)
+{
+  return std::hypot(o.twist.twist.linear.x, o.twist.twist.linear.y);
+}
+
+struct Ego
+{
+  ros::NodeHandle nh;
+  std::vector<nav_msgs::Odometry> odom;
+  std::vector<avsp_msgs::TerrainPatch> ruts;
+  std::vector<std::string> warnings;
+  avsp_msgs::VehicleTelemetry telemetry;  ///< the latest
+  ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub;
+  ros::Publisher cmd_pub, drive_pub;
+
+  Ego()
+  {
+    odom_sub = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 1000,
+                                               [this](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
+    ruts_sub = nh.subscribe<avsp_msgs::TerrainPatch>(
+        "/terrain/ruts", 100, [this](const avsp_msgs::TerrainPatch::ConstPtr& m) { ruts.push_back(*m); });
+    log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [this](const rosgraph_msgs::Log::ConstPtr& m) {
+      if (m->level >= rosgraph_msgs::Log::WARN)
+        warnings.push_back(m->msg);
+    });
+    telemetry_sub = nh.subscribe<avsp_msgs::VehicleTelemetry>(
+        "/ego/telemetry", 100, [this](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { telemetry = *m; });
+    cmd_pub = nh.advertise<geometry_msgs::Twist>("/ego/avt_341/cmd_vel", 10);
+    drive_pub = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 10);
+  }
+
+  double now() const { return odom.empty() ? 0.0 : odom.back().header.stamp.toSec(); }
+
+  /// Sends `cmd` on every new odometry message (100 Hz sim) until sim time `until`.
+  bool drive(const geometry_msgs::Twist& cmd, double until, const geometry_msgs::Twist* every_other = nullptr)
+  {
+    std::size_t seen = odom.size();
+    std::size_t sent = 0;
+    return spinUntil([&] {
+      if (odom.size() > seen)
+      {
+        seen = odom.size();
+        cmd_pub.publish(every_other && sent % 2 == 1 ? *every_other : cmd);
+        ++sent;
+      }
+      return now() >= until;
+    });
+  }
+
+  /// Sends `cmd` on /ego/cmd_drive on every new odometry message until sim time `until`.
+  bool driveCommand(const avsp_msgs::DriveCommand& cmd, double until)
+  {
+    std::size_t seen = odom.size();
+    return spinUntil([&] {
+      if (odom.size() > seen)
+      {
+        seen = odom.size();
+        drive_pub.publish(cmd);
+      }
+      return now() >= until;
+    });
+  }
+
+  /// Sends nothing until sim time `until`.
+  bool idle(double until)
+  {
+    return spinUntil([&] { return now() >= until; });
+  }
+};
+
+TEST(DynamicsNode, DrivesThroughCmdVel)
+{
+  Ego ego;
+  ASSERT_TRUE(spinUntil([&] { return ego.now() >= 1.0; })) << "no odometry from /ego/avt_341/odometry";
+  const nav_msgs::Odometry first = ego.odom.front();
+  EXPECT_EQ(first.header.frame_id, "odom");
+  EXPECT_EQ(first.child_frame_id, "ego/base_link");
+  EXPECT_NEAR(first.pose.pose.position.x, -30.0, 0.05);
+  // Stamps are the node's fixed-step sim time: 100 Hz, 0.01 s apart.
+  ASSERT_GE(ego.odom.size(), 3u);
+  EXPECT_NEAR((ego.odom[2].header.stamp - ego.odom[1].header.stamp).toSec(), 0.01, 1e-6);
+
+  // No command yet: the node brakes, so after landing the vehicle stays put.
+  const nav_msgs::Odometry settled = ego.odom.back();
+  ASSERT_TRUE(ego.idle(2.0));
+  EXPECT_LT(std::abs(ego.odom.back().pose.pose.position.x - settled.pose.pose.position.x), 0.01);
+  EXPECT_LT(speedOf(ego.odom.back()), 0.02);
+  // Telemetry at rest: braked (no command), the soil carries the vehicle's weight.
+  {
+    std::string config_dir;
+    ASSERT_TRUE(ros::NodeHandle("~").getParam("config_dir", config_dir));
+    const avsp::dynamics::VehicleModel model = avsp::dynamics::loadVehicleModel(config_dir + "/fed_alpha.yaml");
+    const avsp_msgs::VehicleTelemetry tm = ego.telemetry;
+    EXPECT_EQ(tm.vehicle_id, "ego");
+    EXPECT_EQ(tm.command.throttle, 0.0);
+    EXPECT_EQ(tm.command.brake, 1.0);
+    EXPECT_FALSE(tm.stuck);
+    ASSERT_EQ(tm.contacts.size(), model.wheels.size());
+    double load = 0.0;
+    for (std::size_t w = 0; w < tm.contacts.size(); ++w)
+    {
+      EXPECT_EQ(tm.contacts[w].name, model.wheels[w].link);
+      EXPECT_EQ(tm.contacts[w].soil, "gravel");
+      load += tm.contacts[w].normal_force;
+    }
+    EXPECT_NEAR(load, model.total_mass * 9.81, 0.02 * model.total_mass * 9.81);
+  }
+
+  // Throttle step (NaN commands interleaved: rejected, the last good one stays in force).
+  ASSERT_TRUE(ego.cmd_pub.getNumSubscribers() > 0 || spinUntil([&] { return ego.cmd_pub.getNumSubscribers() > 0; }));
+  const geometry_msgs::Twist nan_cmd = twist(std::nan(""), 0.0, 0.0);
+  ASSERT_TRUE(ego.drive(twist(0.4, 0.0, 0.0), 3.5, &nan_cmd));
+  const double v_mid = speedOf(ego.odom.back());
+  ASSERT_TRUE(ego.drive(twist(0.4, 0.0, 0.0), 5.0, &nan_cmd));
+  const double v_end = speedOf(ego.odom.back());
+  EXPECT_GT(v_mid, 0.5);
+  EXPECT_GT(v_end, v_mid + 0.5) << "speed did not keep increasing under throttle";
+  EXPECT_GT(ego.odom.back().twist.twist.linear.x, 0.0) << "twist must be forward in base_link";
+  EXPECT_LT(std::abs(ego.odom.back().pose.pose.position.y), 0.5) << "drove off straight";
+  ASSERT_TRUE(spinUntil([&] {
+    for (const auto& w : ego.warnings)
+      if (w.find("/ego/avt_341/cmd_vel") != std::string::npos && w.find("rejected") != std::string::npos)
+        return true;
+    return false;
+  }, 10.0)) << "no warning naming /ego/avt_341/cmd_vel for the NaN commands";
+
+  // Positive steering turns left: yaw rate > 0, heading increases.
+  const double yaw0 = yawOf(ego.odom.back());
+  ASSERT_TRUE(ego.drive(twist(0.2, 0.0, 0.5), 7.0));
+  EXPECT_GT(ego.odom.back().twist.twist.angular.z, 0.05);
+  EXPECT_GT(yawOf(ego.odom.back()) - yaw0, 0.1);
+
+  // Full brake (avt_341's -1) stops it.
+  ASSERT_TRUE(ego.drive(twist(0.0, -1.0, 0.0), 10.0));
+  EXPECT_LT(speedOf(ego.odom.back()), 0.05);
+  EXPECT_EQ(ego.telemetry.command.brake, 1.0);
+
+  // Moving again, then silence: the stale command (0.5 s) becomes zero throttle, full brake.
+  ASSERT_TRUE(ego.drive(twist(0.4, 0.0, 0.0), 11.5));
+  const double v_before = speedOf(ego.odom.back());
+  EXPECT_GT(v_before, 0.5);
+  const double silent_from = ego.now();
+  ASSERT_TRUE(ego.idle(silent_from + 0.4));
+  EXPECT_GT(speedOf(ego.odom.back()), 0.8 * v_before) << "braked before the command went stale";
+  ASSERT_TRUE(ego.idle(silent_from + 4.0));
+  EXPECT_LT(speedOf(ego.odom.back()), 0.05) << "a stale command must brake the vehicle to a stop";
+  EXPECT_EQ(ego.telemetry.command.throttle, 0.0);
+  EXPECT_EQ(ego.telemetry.command.brake, 1.0);
+
+  // The same vehicle through cmd_drive (avsp_msgs/DriveCommand).
+  avsp_msgs::DriveCommand drive;
+  drive.throttle = 0.4;
+  ASSERT_TRUE(ego.driveCommand(drive, ego.now() + 1.5));
+  EXPECT_GT(speedOf(ego.odom.back()), 0.5);
+  EXPECT_NEAR(ego.telemetry.command.throttle, 0.4, 1e-12);
+
+  // Ruts of the drive on /terrain/ruts: well-formed patches, the track below the flat surface.
+  ASSERT_FALSE(ego.ruts.empty());
+  float lowest = 0.0f;
+  for (const auto& p : ego.ruts)
+  {
+    EXPECT_EQ(p.header.frame_id, "map");
+    ASSERT_EQ(p.heights.size(), static_cast<std::size_t>(p.width) * p.height);
+    EXPECT_NEAR(p.resolution, 0.1, 1e-9);
+    for (float h : p.heights)
+      lowest = std::min(lowest, h);
+  }
+  EXPECT_LT(lowest, -0.002) << "no rut below the flat gravel surface";
+}
+
+TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
+{
+  // Two nodes, each with its own world, start stepping when their (latched) command arrives;
+  // it goes stale after 0.5 s, so each run is throttle + steering, then braking.
+  ros::NodeHandle nh;
+  std::vector<nav_msgs::Odometry> a, b;
+  ros::Subscriber sa = nh.subscribe<nav_msgs::Odometry>("/det_a/avt_341/odometry", 1000,
+                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { a.push_back(*m); });
+  ros::Subscriber sb = nh.subscribe<nav_msgs::Odometry>("/det_b/avt_341/odometry", 1000,
+                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { b.push_back(*m); });
+  ros::Publisher pa = nh.advertise<geometry_msgs::Twist>("/det_a/avt_341/cmd_vel", 1, true);
+  ros::Publisher pb = nh.advertise<geometry_msgs::Twist>("/det_b/avt_341/cmd_vel", 1, true);
+  pa.publish(twist(0.6, 0.0, 0.4));
+  pb.publish(twist(0.6, 0.0, 0.4));
+  const std::size_t n = 150;  // 1.5 s of sim time at 100 Hz
+  ASSERT_TRUE(spinUntil([&] { return a.size() >= n && b.size() >= n; }, 120.0))
+      << "odometry: det_a " << a.size() << ", det_b " << b.size();
+  for (std::size_t k = 0; k < n; ++k)
+  {
+    const auto &pa_ = a[k].pose.pose, &pb_ = b[k].pose.pose;
+    const auto &ta = a[k].twist.twist, &tb = b[k].twist.twist;
+    ASSERT_EQ(pa_.position.x, pb_.position.x) << "message " << k;
+    ASSERT_EQ(pa_.position.y, pb_.position.y) << "message " << k;
+    ASSERT_EQ(pa_.position.z, pb_.position.z) << "message " << k;
+    ASSERT_EQ(pa_.orientation.z, pb_.orientation.z) << "message " << k;
+    ASSERT_EQ(pa_.orientation.w, pb_.orientation.w) << "message " << k;
+    ASSERT_EQ(ta.linear.x, tb.linear.x) << "message " << k;
+    ASSERT_EQ(ta.angular.z, tb.angular.z) << "message " << k;
+    // Following /clock, stamps are world time from where the node started: 100 Hz exactly.
+    ASSERT_NEAR((a[k].header.stamp - a[0].header.stamp).toSec(), 0.01 * k, 1e-6) << "message " << k;
+  }
+  // Not trivially equal: the vehicles moved and turned.
+  EXPECT_GT(std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
+                       a[n - 1].pose.pose.position.y - a[0].pose.pose.position.y),
+            0.2);
+}
+
+/// Runs dynamics_node under a fresh name with private parameters set on the master first
+/// (lists cannot be given on the command line): it must exit 1 and say what is wrong.
+std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name)
+{
+  static int run = 0;
+  const std::string name = "bad_dynamics_" + std::to_string(getpid()) + "_" + std::to_string(run++);
+  ros::NodeHandle nh, pnh("~");
+  std::string config_dir, soils_file;
+  pnh.getParam("config_dir", config_dir);
+  pnh.getParam("soils_file", soils_file);
+  XmlRpc::XmlRpcValue vehicles, v;
+  v["name"] = vehicle_name;
+  v["model"] = vehicles_yaml_model;
+  v["x"] = 0.0;
+  v["y"] = 0.0;
+  v["yaw"] = 0.0;
+  vehicles[0] = v;
+  nh.setParam("/" + name + "/vehicles", vehicles);
+  nh.setParam("/" + name + "/config_dir", config_dir);
+  nh.setParam("/" + name + "/soils_file", soils_file);
+  nh.setParam("/" + name + "/flat_soil", std::string("gravel"));
+  nh.setParam("/" + name + "/flat_size", 20.0);
+  nh.setParam("/" + name + "/publish_clock", false);
+  const std::string log = "/tmp/avsp_bad_dynamics_node_" + std::to_string(getpid()) + ".log";
+  const std::string cmd = std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::remove(log.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+}
+
+TEST(DynamicsNodeStartup, RefusesUnknownAndTrackedModelsByName)
+{
+  auto [code, out] = runBadNode("no_such_model", "rover7");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("rover7"), std::string::npos) << out;
+  EXPECT_NE(out.find("no_such_model"), std::string::npos) << out;
+
+  // Tracked vehicles: the core refuses them; the node names the vehicle.
+  std::tie(code, out) = runBadNode("m113", "tank3");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("tank3"), std::string::npos) << out;
+  EXPECT_NE(out.find("tracked"), std::string::npos) << out;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_dynamics_node");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}
