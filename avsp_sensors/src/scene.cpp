@@ -1,0 +1,214 @@
+#include "avsp_sensors/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "avsp_sensors/parallel.hpp"
+#include "avsp_terrain/terrain_objects.hpp"
+
+namespace avsp
+{
+namespace sensors
+{
+std::vector<Primitive> objectPrimitives(const terrain::ObjectSet& objects, const HeightField& ground,
+                                        const Reflectivities& reflectivities)
+{
+  std::vector<Primitive> out;
+  out.reserve(objects.size());
+  for (const terrain::TerrainObject& o : objects.all())
+  {
+    if (o.type == terrain::ObjectType::kGrass)
+      continue;
+    Primitive p;
+    switch (o.type)
+    {
+      case terrain::ObjectType::kRock:
+        p.shape = Shape::kEllipsoid;
+        break;
+      case terrain::ObjectType::kTree:
+      case terrain::ObjectType::kShrub:
+      case terrain::ObjectType::kPole:
+        p.shape = Shape::kCylinder;
+        break;
+      default:
+        p.shape = Shape::kBox;
+        break;
+    }
+    // The same minimum height as the RViz markers, so that a flat object still has a volume.
+    const double height = std::max(o.height, 0.02);
+    p.half_extents = Eigen::Vector3d(0.5 * o.length, 0.5 * o.width, 0.5 * height);
+    double z0 = 0.0;
+    ground.heightAt(o.x, o.y, z0);
+    if (!o.toppled)
+    {
+      p.rotation = Eigen::AngleAxisd(o.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      p.centre = Eigen::Vector3d(o.x, o.y, z0 + 0.5 * height);
+    }
+    else
+    {
+      // Lying along the fall direction f: its height axis (own z) along f, its thinner
+      // footprint side vertical, the other across f; columns are the images of own x, y, z.
+      const Eigen::Vector3d f(std::cos(o.fall_direction), std::sin(o.fall_direction), 0.0);
+      const Eigen::Vector3d across(-f.y(), f.x(), 0.0);
+      const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+      if (o.length <= o.width)
+        p.rotation << up, -across, f;
+      else
+        p.rotation << across, up, f;
+      p.centre = Eigen::Vector3d(o.x, o.y, z0 + 0.5 * std::min(o.length, o.width)) + 0.5 * height * f;
+    }
+    p.id = o.id;
+    p.reflectivity = reflectivities.objects[static_cast<std::size_t>(o.type)];
+    out.push_back(p);
+  }
+  return out;
+}
+
+Scene::Scene(HeightField terrain, Reflectivities reflectivities)
+  : terrain_(std::move(terrain)), reflectivities_(reflectivities)
+{
+  auto check = [](float r, const std::string& name) {
+    if (!(r >= 0.f && r <= 1.f))
+      throw std::invalid_argument("Scene: reflectivities." + name + " must be in [0, 1]");
+  };
+  check(reflectivities_.terrain, "terrain");
+  for (std::size_t k = 0; k < reflectivities_.objects.size(); ++k)
+    check(reflectivities_.objects[k], "objects[" + std::to_string(k) + "]");
+}
+
+void Scene::setObjects(const terrain::ObjectSet& objects)
+{
+  setStaticPrimitives(objectPrimitives(objects, terrain_, reflectivities_));
+}
+
+void Scene::setStaticPrimitives(std::vector<Primitive> primitives)
+{
+  objects_ = PrimitiveBvh(std::move(primitives));
+}
+
+void Scene::setBodies(std::vector<Body> bodies)
+{
+  std::vector<Primitive> prims;
+  prims.reserve(bodies.size());
+  for (const Body& b : bodies)
+  {
+    validatePrimitive(b.primitive, "Scene::setBodies");
+    if (!b.velocity.allFinite())
+      throw std::invalid_argument("Scene::setBodies: body id " + std::to_string(b.primitive.id) +
+                                  ": velocity is not finite");
+    if (!b.angular_velocity.allFinite())
+      throw std::invalid_argument("Scene::setBodies: body id " + std::to_string(b.primitive.id) +
+                                  ": angular_velocity is not finite");
+    prims.push_back(b.primitive);
+  }
+  body_bvh_ = PrimitiveBvh(std::move(prims));
+  bodies_ = std::move(bodies);
+}
+
+void Scene::setTerrainReflectivity(std::vector<std::uint8_t> soil_map, std::vector<float> palette)
+{
+  if (soil_map.empty())
+  {
+    soil_map_.clear();
+    soil_reflectivity_.clear();
+    return;
+  }
+  if (soil_map.size() != terrain_.columns() * terrain_.rows())
+    throw std::invalid_argument("Scene::setTerrainReflectivity: soil_map has " + std::to_string(soil_map.size()) +
+                                " entries, the grid " + std::to_string(terrain_.columns() * terrain_.rows()));
+  for (std::size_t k = 0; k < palette.size(); ++k)
+    if (!(palette[k] >= 0.f && palette[k] <= 1.f))
+      throw std::invalid_argument("Scene::setTerrainReflectivity: palette[" + std::to_string(k) +
+                                  "] must be in [0, 1]");
+  for (std::size_t k = 0; k < soil_map.size(); ++k)
+    if (soil_map[k] >= palette.size())
+      throw std::invalid_argument("Scene::setTerrainReflectivity: soil_map[" + std::to_string(k) + "] = " +
+                                  std::to_string(soil_map[k]) + " is not in the palette of " +
+                                  std::to_string(palette.size()));
+  soil_map_ = std::move(soil_map);
+  soil_reflectivity_ = std::move(palette);
+}
+
+float Scene::terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vector3d& p) const
+{
+  if (soil_map_.empty())
+    return reflectivities_.terrain;
+  // The grid point nearest the hit (of the cell's four corners).
+  const double fx = (p.x() - terrain_.originX()) / terrain_.dx() - static_cast<double>(i);
+  const double fy = (p.y() - terrain_.originY()) / terrain_.dy() - static_cast<double>(j);
+  const std::size_t pi = i + (fx >= 0.5 ? 1 : 0), pj = j + (fy >= 0.5 ? 1 : 0);
+  return soil_reflectivity_[soil_map_[pj * terrain_.columns() + pi]];
+}
+
+void Scene::validateRay(const Ray& ray, const char* context)
+{
+  if (!ray.origin.allFinite())
+    throw std::invalid_argument(std::string(context) + ": ray origin is not finite");
+  if (!ray.direction.allFinite() || std::abs(ray.direction.squaredNorm() - 1.0) > 2e-6)
+    throw std::invalid_argument(std::string(context) + ": ray direction must be a finite unit vector");
+  if (!(ray.max_range >= 0.0) || !std::isfinite(ray.max_range))
+    throw std::invalid_argument(std::string(context) + ": ray max_range must be finite and >= 0, got " +
+                                std::to_string(ray.max_range));
+}
+
+RayHit Scene::cast(const Ray& ray) const
+{
+  validateRay(ray, "Scene::cast");
+  return castUnchecked(ray);
+}
+
+void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsigned threads) const
+{
+  for (std::size_t k = 0; k < rays.size(); ++k)
+    validateRay(rays[k], ("Scene::cast: rays[" + std::to_string(k) + "]").c_str());
+  hits.resize(rays.size());
+  parallelFor(rays.size(), threads, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k)
+      hits[k] = castUnchecked(rays[k]);
+  });
+}
+
+RayHit Scene::castUnchecked(const Ray& ray) const
+{
+  RayHit out;
+  double best = ray.max_range;
+  TerrainHit th;
+  if (terrain_.intersect(ray.origin, ray.direction, best, th))
+  {
+    best = th.t;
+    out.kind = HitKind::kTerrain;
+    out.range = th.t;
+    out.point = th.point;
+    out.normal = th.normal;
+    out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
+  }
+  PrimitiveHit ph;
+  if (objects_.intersect(ray.origin, ray.direction, 0.0, best, ph))
+  {
+    best = ph.t;
+    const Primitive& p = objects_.primitives()[ph.index];
+    out.kind = HitKind::kObject;
+    out.range = ph.t;
+    out.point = ray.origin + ph.t * ray.direction;
+    out.normal = ph.normal;
+    out.id = p.id;
+    out.reflectivity = p.reflectivity;
+  }
+  if (body_bvh_.intersect(ray.origin, ray.direction, 0.0, best, ph, ray.ignore_body))
+  {
+    const Body& b = bodies_[ph.index];
+    out.kind = HitKind::kBody;
+    out.range = ph.t;
+    out.point = ray.origin + ph.t * ray.direction;
+    out.normal = ph.normal;
+    out.id = b.primitive.id;
+    out.reflectivity = b.primitive.reflectivity;
+    out.velocity = b.velocity + b.angular_velocity.cross(out.point - b.primitive.centre);
+  }
+  return out;
+}
+
+}  // namespace sensors
+}  // namespace avsp
