@@ -266,7 +266,8 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
 
 /// Runs dynamics_node under a fresh name with private parameters set on the master first
 /// (lists cannot be given on the command line): it must exit 1 and say what is wrong.
-std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name)
+std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
+                                       const std::string& args = "")
 {
   static int run = 0;
   const std::string name = "bad_dynamics_" + std::to_string(getpid()) + "_" + std::to_string(run++);
@@ -288,7 +289,7 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
   nh.setParam("/" + name + "/flat_size", 20.0);
   nh.setParam("/" + name + "/publish_clock", false);
   const std::string log = "/tmp/avsp_bad_dynamics_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
+  const std::string cmd = std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " " + args + " > " + log + " 2>&1";
   const int status = std::system(cmd.c_str());
   std::ifstream in(log);
   std::stringstream text;
@@ -309,6 +310,21 @@ TEST(DynamicsNodeStartup, RefusesUnknownAndTrackedModelsByName)
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("tank3"), std::string::npos) << out;
   EXPECT_NE(out.find("tracked"), std::string::npos) << out;
+
+  // Scalar parameters out of range, and a vehicle placed off the terrain.
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_step:=0.0");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~step"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_real_time_factor:=-1.0");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~real_time_factor"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_flat_soil:=marmalade");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~flat_soil"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_flat_size:=2.0");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("'car'"), std::string::npos) << out;
+  EXPECT_NE(out.find("off the terrain"), std::string::npos) << out;
 }
 }  // namespace
 
