@@ -591,6 +591,28 @@ TEST(Scene, BodiesReportThePointVelocityAndCanBeIgnored)
   EXPECT_FALSE(scene.cast(r).hit());
 }
 
+TEST(Scene, TerrainReflectivityFollowsTheSoilMapAtTheNearestGridPoint)
+{
+  Scene scene = flatScene(0.0, 10.0, 1.0);  // 21 x 21 points, 1 m apart, from (-10, -10)
+  const std::size_t n = scene.terrain().columns();
+  std::vector<std::uint8_t> soil(n * scene.terrain().rows(), 0);
+  for (std::size_t j = 0; j < scene.terrain().rows(); ++j)
+    for (std::size_t i = 11; i < n; ++i)  // x >= 1 m: soil 1
+      soil[j * n + i] = 1;
+  scene.setTerrainReflectivity(soil, { 0.2f, 0.6f });
+  Ray r;
+  r.direction = unit(0, 0, -1);
+  r.max_range = 10;
+  r.origin = Vector3d(0.4, 0.3, 5);  // nearest point x = 0: soil 0
+  EXPECT_FLOAT_EQ(scene.cast(r).reflectivity, 0.2f);
+  r.origin = Vector3d(0.6, 0.3, 5);  // nearest point x = 1: soil 1
+  EXPECT_FLOAT_EQ(scene.cast(r).reflectivity, 0.6f);
+  EXPECT_THROW(scene.setTerrainReflectivity(soil, { 0.2f }), std::invalid_argument);  // index 1 not in palette
+  EXPECT_THROW(scene.setTerrainReflectivity({ 0, 1 }, { 0.2f, 0.6f }), std::invalid_argument);  // wrong size
+  scene.setTerrainReflectivity({}, {});
+  EXPECT_FLOAT_EQ(scene.cast(r).reflectivity, scene.reflectivities().terrain);
+}
+
 TEST(Scene, BatchesGiveTheSameHitsOnAnyThreadCount)
 {
   std::mt19937_64 rng(1);
