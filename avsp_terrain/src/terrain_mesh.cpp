@@ -91,13 +91,30 @@ MeshChunk TerrainMesher::build(std::size_t id, const DeformableTerrain& terrain,
 {
   const PointRange r = chunkPoints(id);
   const auto xs = vertexIndices(r.i0, r.i1, step_), ys = vertexIndices(r.j0, r.j1, step_);
+  // Each vertex is shared by up to six triangles: evaluate its position and colour once.
+  const std::size_t nx = xs.size();
+  std::vector<std::array<float, 3>> position(nx * ys.size()), tint(nx * ys.size());
+  for (std::size_t b = 0; b < ys.size(); ++b)
+    for (std::size_t a = 0; a < nx; ++a)
+    {
+      position[b * nx + a] = vertexAt(terrain, xs[a], ys[b], 0.f);
+      tint[b * nx + a] = colour(xs[a], ys[b]);
+    }
   MeshChunk chunk;
   chunk.id = id;
-  chunk.vertices.reserve(6 * (xs.size() - 1) * (ys.size() - 1));
+  chunk.vertices.reserve(6 * (nx - 1) * (ys.size() - 1));
   chunk.colours.reserve(chunk.vertices.capacity());
   for (std::size_t b = 0; b + 1 < ys.size(); ++b)
-    for (std::size_t a = 0; a + 1 < xs.size(); ++a)
-      addQuad(chunk, terrain, colour, xs[a], ys[b], xs[a + 1], ys[b + 1], 0.f);
+    for (std::size_t a = 0; a + 1 < nx; ++a)
+    {
+      // Same corner order as addQuad(): counter-clockwise from above.
+      const std::size_t k00 = b * nx + a, k10 = k00 + 1, k01 = k00 + nx, k11 = k01 + 1;
+      for (std::size_t k : {k00, k10, k11, k00, k11, k01})
+      {
+        chunk.vertices.push_back(position[k]);
+        chunk.colours.push_back(tint[k]);
+      }
+    }
   return chunk;
 }
 

@@ -418,19 +418,17 @@ private:
 
   void publishLoadedRuts()
   {
-    const std::vector<at::HeightPatch> patches = at::deformedPatches(*terrain_);
-    if (patches.empty())
+    const auto points = terrain_->statefulPoints();
+    if (points.empty())
       return;
     // One latched patch over all loaded ruts, so a consumer that starts later still gets them.
     at::PointRange all{terrain_->base().columns(), terrain_->base().rows(), 0, 0};
-    for (const auto& p : patches)
+    for (const auto& [i, j] : points)
     {
-      const auto i0 = static_cast<std::size_t>(std::lround((p.origin_x - terrain_->base().originX()) / p.resolution));
-      const auto j0 = static_cast<std::size_t>(std::lround((p.origin_y - terrain_->base().originY()) / p.resolution));
-      all.i0 = std::min(all.i0, i0);
-      all.j0 = std::min(all.j0, j0);
-      all.i1 = std::max(all.i1, i0 + p.width - 1);
-      all.j1 = std::max(all.j1, j0 + p.height - 1);
+      all.i0 = std::min(all.i0, i);
+      all.j0 = std::min(all.j0, j);
+      all.i1 = std::max(all.i1, i);
+      all.j1 = std::max(all.j1, j);
     }
     const at::HeightPatch patch = at::extractPatch(*terrain_, all);
     avsp_msgs::TerrainPatch msg;
