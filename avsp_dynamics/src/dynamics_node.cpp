@@ -38,6 +38,7 @@
 #include <avsp_terrain/height_patch.hpp>
 #include <avsp_terrain/soil.hpp>
 
+#include "avsp_dynamics/stuck_detector.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
 
@@ -134,8 +135,7 @@ struct VehicleIo
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
-  double stuck_since = -1.0;                ///< world time the stuck condition began, s; < 0: not
-  bool stuck = false;
+  ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
   // Area the wheels ran over since the last rut publication (map x, y, m).
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
   bool ran = false;
@@ -359,26 +359,6 @@ private:
     v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
   }
 
-  /// Stuck (VehicleTelemetry.stuck): throttle on and the driven wheels in contact slipping at
-  /// >= 0.95 on average, continuously for 2 s of world time.
-  void updateStuck(VehicleIo& v, const ad::VehicleState& s, double now)
-  {
-    double slip = 0.0;
-    int driven = 0;
-    for (std::size_t w = 0; w < s.wheels.size(); ++w)
-      if (v.model.wheels[w].driven && s.wheels[w].in_contact)
-      {
-        slip += s.wheels[w].slip;
-        ++driven;
-      }
-    const bool spinning = s.command.throttle > 0.0 && driven > 0 && slip / driven >= 0.95;
-    if (!spinning)
-      v.stuck_since = -1.0;
-    else if (v.stuck_since < 0.0)
-      v.stuck_since = now;
-    v.stuck = spinning && now - v.stuck_since >= 2.0;
-  }
-
   /// One physics step: commands in (with the timeout on world time), step, publications out.
   void step()
   {
@@ -403,7 +383,7 @@ private:
     for (auto& v : vehicles_)
     {
       const ad::VehicleState& s = world_->state(v->id);
-      updateStuck(*v, s, world_->time());
+      v->stuck.update(v->model, s, world_->time());
       for (std::size_t w = 0; w < s.wheels.size(); ++w)
       {
         v->spin_angle[w] = std::remainder(v->spin_angle[w] + s.wheels[w].spin_rate * h, 2.0 * M_PI);
@@ -535,7 +515,7 @@ private:
           c.soil = terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
         tm.contacts.push_back(c);
       }
-      tm.stuck = v->stuck;
+      tm.stuck = v->stuck.stuck();
       v->telemetry_pub.publish(tm);
     }
   }

@@ -20,6 +20,7 @@
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terramechanics.hpp>
 
+#include "avsp_dynamics/stuck_detector.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
 
 using namespace avsp::dynamics;
@@ -651,4 +652,250 @@ TEST(VehicleSim, BadInputGivesClearErrors)
     EXPECT_NE(std::string(e.what()).find("WorldOptions.step"), std::string::npos) << e.what();
   }
   EXPECT_THROW(world.restingPose(m, 100, 0, 0), std::invalid_argument);
+}
+
+namespace
+{
+/// Soil contact area (m^2) under a vehicle's wheels: loaded grid points times the cell area.
+double contactArea(const VehicleState& s, double cell_size)
+{
+  int points = 0;
+  for (const WheelState& w : s.wheels)
+    points += w.contact_points;
+  return points * cell_size * cell_size;
+}
+
+/// Nose-up pose on a slope of angle theta rising along +x (heights x tan(theta)).
+Eigen::Isometry3d onSlope(const VehicleModel& m, double theta)
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.rotate(Eigen::AngleAxisd(-theta, Eigen::Vector3d::UnitY()));
+  pose.translation() = Eigen::Vector3d(0, 0, m.wheels[0].radius / std::cos(theta) + 0.005);
+  return pose;
+}
+
+/// N: the drive force all wheels can give at vehicle speed v without slip (engine torque,
+/// power, gear, efficiency and governor), wheels of radius r.
+double driveForceAvailable(const VehicleModel& m, double v)
+{
+  const double r = m.wheels[0].radius;
+  return wheelTorqueAvailable(m.drivetrain, v / r, r) / r;
+}
+}  // namespace
+
+// Slope limit from the soil: a wheel's thrust is bounded by Mohr-Coulomb over its contact,
+// c A + N tan(phi) (T7 at full slip), so the steepest slope any all-wheel-drive vehicle can
+// hold is tan(theta_max) = tan(phi) + c A / (W cos(theta_max)), A measured at rest. On clay
+// (phi = 13 deg) that is far below the engine's own limit sin(theta) = F_drive / W, so above
+// theta_max the wheels must spin: slip -> 1 and the stuck flag after 2 s, no progress. Well
+// below it (30 % of the angle) full throttle climbs, slipping but never stuck.
+TEST(VehicleSim, ClimbsBelowTheSoilsTractionLimitAndGetsStuckAboveIt)
+{
+  const VehicleModel m = vehicle("fed_alpha");
+  const terrain::SoilParameters clay = soils().get("clay");
+  const double weight = m.total_mass * kG, res = 0.05;
+  double area = 0.0;
+  {
+    auto flat = makeTerrain(clay, 12, 8, res);
+    World world(*flat);
+    const std::size_t id = world.addVehicle(m, world.restingPose(m, 0, 0, 0, 0.005));
+    world.advance(1.5);
+    area = contactArea(world.state(id), res);
+  }
+  ASSERT_GT(area, 0.1);
+  // tan(theta) = tan(phi) + c A / (W cos(theta)): fixed point, converges in a few rounds.
+  double theta_max = clay.friction_angle;
+  for (int k = 0; k < 20; ++k)
+    theta_max = std::atan(std::tan(clay.friction_angle) +
+                          clay.cohesion * area / (weight * std::cos(theta_max)));
+  const double engine_limit = std::asin(std::min(1.0, driveForceAvailable(m, 0.5) / weight));
+  ASSERT_GT(engine_limit, theta_max + 5.0 * M_PI / 180.0) << "the engine, not the soil, would limit the climb";
+
+  for (const bool above : { false, true })
+  {
+    const double theta = above ? theta_max + 3.0 * M_PI / 180.0 : 0.3 * theta_max;
+    SCOPED_TRACE(::testing::Message() << "slope " << theta * 180.0 / M_PI << " deg, limit "
+                                      << theta_max * 180.0 / M_PI << " deg");
+    auto ground = makeTerrain(clay, 40, 10, res, std::tan(theta));
+    World world(*ground);
+    const std::size_t id = world.addVehicle(m, onSlope(m, theta));
+    StuckDetector stuck;
+    world.setCommand(id, DriveCommand{ 1.0, 0.0, 0.0 });
+    const Eigen::Vector3d start = world.state(id).pose.translation();
+    double slip_sum = 0.0;
+    int slip_samples = 0;
+    bool ever_stuck = false;
+    while (world.time() < 6.0)
+    {
+      world.step();
+      ever_stuck = stuck.update(m, world.state(id), world.time()) || ever_stuck;
+      double slip = 0.0;
+      if (world.time() > 3.0 && meanDrivenSlip(m, world.state(id), slip))
+      {
+        slip_sum += slip;
+        ++slip_samples;
+      }
+    }
+    const double climbed = world.state(id).pose.translation().x() - start.x();
+    ASSERT_GT(slip_samples, 0);
+    const double slip = slip_sum / slip_samples;
+    if (above)
+    {
+      EXPECT_GE(slip, 0.95);
+      EXPECT_TRUE(stuck.stuck());
+      EXPECT_LT(climbed, 0.0) << "climbed " << climbed << " m above the soil's limit";
+    }
+    else
+    {
+      RecordProperty("climb_slip", std::to_string(slip));
+      RecordProperty("climbed_m", std::to_string(climbed));
+      EXPECT_FALSE(ever_stuck);
+      EXPECT_LT(slip, 0.8);
+      EXPECT_GT(climbed, 5.0) << "full throttle should climb " << theta * 180.0 / M_PI << " deg";
+    }
+  }
+}
+
+// From rest at full throttle on flat gravel: the vehicle's 0-10 m/s time and top speed follow
+// from the drivetrain's force (engine torque then power limit, governor; no slip) less the
+// soil's resistance, integrated here as m_eff dv/dt = F_drive(v) - R with m_eff adding the
+// wheels' spin inertia and R the soil resistance the run reported (mean). Within 10 %. And
+// the energy balance at 10 m/s: the work of the drive torques equals the kinetic energy
+// (translation and wheel spin) plus the work against resistance plus the slip losses.
+TEST(VehicleSim, AccelerationAndTopSpeedFollowPowerMinusResistance)
+{
+  const VehicleModel m = vehicle("fed_alpha");
+  auto ground = makeTerrain(soils().get("gravel"), 1500, 6, 0.1);
+  WorldOptions options;
+  World world(*ground, options);
+  const std::size_t id = world.addVehicle(m, world.restingPose(m, -740, 0, 0, 0.005));
+  world.advance(1.0);  // settle
+  const double h = options.step;
+  const double r = m.wheels[0].radius;
+  double spin_inertia = 0.0;
+  std::vector<double> wheel_inertia;
+  for (const WheelSpec& w : m.wheels)
+    for (const Body& b : m.bodies)
+      if (b.link == w.link)
+      {
+        wheel_inertia.push_back(b.inertia(1, 1));
+        spin_inertia += b.inertia(1, 1);
+      }
+  ASSERT_EQ(wheel_inertia.size(), m.wheels.size());
+
+  world.setCommand(id, DriveCommand{ 1.0, 0.0, 0.0 });
+  const double t0 = world.time();
+  double t10 = -1.0, resistance_sum = 0.0, work_in = 0.0, work_resistance = 0.0, work_slip = 0.0;
+  double kinetic_at_10 = 0.0, work_in_at_10 = 0.0, losses_at_10 = 0.0;
+  long samples = 0;
+  // 52 s reach the top speed within 0.1 m/s (and stay on the 1.5 km strip).
+  const double run_time = 52.0;
+  double speed_2s_before = 0.0, speed = 0.0;
+  while (world.time() - t0 < run_time)
+  {
+    world.step();
+    const VehicleState& s = world.state(id);
+    speed = s.body_velocity.x();
+    for (std::size_t i = 0; i < s.wheels.size(); ++i)
+    {
+      const WheelState& w = s.wheels[i];
+      work_in += w.drive_torque * w.spin_rate * h;
+      resistance_sum += w.resistance_force;
+      work_resistance += w.resistance_force * speed * h;
+      work_slip += w.traction_force * (w.spin_rate * r - speed) * h;
+    }
+    ++samples;
+    if (t10 < 0.0 && speed >= 10.0)
+    {
+      t10 = world.time() - t0;
+      double kinetic = 0.5 * m.total_mass * s.linear_velocity.squaredNorm();
+      for (std::size_t i = 0; i < s.wheels.size(); ++i)
+        kinetic += 0.5 * wheel_inertia[i] * s.wheels[i].spin_rate * s.wheels[i].spin_rate;
+      kinetic_at_10 = kinetic;
+      work_in_at_10 = work_in;
+      losses_at_10 = work_resistance + work_slip;
+    }
+    if (world.time() - t0 <= run_time - 2.0)
+      speed_2s_before = speed;
+  }
+  ASSERT_GT(t10, 0.0) << "never reached 10 m/s";
+  EXPECT_LT(speed - speed_2s_before, 0.1) << "still accelerating after " << run_time << " s";
+  const double resistance = resistance_sum / samples;
+
+  // The closed model, integrated at the same step.
+  const double m_eff = m.total_mass + spin_inertia / (r * r);
+  double v = 0.0, t = 0.0, t10_model = -1.0;
+  for (; t < run_time; t += h)
+  {
+    if (t10_model < 0.0 && v >= 10.0)
+      t10_model = t;
+    v += (driveForceAvailable(m, v) - resistance) / m_eff * h;
+  }
+  RecordProperty("t_0_10_s", std::to_string(t10));
+  RecordProperty("t_0_10_model_s", std::to_string(t10_model));
+  RecordProperty("top_speed_mps", std::to_string(speed));
+  RecordProperty("top_speed_model_mps", std::to_string(v));
+  RecordProperty("energy_in_J", std::to_string(work_in_at_10));
+  RecordProperty("energy_out_J", std::to_string(kinetic_at_10 + losses_at_10));
+  EXPECT_NEAR(t10, t10_model, 0.1 * t10_model) << "resistance " << resistance << " N";
+  EXPECT_NEAR(speed, v, 0.1 * v) << "top speed, resistance " << resistance << " N";
+  EXPECT_LT(speed, m.drivetrain.max_speed) << "the governor caps the speed";
+  EXPECT_NEAR(work_in_at_10, kinetic_at_10 + losses_at_10, 0.1 * work_in_at_10)
+      << "kinetic " << kinetic_at_10 << " J, resistance and slip " << losses_at_10 << " J";
+}
+
+// The same throttle on firm gravel and soft sandy loam: on the soft soil the wheels sink
+// more, slip more and the vehicle is slower; the ruts it leaves are as deep as the wheels
+// sank (the terrain keeps the plastic part of what the telemetry reports).
+TEST(VehicleSim, SoftSoilSinksSlipsAndSlowsMoreThanFirm)
+{
+  const VehicleModel m = vehicle("fed_alpha");
+  struct Run
+  {
+    double sinkage = 0.0, slip = 0.0, speed = 0.0, max_sinkage = 0.0, rut = 0.0;
+  };
+  auto drive = [&](const std::string& soil) {
+    auto ground = makeTerrain(soils().get(soil), 60, 8, 0.05);
+    World world(*ground);
+    const std::size_t id = world.addVehicle(m, world.restingPose(m, -25, 0, 0, 0.005));
+    world.advance(1.0);
+    world.setCommand(id, DriveCommand{ 0.7, 0.0, 0.0 });
+    Run run;
+    int samples = 0;
+    while (world.time() < 7.0)
+    {
+      world.step();
+      const VehicleState& s = world.state(id);
+      for (const WheelState& w : s.wheels)
+        run.max_sinkage = std::max(run.max_sinkage, w.sinkage);
+      if (world.time() < 4.0)
+        continue;
+      double slip = 0.0;
+      meanDrivenSlip(m, s, slip);
+      for (const WheelState& w : s.wheels)
+        run.sinkage += w.sinkage / s.wheels.size();
+      run.slip += slip;
+      ++samples;
+    }
+    run.sinkage /= samples;
+    run.slip /= samples;
+    run.speed = world.state(id).body_velocity.x();
+    // The left wheels' rut 2 m behind the start line, against the soil beside it.
+    const double y = m.wheels[0].rest_position.y();
+    run.rut = *ground->height(-23.0, 0.0) - *ground->height(-23.0, y);
+    return run;
+  };
+  const Run firm = drive("gravel"), soft = drive("dry_sand");
+  for (const auto& [name, run] : { std::make_pair("firm", firm), std::make_pair("soft", soft) })
+    RecordProperty(std::string(name) + "_sinkage_slip_speed_rut",
+                   std::to_string(run.sinkage) + " " + std::to_string(run.slip) + " " + std::to_string(run.speed) +
+                       " " + std::to_string(run.rut));
+  EXPECT_GT(soft.sinkage, 2.0 * firm.sinkage);
+  EXPECT_GT(soft.slip, firm.slip);
+  EXPECT_LT(soft.speed, firm.speed);
+  for (const Run* run : { &firm, &soft })
+  {
+    EXPECT_GT(run->rut, 0.3 * run->sinkage) << "the rut keeps most of the rolling sinkage";
+    EXPECT_LT(run->rut, 1.05 * run->max_sinkage) << "no rut deeper than any wheel sank";
+  }
 }
