@@ -34,7 +34,8 @@
 #include <sensor_msgs/JointState.h>
 #include <tf2_ros/transform_broadcaster.h>
 
-#include <avsp_terrain/default_course.hpp>
+#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/terrain_source_params.hpp>
 #include <avsp_terrain/height_patch.hpp>
 #include <avsp_terrain/soil.hpp>
 
@@ -47,22 +48,8 @@ namespace at = avsp::terrain;
 
 namespace
 {
-/// A start-up problem: the node logs it (naming the parameter, vehicle or file) and exits 1.
-struct StartupError : std::runtime_error
-{
-  using std::runtime_error::runtime_error;
-};
-
-/// A private double parameter that must be finite and inside [min, max].
-double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min, double max)
-{
-  double value = fallback;
-  pnh.param(key, value, fallback);
-  if (!std::isfinite(value) || value < min || value > max)
-    throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and in [" +
-                       std::to_string(min) + ", " + std::to_string(max) + "]");
-  return value;
-}
+using avsp::msgs::boundedParam;
+using avsp::msgs::StartupError;
 
 /// Number of a vehicle entry's key (int or double XML-RPC value), or the fallback if absent.
 double numberOf(XmlRpc::XmlRpcValue& entry, const std::string& key, double fallback, const std::string& where)
@@ -287,44 +274,13 @@ public:
 private:
   void loadTerrain()
   {
-    std::string flat_soil;
-    pnh_.param<std::string>("flat_soil", flat_soil, "");
-    if (!flat_soil.empty())
-    {
-      // A level square of one soil centred on the map origin: for tests and benchmarks.
-      if (!soils_->contains(flat_soil))
-        throw StartupError("parameter ~flat_soil: no soil '" + flat_soil + "' in the soil library");
-      const double size = boundedParam(pnh_, "flat_size", 100.0, 1.0, 10000.0);
-      const double cell = boundedParam(pnh_, "flat_cell_size", 0.1, 0.005, 10.0);
-      const auto n = static_cast<std::size_t>(std::llround(size / cell)) + 1;
-      at::ElevationGrid grid(-0.5 * size, -0.5 * size, cell, cell, n, n, std::vector<float>(n * n, 0.0f));
-      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(grid), soils_->get(flat_soil),
-                                                         at::DeformableTerrain::Options{true});
-      source_ = "flat " + flat_soil + " " + std::to_string(size) + " m";
-      return;
-    }
-    at::CourseOptions options;
-    int seed = 1;
-    pnh_.param("course_seed", seed, 1);
-    if (seed < 0)
-      throw StartupError("parameter ~course_seed must be >= 0");
-    options.seed = static_cast<std::uint64_t>(seed);
-    options.cell_size = boundedParam(pnh_, "course_cell_size", 0.1, 1e-3, 100.0);
-    options.length_x = boundedParam(pnh_, "course_length_x", 600.0, 1.0, 1e5);
-    options.length_y = boundedParam(pnh_, "course_length_y", 400.0, 1.0, 1e5);
-    try
-    {
-      at::Course course = at::makeDefaultCourse(options);
-      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(course.heights),
-                                                         at::paletteFromNames(course.soil_names, *soils_),
-                                                         std::move(course.soil_map),
-                                                         at::DeformableTerrain::Options{true});
-    }
-    catch (const std::invalid_argument& e)
-    {
-      throw StartupError(std::string("default course (~course_*): ") + e.what());
-    }
-    source_ = "the default course (seed " + std::to_string(seed) + ")";
+    at::LoadedSource loaded = at::loadTerrainFromParams(pnh_, *soils_);
+    if (loaded.filled_no_data > 0)
+      ROS_WARN("dynamics_node: %s: %zu no-data points filled from their nearest valid neighbours",
+               loaded.description.c_str(), loaded.filled_no_data);
+    terrain_ = std::move(loaded.terrain);
+    objects_ = std::move(loaded.objects);
+    source_ = loaded.description;
   }
 
   void onCmdVel(VehicleIo& v, const geometry_msgs::Twist& twist)
@@ -564,6 +520,7 @@ private:
   ros::NodeHandle& pnh_;
   std::unique_ptr<at::SoilLibrary> soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;  // declared before world_: outlives it
+  at::ObjectSet objects_;                           // the terrain's standing objects
   std::unique_ptr<ad::World> world_;
   std::vector<std::unique_ptr<VehicleIo>> vehicles_;
   std::string source_;

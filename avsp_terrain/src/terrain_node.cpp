@@ -27,28 +27,14 @@
 #include "avsp_terrain/dynamic_soil.hpp"
 #include "avsp_terrain/height_patch.hpp"
 #include "avsp_terrain/terrain_file.hpp"
+#include "avsp_terrain/terrain_source_params.hpp"
 #include "avsp_terrain/terrain_mesh.hpp"
 
 namespace at = avsp::terrain;
 
 namespace
 {
-/// A start-up problem: the node logs it (naming the parameter or file) and exits 1.
-struct StartupError : std::runtime_error
-{
-  using std::runtime_error::runtime_error;
-};
-
-std::string extensionOf(const std::string& path)
-{
-  const auto dot = path.find_last_of('.');
-  const auto slash = path.find_last_of('/');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
-    return "";
-  std::string ext = path.substr(dot);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
+using avsp::msgs::StartupError;
 
 double finiteParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min_exclusive)
 {
@@ -115,7 +101,6 @@ public:
     pnh_.param<std::string>("frame_id", frame_id_, "map");
     if (frame_id_.empty())
       throw StartupError("parameter ~frame_id must not be empty");
-    pnh_.param("transport", transport_, true);
     loadTerrain();
 
     const double mesh_resolution = finiteParam(pnh_, "mesh_resolution", 2.0, 0.0);
@@ -200,81 +185,13 @@ private:
 
   void loadTerrain()
   {
-    std::string terrain_file, dem_file;
-    pnh_.param<std::string>("terrain_file", terrain_file, "");
-    pnh_.param<std::string>("dem_file", dem_file, "");
-    if (!terrain_file.empty() && !dem_file.empty())
-      throw StartupError("parameters ~terrain_file and ~dem_file are both set; give one");
-    if (!terrain_file.empty())
-    {
-      at::LoadedTerrain loaded = at::loadTerrain(terrain_file, soils_);
-      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(loaded.terrain));
-      objects_ = std::move(loaded.objects);
-      source_ = terrain_file;
-      return;
-    }
-    std::string soil_name;
-    pnh_.param<std::string>("soil", soil_name, "sandy_loam");
-    if (!soils_.contains(soil_name))
-      throw StartupError("parameter ~soil: no soil '" + soil_name + "' in the soil library");
-    if (!dem_file.empty())
-    {
-      at::HeightRaster raster = readDem(dem_file);
-      const std::size_t filled = at::fillNoData(raster, dem_file);
-      if (filled > 0)
-        ROS_WARN("terrain_node: %s: %zu no-data points filled from their nearest valid neighbours",
-                 dem_file.c_str(), filled);
-      at::ElevationGrid grid(raster.origin_x, raster.origin_y, raster.cell_size, raster.cell_size, raster.columns,
-                             raster.rows, std::move(raster.heights));
-      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(grid), soils_.get(soil_name),
-                                                         at::DeformableTerrain::Options{transport_});
-      source_ = dem_file;
-      return;
-    }
-    at::CourseOptions options;
-    int seed = 1;
-    pnh_.param("course_seed", seed, 1);
-    if (seed < 0)
-      throw StartupError("parameter ~course_seed must be >= 0");
-    options.seed = static_cast<std::uint64_t>(seed);
-    options.cell_size = finiteParam(pnh_, "course_cell_size", 0.1, 0.0);
-    options.length_x = finiteParam(pnh_, "course_length_x", 600.0, 0.0);
-    options.length_y = finiteParam(pnh_, "course_length_y", 400.0, 0.0);
-    try
-    {
-      at::Course course = at::makeDefaultCourse(options);
-      objects_ = std::move(course.objects);
-      // The course's own soil map (road asphalt, trail gravel, pond mud, ...).
-      terrain_ = std::make_unique<at::DeformableTerrain>(std::move(course.heights),
-                                                         at::paletteFromNames(course.soil_names, soils_),
-                                                         std::move(course.soil_map),
-                                                         at::DeformableTerrain::Options{transport_});
-    }
-    catch (const std::invalid_argument& e)
-    {
-      throw StartupError(std::string("default course (~course_*): ") + e.what());
-    }
-    source_ = "the default course (seed " + std::to_string(seed) + ")";
-  }
-
-  at::HeightRaster readDem(const std::string& path)
-  {
-    const std::string ext = extensionOf(path);
-    if (ext == ".asc")
-      return at::readAsciiGrid(path);
-    if (ext == ".tif" || ext == ".tiff")
-      return at::readGeoTiff(path);
-    if (ext == ".png")
-    {
-      at::Png16Georef georef;
-      pnh_.param("png_origin_x", georef.origin_x, 0.0);
-      pnh_.param("png_origin_y", georef.origin_y, 0.0);
-      pnh_.param("png_z_offset", georef.z_offset, 0.0);
-      if (!pnh_.getParam("png_cell_size", georef.cell_size) || !pnh_.getParam("png_z_scale", georef.z_scale))
-        throw StartupError("~dem_file " + path + " is a PNG: parameters ~png_cell_size and ~png_z_scale are required");
-      return at::readPng16(path, georef);
-    }
-    throw StartupError("~dem_file " + path + ": unknown extension '" + ext + "' (use .asc, .tif, .tiff or .png)");
+    at::LoadedSource loaded = at::loadTerrainFromParams(pnh_, soils_);
+    if (loaded.filled_no_data > 0)
+      ROS_WARN("terrain_node: %s: %zu no-data points filled from their nearest valid neighbours",
+               loaded.description.c_str(), loaded.filled_no_data);
+    terrain_ = std::move(loaded.terrain);
+    objects_ = std::move(loaded.objects);
+    source_ = loaded.description;
   }
 
   void setUpWeather()
@@ -532,7 +449,7 @@ private:
       res.message = "path '" + req.path + "' must be absolute";
       return true;
     }
-    const std::string ext = extensionOf(req.path);
+    const std::string ext = at::fileExtension(req.path);
     try
     {
       if (ext == ".avspterrain")
@@ -578,7 +495,6 @@ private:
   ros::NodeHandle& pnh_;
   std::string frame_id_;
   std::string source_;
-  bool transport_ = true;
   at::SoilLibrary soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;
   at::ObjectSet objects_;

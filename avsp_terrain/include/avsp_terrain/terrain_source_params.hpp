@@ -1,0 +1,72 @@
+#pragma once
+/**
+ * @file terrain_source_params.hpp
+ * @brief The ROS side of terrain_source.hpp (this header, unlike the core's, includes ROS):
+ *        the private parameters every node that holds the terrain reads, with the same names
+ *        and defaults everywhere (avsp_terrain/README.md, "Terrain source parameters").
+ */
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include <ros/node_handle.h>
+
+#include <avsp_msgs/node_params.hpp>
+
+#include "avsp_terrain/terrain_source.hpp"
+
+namespace avsp
+{
+namespace terrain
+{
+/// Reads ~terrain_file, ~dem_file, ~png_*, ~soil, ~flat_*, ~course_*, ~transport.
+/// @throw avsp::msgs::StartupError naming the parameter
+inline TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
+{
+  using avsp::msgs::boundedParam;
+  using avsp::msgs::StartupError;
+  TerrainSource s;
+  pnh.param<std::string>("terrain_file", s.terrain_file, "");
+  pnh.param<std::string>("dem_file", s.dem_file, "");
+  pnh.param<std::string>("soil", s.soil, "sandy_loam");
+  pnh.param<std::string>("flat_soil", s.flat_soil, "");
+  pnh.param("transport", s.transport, true);
+  if (!s.dem_file.empty() && fileExtension(s.dem_file) == ".png")
+  {
+    pnh.param("png_origin_x", s.png.origin_x, 0.0);
+    pnh.param("png_origin_y", s.png.origin_y, 0.0);
+    pnh.param("png_z_offset", s.png.z_offset, 0.0);
+    if (!pnh.getParam("png_cell_size", s.png.cell_size) || !pnh.getParam("png_z_scale", s.png.z_scale))
+      throw StartupError("~dem_file " + s.dem_file +
+                         " is a PNG: parameters ~png_cell_size and ~png_z_scale are required");
+  }
+  s.flat_size = boundedParam(pnh, "flat_size", 100.0, 1.0, 1e4);
+  s.flat_cell_size = boundedParam(pnh, "flat_cell_size", 0.1, 0.005, 10.0);
+  s.course.seed = static_cast<std::uint64_t>(avsp::msgs::boundedIntParam(pnh, "course_seed", 1, 0, 2147483647));
+  s.course.cell_size = boundedParam(pnh, "course_cell_size", 0.1, 1e-3, 100.0);
+  s.course.length_x = boundedParam(pnh, "course_length_x", 600.0, 1.0, 1e5);
+  s.course.length_y = boundedParam(pnh, "course_length_y", 400.0, 1.0, 1e5);
+  return s;
+}
+
+/// terrainSourceFromParams() then loadTerrainSource(). @throw avsp::msgs::StartupError naming
+/// the parameter or the file
+inline LoadedSource loadTerrainFromParams(const ros::NodeHandle& pnh, const SoilLibrary& soils)
+{
+  const TerrainSource source = terrainSourceFromParams(pnh);
+  try
+  {
+    return loadTerrainSource(source, soils);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw avsp::msgs::StartupError(std::string("parameter ~") + e.what());
+  }
+  catch (const std::exception& e)
+  {
+    throw avsp::msgs::StartupError(std::string("terrain: ") + e.what());
+  }
+}
+
+}  // namespace terrain
+}  // namespace avsp
