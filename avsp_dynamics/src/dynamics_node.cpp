@@ -123,6 +123,7 @@ struct VehicleIo
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
   ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
+  sensor_msgs::JointState joints;           ///< names fixed at start-up, values per publication
   // Area the wheels ran over since the last rut publication (map x, y, m).
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
   bool ran = false;
@@ -193,6 +194,15 @@ public:
                            config_dir + "): " + e.what());
       }
       v->spin_angle.assign(v->model.wheels.size(), 0.0);
+      for (const ad::WheelSpec& w : v->model.wheels)
+      {
+        v->joints.name.push_back(w.spin_joint);
+        v->joints.name.push_back(w.suspension_joint);
+        if (!w.steering_joint.empty())
+          v->joints.name.push_back(w.steering_joint);
+      }
+      v->joints.position.assign(v->joints.name.size(), 0.0);
+      v->joints.velocity.assign(v->joints.name.size(), 0.0);
       ros::NodeHandle vnh(nh_, s.name);
       v->cmd_topic = vnh.resolveName("avt_341/cmd_vel");
       VehicleIo* raw = v.get();
@@ -206,6 +216,7 @@ public:
       v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
       vehicles_.push_back(std::move(v));
     }
+    transforms_.resize(vehicles_.size());
     ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
     if (publish_clock_)
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
@@ -287,31 +298,30 @@ private:
   {
     avsp_msgs::DriveCommand cmd;
     std::string why;
-    const avsp::msgs::CommandCheck check = avsp::msgs::driveCommandFromTwist(twist, cmd, why);
-    if (check == avsp::msgs::CommandCheck::kRejected)
-    {
-      // The last good command stays in force (and ages towards the timeout).
-      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", v.cmd_topic.c_str(), why.c_str());
-      return;
-    }
-    if (check == avsp::msgs::CommandCheck::kClamped)
-      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", v.cmd_topic.c_str(), why.c_str());
-    v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
+    accept(v, v.cmd_topic, avsp::msgs::driveCommandFromTwist(twist, cmd, why), cmd, why);
   }
 
   void onCmdDrive(VehicleIo& v, const avsp_msgs::DriveCommand& msg)
   {
     avsp_msgs::DriveCommand cmd = msg;
     std::string why;
-    const avsp::msgs::CommandCheck check = avsp::msgs::sanitizeDriveCommand(cmd, why);
+    accept(v, v.drive_topic, avsp::msgs::sanitizeDriveCommand(cmd, why), cmd, why);
+  }
+
+  /// A command from either topic after avsp_msgs' checks (the same rules as the core's
+  /// clampedCommand(): NaN/inf rejected, the rest clamped). A rejected one leaves the last good
+  /// command in force, ageing towards the timeout. Message stamps are not trusted for the
+  /// timeout (publishers' clocks differ): a command counts from the step that takes it.
+  void accept(VehicleIo& v, const std::string& topic, avsp::msgs::CommandCheck check,
+              const avsp_msgs::DriveCommand& cmd, const std::string& why)
+  {
     if (check == avsp::msgs::CommandCheck::kRejected)
     {
-      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", v.drive_topic.c_str(), why.c_str());
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", topic.c_str(), why.c_str());
       return;
     }
     if (check == avsp::msgs::CommandCheck::kClamped)
-      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", v.drive_topic.c_str(), why.c_str());
-    // Taken like cmd_vel (its stamp is not trusted for the timeout: publishers' clocks differ).
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", topic.c_str(), why.c_str());
     v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
   }
 
@@ -350,7 +360,7 @@ private:
     const std::uint64_t n = world_->stepCount();
     if (n % odom_every_ == 0)
       publishStates();
-    if (ruts_every_ > 0 && n % ruts_every_ == 0)
+    if (ruts_every_ > 0 && n % ruts_every_ == 0 && ruts_pub_.getNumSubscribers() > 0)
       publishRuts();
   }
 
@@ -388,8 +398,9 @@ private:
   void publishStates()
   {
     const ros::Time t = stamp();
-    for (auto& v : vehicles_)
+    for (std::size_t k = 0; k < vehicles_.size(); ++k)
     {
+      VehicleIo* v = vehicles_[k].get();
       const ad::VehicleState& s = world_->state(v->id);
       const Eigen::Quaterniond q(s.pose.linear());
       const Eigen::Vector3d w_body = s.pose.linear().transpose() * s.angular_velocity;
@@ -412,68 +423,73 @@ private:
       odom.twist.twist.angular.z = w_body.z();
       v->odom_pub.publish(odom);
 
-      geometry_msgs::TransformStamped tf;
+      geometry_msgs::TransformStamped& tf = transforms_[k];
       tf.header = odom.header;
       tf.child_frame_id = odom.child_frame_id;
       tf.transform.translation.x = odom.pose.pose.position.x;
       tf.transform.translation.y = odom.pose.pose.position.y;
       tf.transform.translation.z = odom.pose.pose.position.z;
       tf.transform.rotation = odom.pose.pose.orientation;
-      tf_.sendTransform(tf);
 
-      // URDF joint names (robot_state_publisher in the vehicle's namespace prefixes frames).
-      sensor_msgs::JointState js;
-      js.header.stamp = t;
-      for (std::size_t w = 0; w < v->model.wheels.size(); ++w)
-      {
-        const ad::WheelSpec& spec = v->model.wheels[w];
-        const ad::WheelState& ws = s.wheels[w];
-        js.name.push_back(spec.spin_joint);
-        js.position.push_back(v->spin_angle[w]);
-        js.velocity.push_back(ws.spin_rate);
-        js.name.push_back(spec.suspension_joint);
-        js.position.push_back(ws.suspension_deflection);
-        js.velocity.push_back(0.0);
-        if (!spec.steering_joint.empty())
-        {
-          js.name.push_back(spec.steering_joint);
-          js.position.push_back(ws.steering_angle);
-          js.velocity.push_back(0.0);
-        }
-      }
-      v->joint_pub.publish(js);
-
-      avsp_msgs::VehicleTelemetry tm;
-      tm.header.stamp = t;
-      tm.header.frame_id = odom.child_frame_id;
-      tm.vehicle_id = v->name;
-      tm.command.header.stamp = t;
-      tm.command.throttle = s.command.throttle;
-      tm.command.brake = s.command.brake;
-      tm.command.steering = s.command.steering;
-      const at::ElevationGrid& g = terrain_->base();
-      for (std::size_t w = 0; w < v->model.wheels.size(); ++w)
-      {
-        const ad::WheelState& ws = s.wheels[w];
-        avsp_msgs::WheelContact c;
-        c.name = v->model.wheels[w].link;
-        c.normal_force = ws.normal_force;
-        c.sinkage = ws.sinkage;
-        c.slip = ws.slip;
-        c.slip_angle = ws.slip_angle;
-        c.traction_force = ws.traction_force;
-        c.resistance_force = ws.resistance_force;
-        // The soil at the grid point nearest the wheel centre.
-        const Eigen::Vector3d centre = s.pose * v->model.wheels[w].rest_position;
-        const double fi = std::round((centre.x() - g.originX()) / g.dx());
-        const double fj = std::round((centre.y() - g.originY()) / g.dy());
-        if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
-          c.soil = terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
-        tm.contacts.push_back(c);
-      }
-      tm.stuck = v->stuck.stuck();
-      v->telemetry_pub.publish(tm);
+      if (v->joint_pub.getNumSubscribers() > 0)
+        publishJoints(*v, s, t);
+      if (v->telemetry_pub.getNumSubscribers() > 0)
+        publishTelemetry(*v, s, t);
     }
+    tf_.sendTransform(transforms_);
+  }
+
+  /// URDF joint names (robot_state_publisher in the vehicle's namespace prefixes frames), in
+  /// the order jointNames() gave them.
+  void publishJoints(VehicleIo& v, const ad::VehicleState& s, const ros::Time& t)
+  {
+    sensor_msgs::JointState& js = v.joints;
+    js.header.stamp = t;
+    std::size_t k = 0;
+    for (std::size_t w = 0; w < v.model.wheels.size(); ++w)
+    {
+      const ad::WheelState& ws = s.wheels[w];
+      js.position[k] = v.spin_angle[w];
+      js.velocity[k++] = ws.spin_rate;
+      js.position[k++] = ws.suspension_deflection;
+      if (!v.model.wheels[w].steering_joint.empty())
+        js.position[k++] = ws.steering_angle;
+    }
+    v.joint_pub.publish(js);
+  }
+
+  void publishTelemetry(VehicleIo& v, const ad::VehicleState& s, const ros::Time& t)
+  {
+    avsp_msgs::VehicleTelemetry tm;
+    tm.header.stamp = t;
+    tm.header.frame_id = v.name + "/base_link";
+    tm.vehicle_id = v.name;
+    tm.command.header.stamp = t;
+    tm.command.throttle = s.command.throttle;
+    tm.command.brake = s.command.brake;
+    tm.command.steering = s.command.steering;
+    const at::ElevationGrid& g = terrain_->base();
+    for (std::size_t w = 0; w < v.model.wheels.size(); ++w)
+    {
+      const ad::WheelState& ws = s.wheels[w];
+      avsp_msgs::WheelContact c;
+      c.name = v.model.wheels[w].link;
+      c.normal_force = ws.normal_force;
+      c.sinkage = ws.sinkage;
+      c.slip = ws.slip;
+      c.slip_angle = ws.slip_angle;
+      c.traction_force = ws.traction_force;
+      c.resistance_force = ws.resistance_force;
+      // The soil at the grid point nearest the wheel centre.
+      const Eigen::Vector3d centre = s.pose * v.model.wheels[w].rest_position;
+      const double fi = std::round((centre.x() - g.originX()) / g.dx());
+      const double fj = std::round((centre.y() - g.originY()) / g.dy());
+      if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
+        c.soil = terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
+      tm.contacts.push_back(c);
+    }
+    tm.stuck = v.stuck.stuck();
+    v.telemetry_pub.publish(tm);
   }
 
   /// The grid points under each vehicle's wheels since the last call, as one TerrainPatch per
@@ -502,7 +518,7 @@ private:
       r.j1 = index(v->max_y + margin + g.dy(), g.originY(), g.dy(), g.rows());
       if (r.i1 <= r.i0 || r.j1 <= r.j0)
         continue;
-      const at::HeightPatch p = at::extractPatch(*terrain_, r);
+      at::HeightPatch p = at::extractPatch(*terrain_, r);
       avsp_msgs::TerrainPatch msg;
       msg.header.stamp = stamp();
       msg.header.frame_id = "map";
@@ -511,7 +527,7 @@ private:
       msg.resolution = p.resolution;
       msg.width = static_cast<std::uint32_t>(p.width);
       msg.height = static_cast<std::uint32_t>(p.height);
-      msg.heights = p.heights;
+      msg.heights = std::move(p.heights);
       ruts_pub_.publish(msg);
     }
   }
@@ -523,6 +539,7 @@ private:
   at::ObjectSet objects_;                           // the terrain's standing objects
   std::unique_ptr<ad::World> world_;
   std::vector<std::unique_ptr<VehicleIo>> vehicles_;
+  std::vector<geometry_msgs::TransformStamped> transforms_;  ///< odom -> base_link per vehicle
   std::string source_;
   double command_timeout_ = 0.5;
   double real_time_factor_ = 0.0;

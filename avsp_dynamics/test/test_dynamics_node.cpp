@@ -76,8 +76,13 @@ struct Ego
   {
     odom_sub = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 1000,
                                                [this](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
-    ruts_sub = nh.subscribe<avsp_msgs::TerrainPatch>(
-        "/terrain/ruts", 100, [this](const avsp_msgs::TerrainPatch::ConstPtr& m) { ruts.push_back(*m); });
+    // Only the ego's node: the determinism nodes (det_a_sim, det_b_sim) publish ruts too.
+    using RutsEvent = ros::MessageEvent<avsp_msgs::TerrainPatch const>;
+    const boost::function<void(const RutsEvent&)> on_ruts = [this](const RutsEvent& e) {
+      if (e.getPublisherName() == "/dynamics")
+        ruts.push_back(*e.getMessage());
+    };
+    ruts_sub = nh.subscribe<avsp_msgs::TerrainPatch, const RutsEvent&>("/terrain/ruts", 100, on_ruts);
     log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [this](const rosgraph_msgs::Log::ConstPtr& m) {
       if (m->level >= rosgraph_msgs::Log::WARN)
         warnings.push_back(m->msg);
