@@ -53,12 +53,36 @@ int main(int argc, char** argv)
   std::printf("VLP-16 at (%.0f, %.0f), 2 m above the ground, %.0f m/s: %zu points per sweep (of %zu pulses)\n", x, y,
               speed, scans[0].points.size(), scans[0].pulses);
 
-  for (const double max_range : { 30.0, 100.0 })
-    for (const bool discretize : { false, true })
+  const struct
+  {
+    double max_range;
+    bool discretize;
+    unsigned threads;
+  } variants[] = { { 30.0, false, 1 }, { 30.0, false, 2 }, { 30.0, true, 1 }, { 100.0, false, 1 }, { 100.0, true, 1 } };
+  {
+    // octomap's own insertPointCloud on the same sweep, for comparison (best of 5).
+    std::vector<Eigen::Vector3f> pts;
+    for (const LidarPoint& p : scans[0].points)
+      pts.emplace_back(p.x, p.y, p.z);
+    const Eigen::Vector3d origin = motions[0].at(0.5 * scans[0].duration).translation();
+    double best = 1e300;
+    for (int rep = 0; rep < 5; ++rep)
     {
+      OccupancyMap map;
+      const auto t0 = Clock::now();
+      map.insertWithOctomap(pts, origin);
+      best = std::min(best, seconds(t0));
+    }
+    std::printf("octomap::OcTree::insertPointCloud, max_range 30 m: first sweep %6.1f ms (reference)\n", 1e3 * best);
+  }
+  for (const auto& v : variants)
+    {
+      const double max_range = v.max_range;
+      const bool discretize = v.discretize;
       OccupancyConfig config;
       config.max_range = max_range;
       config.discretize = discretize;
+      config.threads = v.threads;
       // One sweep into an empty map, best of 5 (the machine is shared).
       double first = 1e300;
       for (int rep = 0; rep < 5; ++rep)
@@ -80,11 +104,11 @@ int main(int argc, char** argv)
         total += s;
         worst = std::max(worst, s);
       }
-      std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s: first sweep %6.1f ms; next %d sweeps mean %6.1f ms, "
-                  "worst %6.1f ms; %zu leaves, %.1f MB\n",
-                  max_range, discretize ? "yes" : "no", 1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst,
+      std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s, %u thread%s: first sweep %6.1f ms; next %d sweeps "
+                  "mean %6.1f ms, worst %6.1f ms; %zu leaves, %.1f MB\n",
+                  max_range, discretize ? "yes" : "no", v.threads, v.threads > 1 ? "s" : " ", 1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst,
                   map.leafCount(), map.memoryUsage() / 1e6);
-      if (max_range == 30.0 && !discretize)
+      if (max_range == 30.0 && !discretize && v.threads == 1)
       {
         GridProjection g;
         g.width = g.height = 300;

@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <octomap/OcTree.h>
 
 #include "avsp_sensors/lidar.hpp"
 #include "avsp_sensors/occupancy.hpp"
@@ -202,6 +204,63 @@ TEST(Occupancy, LidarSweepOverAWallMarksIt)
       occupied += v == OccupancyGrid2D::kOccupied;
     EXPECT_LE(occupied, 42) << "registered " << registered;  // the wall's column: 40 cells
   }
+}
+
+namespace
+{
+/// Every leaf of both trees, in the same depth-first order: same key, depth and log-odds.
+void expectSameTree(const octomap::OcTree& a, const octomap::OcTree& b, const std::string& what)
+{
+  ASSERT_EQ(a.size(), b.size()) << what;
+  auto ia = a.begin_leafs(), ib = b.begin_leafs();
+  std::size_t n = 0;
+  for (; ia != a.end_leafs() && ib != b.end_leafs(); ++ia, ++ib, ++n)
+  {
+    ASSERT_EQ(ia.getKey(), ib.getKey()) << what << " leaf " << n;
+    ASSERT_EQ(ia.getDepth(), ib.getDepth()) << what << " leaf " << n;
+    ASSERT_EQ(ia->getLogOdds(), ib->getLogOdds()) << what << " leaf " << n;
+  }
+  EXPECT_TRUE(ia == a.end_leafs() && ib == b.end_leafs()) << what;
+  EXPECT_GT(n, 1000u) << what;
+}
+}  // namespace
+
+TEST(Occupancy, BatchedInsertionGivesOctomapsOwnTree)
+{
+  // Successive scans from moving origins: voxels saturate, pruned blocks get expanded again,
+  // hits turn free and back. Every variant must match insertPointCloud leaf by leaf.
+  std::vector<std::pair<std::vector<Vector3f>, Vector3d>> scans;
+  for (int k = 0; k < 8; ++k)
+  {
+    std::vector<Vector3f> pts = wallAndGround(10.05 - 0.3 * (k % 4));
+    // A few far returns beyond 30 m and some scatter.
+    for (int m = 0; m < 400; ++m)
+    {
+      const double a = 0.0157 * m;
+      pts.emplace_back(static_cast<float>(35.0 * std::cos(a)), static_cast<float>(35.0 * std::sin(a)),
+                       static_cast<float>(0.5 + 0.01 * (m % 50)));
+    }
+    scans.emplace_back(pts, Vector3d(0.1 * k, 0.05 * k, 1.0 + 0.02 * k));
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::tuple<bool, double, unsigned> variants[] = { { false, 30.0, 1u }, { false, 30.0, 2u }, { false, inf, 1u },
+                                                          { true, 30.0, 3u }, { true, inf, 2u } };
+  for (const auto& [discretize, max_range, threads] : variants)
+      {
+        OccupancyConfig c;
+        c.discretize = discretize;
+        c.max_range = max_range;
+        c.threads = threads;
+        OccupancyMap ours(c), reference(c);
+        for (const auto& scan : scans)
+        {
+          ours.insert(scan.first, scan.second);
+          reference.insertWithOctomap(scan.first, scan.second);
+        }
+        expectSameTree(ours.tree(), reference.tree(),
+                       "discretize " + std::to_string(discretize) + " max_range " + std::to_string(max_range) +
+                           " threads " + std::to_string(threads));
+      }
 }
 
 TEST(Occupancy, SaveLoadRoundTripKeepsTheOccupiedCells)
