@@ -59,79 +59,86 @@ int main(int argc, char** argv)
     bool discretize;
     unsigned threads;
   } variants[] = { { 30.0, false, 1 }, { 30.0, false, 2 }, { 30.0, true, 1 }, { 100.0, false, 1 }, { 100.0, true, 1 } };
+  // octomap's own insertPointCloud on the same sweep, for comparison (best of 5).
+  std::vector<Eigen::Vector3f> pts;
+  for (const LidarPoint& p : scans[0].points)
+    pts.emplace_back(p.x, p.y, p.z);
+  const Eigen::Vector3d origin = motions[0].at(0.5 * scans[0].duration).translation();
+  for (const bool discretize : { false, true })
   {
-    // octomap's own insertPointCloud on the same sweep, for comparison (best of 5).
-    std::vector<Eigen::Vector3f> pts;
-    for (const LidarPoint& p : scans[0].points)
-      pts.emplace_back(p.x, p.y, p.z);
-    const Eigen::Vector3d origin = motions[0].at(0.5 * scans[0].duration).translation();
+    OccupancyConfig config;
+    config.discretize = discretize;
     double best = 1e300;
     for (int rep = 0; rep < 5; ++rep)
     {
-      OccupancyMap map;
+      OccupancyMap map(config);
       const auto t0 = Clock::now();
       map.insertWithOctomap(pts, origin);
       best = std::min(best, seconds(t0));
     }
-    std::printf("octomap::OcTree::insertPointCloud, max_range 30 m: first sweep %6.1f ms (reference)\n", 1e3 * best);
+    std::printf("reference octomap::OcTree::insertPointCloud, max_range 30 m, discretize %-3s: first sweep %6.1f ms\n",
+                discretize ? "yes" : "no", 1e3 * best);
   }
   for (const auto& v : variants)
+  {
+    const double max_range = v.max_range;
+    const bool discretize = v.discretize;
+    OccupancyConfig config;
+    config.max_range = max_range;
+    config.discretize = discretize;
+    config.threads = v.threads;
+    // One sweep into an empty map, best of 5 (the machine is shared).
+    double first = 1e300;
+    for (int rep = 0; rep < 5; ++rep)
     {
-      const double max_range = v.max_range;
-      const bool discretize = v.discretize;
-      OccupancyConfig config;
-      config.max_range = max_range;
-      config.discretize = discretize;
-      config.threads = v.threads;
-      // One sweep into an empty map, best of 5 (the machine is shared).
-      double first = 1e300;
+      OccupancyMap map(config);
+      const auto t0 = Clock::now();
+      map.insert(scans[0], motions[0], 1);
+      first = std::min(first, seconds(t0));
+    }
+    // Sweeps 1..9 into a map holding the sweeps before them: the steady state while driving.
+    OccupancyMap map(config);
+    map.insert(scans[0], motions[0], 1);
+    double total = 0.0, worst = 0.0;
+    for (int k = 1; k < sweeps; ++k)
+    {
+      const auto t0 = Clock::now();
+      map.insert(scans[k], motions[k], 1);
+      const double s = seconds(t0);
+      total += s;
+      worst = std::max(worst, s);
+    }
+    std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s, %u thread%s: first sweep %6.1f ms; "
+                "next %d sweeps mean %6.1f ms, worst %6.1f ms; %zu leaves, %.1f MB\n",
+                max_range, discretize ? "yes" : "no", v.threads, v.threads > 1 ? "s" : " ", 1e3 * first, sweeps - 1,
+                1e3 * total / (sweeps - 1), 1e3 * worst,
+                map.leafCount(), map.memoryUsage() / 1e6);
+    if (max_range == 30.0 && !discretize && v.threads == 1)
+    {
+      GridProjection g;
+      g.width = g.height = 300;
+      g.origin_x = x - 30.0;
+      g.origin_y = y - 30.0;
+      const TerrainHeightFn ground = [&](double gx, double gy, double& gz) {
+        return scene.terrain().heightAt(gx, gy, gz);
+      };
+      double best = 1e300;
+      OccupancyGrid2D grid;
       for (int rep = 0; rep < 5; ++rep)
       {
-        OccupancyMap map(config);
         const auto t0 = Clock::now();
-        map.insert(scans[0], motions[0], 1);
-        first = std::min(first, seconds(t0));
+        grid = map.projectGrid(g, ground);
+        best = std::min(best, seconds(t0));
       }
-      // Sweeps 1..9 into a map holding the sweeps before them: the steady state while driving.
-      OccupancyMap map(config);
-      map.insert(scans[0], motions[0], 1);
-      double total = 0.0, worst = 0.0;
-      for (int k = 1; k < sweeps; ++k)
+      std::size_t occupied = 0, free_cells = 0;
+      for (const std::int8_t v : grid.data)
       {
-        const auto t0 = Clock::now();
-        map.insert(scans[k], motions[k], 1);
-        const double s = seconds(t0);
-        total += s;
-        worst = std::max(worst, s);
+        occupied += v == OccupancyGrid2D::kOccupied;
+        free_cells += v == OccupancyGrid2D::kFree;
       }
-      std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s, %u thread%s: first sweep %6.1f ms; next %d sweeps "
-                  "mean %6.1f ms, worst %6.1f ms; %zu leaves, %.1f MB\n",
-                  max_range, discretize ? "yes" : "no", v.threads, v.threads > 1 ? "s" : " ", 1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst,
-                  map.leafCount(), map.memoryUsage() / 1e6);
-      if (max_range == 30.0 && !discretize && v.threads == 1)
-      {
-        GridProjection g;
-        g.width = g.height = 300;
-        g.origin_x = x - 30.0;
-        g.origin_y = y - 30.0;
-        const TerrainHeightFn ground = [&](double gx, double gy, double& gz) { return scene.terrain().heightAt(gx, gy, gz); };
-        double best = 1e300;
-        OccupancyGrid2D grid;
-        for (int rep = 0; rep < 5; ++rep)
-        {
-          const auto t0 = Clock::now();
-          grid = map.projectGrid(g, ground);
-          best = std::min(best, seconds(t0));
-        }
-        std::size_t occupied = 0, free_cells = 0;
-        for (const std::int8_t v : grid.data)
-        {
-          occupied += v == OccupancyGrid2D::kOccupied;
-          free_cells += v == OccupancyGrid2D::kFree;
-        }
-        std::printf("2-D grid 300 x 300 cells (60 m x 60 m at 0.2 m): %6.1f ms; %zu occupied, %zu free, %zu unknown\n",
-                    1e3 * best, occupied, free_cells, grid.data.size() - occupied - free_cells);
-      }
+      std::printf("2-D grid 300 x 300 cells (60 m x 60 m at 0.2 m): %6.1f ms; %zu occupied, %zu free, %zu unknown\n",
+                  1e3 * best, occupied, free_cells, grid.data.size() - occupied - free_cells);
     }
+  }
   return 0;
 }

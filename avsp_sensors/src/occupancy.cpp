@@ -62,7 +62,8 @@ const SpreadTable kSpread;
 
 inline std::uint64_t spread3(std::uint32_t k)
 {
-  return static_cast<std::uint64_t>(kSpread.v[k & 0xffu]) | (static_cast<std::uint64_t>(kSpread.v[(k >> 8) & 0xffu]) << 24);
+  return static_cast<std::uint64_t>(kSpread.v[k & 0xffu]) |
+         (static_cast<std::uint64_t>(kSpread.v[(k >> 8) & 0xffu]) << 24);
 }
 
 /// Morton code of an octree key: bit b of k[0], k[1], k[2] at bits 3b, 3b + 1, 3b + 2, so the
@@ -102,19 +103,6 @@ public:
       grow();
   }
 
-  bool contains(std::uint64_t code) const
-  {
-    const std::size_t mask = slots_.size() - 1;
-    std::size_t i = slot(code);
-    while (slots_[i] != kEmpty)
-    {
-      if (slots_[i] == code)
-        return true;
-      i = (i + 1) & mask;
-    }
-    return false;
-  }
-
   /// Appends the codes (in no particular order).
   void appendTo(std::vector<std::uint64_t>& out) const
   {
@@ -137,7 +125,10 @@ private:
   }
 
   /// Fibonacci hashing: the top bits of code * 2^64 / phi.
-  std::size_t slot(std::uint64_t code) const { return static_cast<std::size_t>((code * 0x9e3779b97f4a7c15ull) >> shift_); }
+  std::size_t slot(std::uint64_t code) const
+  {
+    return static_cast<std::size_t>((code * 0x9e3779b97f4a7c15ull) >> shift_);
+  }
 
   void grow()
   {
@@ -313,7 +304,8 @@ void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const Eige
       throw std::invalid_argument("OccupancyMap::insert: points[" + std::to_string(k) + "] is not finite");
   if (points.empty())
     return;
-  const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()), static_cast<float>(origin.z()));
+  const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
+                          static_cast<float>(origin.z()));
   const octomap::OcTree& tree = *tree_;
 
   // The endpoints: as given, or (discretize) the centres of the distinct voxels they fall in.
@@ -340,7 +332,8 @@ void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const Eige
   const double max_range = config_.max_range;
   const std::size_t chunks = std::min<std::size_t>(resolveThreads(config_.threads), ends.size());
   // A sweep's rays share most voxels: ~8 unique voxels per ray at 0.2 m on the default course.
-  std::vector<CodeSet> free_sets(chunks, CodeSet(8 * ends.size() / chunks)), occupied_sets(chunks, CodeSet(ends.size() / chunks));
+  std::vector<CodeSet> free_sets(chunks, CodeSet(8 * ends.size() / chunks));
+  std::vector<CodeSet> occupied_sets(chunks, CodeSet(ends.size() / chunks));
   parallelFor(chunks, config_.threads, [&](std::size_t c0, std::size_t c1) {
     octomap::KeyRay ray;
     for (std::size_t c = c0; c < c1; ++c)
@@ -501,7 +494,9 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
     for (std::size_t i = 0; i < g.width; ++i)
     {
       double z = 0.0;
-      if (terrain(g.origin_x + (static_cast<double>(i) + 0.5) * r, g.origin_y + (static_cast<double>(j) + 0.5) * r, z) &&
+      const double cx = g.origin_x + (static_cast<double>(i) + 0.5) * r;
+      const double cy = g.origin_y + (static_cast<double>(j) + 0.5) * r;
+      if (terrain(cx, cy, z) &&
           std::isfinite(z))
         ground[j * g.width + i] = z;
     }
@@ -512,8 +507,10 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
     double zmin = 0.0, ymin = 0.0, xmin = 0.0, zmax = 0.0, ymax = 0.0, xmax = 0.0;
     tree_->getMetricMin(xmin, ymin, zmin);
     tree_->getMetricMax(xmax, ymax, zmax);
-    const double x1 = g.origin_x + static_cast<double>(g.width) * r, y1 = g.origin_y + static_cast<double>(g.height) * r;
-    const octomap::point3d bmin(static_cast<float>(std::max(xmin, g.origin_x)), static_cast<float>(std::max(ymin, g.origin_y)),
+    const double x1 = g.origin_x + static_cast<double>(g.width) * r;
+    const double y1 = g.origin_y + static_cast<double>(g.height) * r;
+    const octomap::point3d bmin(static_cast<float>(std::max(xmin, g.origin_x)),
+                                static_cast<float>(std::max(ymin, g.origin_y)),
                                 static_cast<float>(zmin));
     const octomap::point3d bmax(static_cast<float>(std::min(xmax, x1)), static_cast<float>(std::min(ymax, y1)),
                                 static_cast<float>(zmax));
@@ -554,7 +551,8 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
       }
   }
   for (std::size_t k = 0; k < grid.data.size(); ++k)
-    grid.data[k] = obstacle[k] ? OccupancyGrid2D::kOccupied : (observed[k] ? OccupancyGrid2D::kFree : OccupancyGrid2D::kUnknown);
+    grid.data[k] = obstacle[k] ? OccupancyGrid2D::kOccupied
+                               : (observed[k] ? OccupancyGrid2D::kFree : OccupancyGrid2D::kUnknown);
   return grid;
 }
 

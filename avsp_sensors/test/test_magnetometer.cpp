@@ -64,7 +64,8 @@ TEST(Magnetometer, CardinalHeadingsWithoutDeclination)
   {
     double yaw_deg;
     Eigen::Vector3d body;
-  } cases[] = { { 0.0, { 0.0, h, -v } }, { 90.0, { h, 0.0, -v } }, { 180.0, { 0.0, -h, -v } }, { 270.0, { -h, 0.0, -v } } };
+  } cases[] = { { 0.0, { 0.0, h, -v } }, { 90.0, { h, 0.0, -v } }, { 180.0, { 0.0, -h, -v } },
+                { 270.0, { -h, 0.0, -v } } };
   double t = 0.0;
   for (const auto& c : cases)
   {
@@ -102,7 +103,8 @@ TEST(Magnetometer, NoseDownByTheInclinationAlongMagneticNorthReadsTheWholeField)
   const double f = 52e-6, inc = 67.0, dec = -7.0;
   Magnetometer mag(noiseFree(f, inc, dec), 1);
   // Yaw to magnetic north, then pitch the nose down (positive rotation about body y) by I.
-  const Eigen::Quaterniond q = yaw((90.0 - dec) * kDeg) * Eigen::Quaterniond(Eigen::AngleAxisd(inc * kDeg, Eigen::Vector3d::UnitY()));
+  const Eigen::Quaterniond q =
+      yaw((90.0 - dec) * kDeg) * Eigen::Quaterniond(Eigen::AngleAxisd(inc * kDeg, Eigen::Vector3d::UnitY()));
   const MagSample s = mag.measure(0.0, q);
   EXPECT_NEAR((s.field - Eigen::Vector3d(f, 0.0, 0.0)).norm(), 0.0, 1e-17);
   // Level, the vertical part is -F sin I on z and atan2(-z, |horizontal|) is the inclination.

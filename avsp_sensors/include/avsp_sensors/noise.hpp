@@ -112,7 +112,8 @@ private:
 /// Config checks whose std::invalid_argument names "<context>: <field> ...".
 namespace check
 {
-[[noreturn]] inline void fail(const std::string& context, const std::string& field, const std::string& rule, double value)
+[[noreturn]] inline void fail(const std::string& context, const std::string& field, const std::string& rule,
+                              double value)
 {
   throw std::invalid_argument(context + ": " + field + " must be " + rule + " (got " + std::to_string(value) + ")");
 }
