@@ -69,3 +69,68 @@ TEST(Geodetic, RejectsInvalidReference)
   EXPECT_THROW(EnuFrame({ 91.0, 0.0, 0.0 }), GeodeticError);
   EXPECT_THROW(EnuFrame({ 0.0, std::nan(""), 0.0 }), GeodeticError);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Published reference points, typed in from named geodesy sources.
+//
+// IOGP (EPSG) Geomatics Guidance Note 7-2, "Coordinate Conversions and Transformations including
+// Formulas" (IOGP Publication 373-7-2): the worked examples of the geographic/geocentric
+// conversion (EPSG method 9602) and of the geocentric/topocentric and geographic/topocentric
+// conversions (methods 9836, 9837), all on WGS 84:
+//   point:  53 deg 48' 33.820" N, 2 deg 07' 46.380" E, h = 73.0 m
+//           -> X = 3771793.968 m, Y = 140253.342 m, Z = 5124304.349 m
+//   topocentric origin: 55 deg 00' 00" N, 5 deg 00' 00" E, h = 200 m
+//           -> X0 = 3652755.3058 m, Y0 = 319574.6799 m, Z0 = 5201547.3536 m
+//   point in the origin's east-north-up frame: U = -189013.869 m, V = -128642.040 m, W = -4220.171 m
+// GeographicLib's CartConvert(1) manual page (C. F. F. Karney), EXAMPLES:
+//   33.3 N, 44.4 E, 6000 m -> 3816209.60 3737108.55 3485109.57 (m, to the cm)
+namespace
+{
+double dms(double d, double m, double s)
+{
+  return d + m / 60.0 + s / 3600.0;
+}
+const Geodetic kEpsgPoint{ dms(53, 48, 33.820), dms(2, 7, 46.380), 73.0 };
+const Eigen::Vector3d kEpsgPointEcef(3771793.968, 140253.342, 5124304.349);
+const Geodetic kEpsgOrigin{ 55.0, 5.0, 200.0 };
+const Eigen::Vector3d kEpsgOriginEcef(3652755.3058, 319574.6799, 5201547.3536);
+const Eigen::Vector3d kEpsgPointEnu(-189013.869, -128642.040, -4220.171);
+}  // namespace
+
+TEST(GeodeticPublished, Epsg9602GeographicToGeocentric)
+{
+  // Published to the mm (0.1 mm for the origin): within 1 mm (0.1 mm).
+  EXPECT_LT((avsp::sensors::geodeticToEcef(kEpsgPoint) - kEpsgPointEcef).norm(), 1e-3);
+  EXPECT_LT((avsp::sensors::geodeticToEcef(kEpsgOrigin) - kEpsgOriginEcef).norm(), 1e-4);
+}
+
+TEST(GeodeticPublished, Epsg9602GeocentricToGeographic)
+{
+  const Geodetic g = avsp::sensors::ecefToGeodetic(kEpsgPointEcef);
+  // The published X, Y, Z are rounded to the mm, so the way back can differ by that much:
+  // 1 mm is 9e-9 deg of latitude and 1.5e-8 deg of longitude at 53.8 N.
+  EXPECT_NEAR(g.latitude_deg, kEpsgPoint.latitude_deg, 9e-9);
+  EXPECT_NEAR(g.longitude_deg, kEpsgPoint.longitude_deg, 1.5e-8);
+  EXPECT_NEAR(g.altitude, 73.0, 1e-3);
+  // The same check as a distance on the ground.
+  EXPECT_LT((avsp::sensors::geodeticToEcef(g) - avsp::sensors::geodeticToEcef(kEpsgPoint)).norm(), 1e-3);
+}
+
+TEST(GeodeticPublished, Epsg9837GeographicToTopocentric)
+{
+  const EnuFrame frame(kEpsgOrigin);
+  EXPECT_LT((frame.toEnu(kEpsgPoint) - kEpsgPointEnu).norm(), 1e-3) << frame.toEnu(kEpsgPoint).transpose();
+  // And back: the published topocentric point is the published geographic point (to 1 mm).
+  const Geodetic g = frame.toGeodetic(kEpsgPointEnu);
+  EXPECT_LT((avsp::sensors::geodeticToEcef(g) - avsp::sensors::geodeticToEcef(kEpsgPoint)).norm(), 1e-3);
+  EXPECT_NEAR(g.altitude, 73.0, 1e-3);
+}
+
+TEST(GeodeticPublished, GeographicLibCartConvertExample)
+{
+  const Eigen::Vector3d ecef = avsp::sensors::geodeticToEcef({ 33.3, 44.4, 6000.0 });
+  const Eigen::Vector3d published(3816209.60, 3737108.55, 3485109.57);
+  // Published to the cm: within half a cm per axis.
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(ecef[k], published[k], 0.005) << "axis " << k;
+}
