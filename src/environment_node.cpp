@@ -121,6 +121,8 @@ public:
       throw StartupError("parameter ~" + std::string(e.what()));
     }
 
+    // On sim time the model's clock is /clock itself; on wall time it starts with the node.
+    origin_ = ros::Time::isSimTime() ? 0.0 : ros::Time::now().toSec();
     pub_ = nh.advertise<avsp_msgs::Environment>("/environment", 10);
     service_ = pnh.advertiseService("set_environment", &EnvironmentNode::onSetEnvironment, this);
     timer_ = nh.createTimer(ros::Duration(1.0 / rate), &EnvironmentNode::onTimer, this);
@@ -134,7 +136,7 @@ private:
   void onTimer(const ros::TimerEvent&)
   {
     const ros::Time now = ros::Time::now();
-    const ae::EnvironmentState s = model_->at(now.toSec());
+    const ae::EnvironmentState s = model_->at(now.toSec() - origin_);
     avsp_msgs::Environment msg;
     msg.header.stamp = now;
     msg.header.frame_id = frame_id_;
@@ -167,7 +169,7 @@ private:
       res.message = "nothing to change: set_time and set_weather are both false";
       return true;
     }
-    const double now = ros::Time::now().toSec();
+    const double now = ros::Time::now().toSec() - origin_;
     ae::EnvironmentModel changed = *model_;  // all or nothing: apply to a copy first
     std::string what;
     try
@@ -210,6 +212,7 @@ private:
   }
 
   std::unique_ptr<ae::EnvironmentModel> model_;
+  double origin_ = 0.0;  ///< ROS time (s) that is the model's time 0
   std::string frame_id_;
   ros::Publisher pub_;
   ros::ServiceServer service_;
