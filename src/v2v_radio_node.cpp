@@ -1,0 +1,316 @@
+// v2v_radio_node: the simulated V2V radio. Each listed vehicle's <v>/v2v/out
+// (avsp_msgs/VehicleState) reaches the other vehicles' <v>/v2v/in when the radio model
+// (include/avsp/v2v/radio.hpp: range, latency, loss, terrain line of sight, seed) lets it;
+// v2v/fleet_markers shows the fleet and its links in RViz. This file only converts
+// parameters and messages.
+#include <cmath>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <avsp_msgs/VehicleState.h>
+#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/terrain_source_params.hpp>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "avsp/v2v/radio.hpp"
+
+namespace
+{
+namespace av = avsp::v2v;
+namespace at = avsp::terrain;
+using avsp::msgs::boundedIntParam;
+using avsp::msgs::boundedParam;
+using avsp::msgs::StartupError;
+
+/// ~vehicles: names, or {name: ...} dictionaries (the dynamics node's vehicle list works as is).
+std::vector<std::string> vehiclesFromParams(const ros::NodeHandle& pnh)
+{
+  XmlRpc::XmlRpcValue list;
+  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+    throw StartupError("parameter ~vehicles must be a non-empty list of vehicle names (or of {name: ...})");
+  std::vector<std::string> names;
+  std::set<std::string> seen;
+  for (int k = 0; k < list.size(); ++k)
+  {
+    const std::string where = "~vehicles[" + std::to_string(k) + "]";
+    XmlRpc::XmlRpcValue& entry = list[k];
+    std::string name;
+    if (entry.getType() == XmlRpc::XmlRpcValue::TypeString)
+      name = static_cast<std::string>(entry);
+    else if (entry.getType() == XmlRpc::XmlRpcValue::TypeStruct && entry.hasMember("name") &&
+             entry["name"].getType() == XmlRpc::XmlRpcValue::TypeString)
+      name = static_cast<std::string>(entry["name"]);
+    else
+      throw StartupError("parameter " + where + " must be a name or a dictionary with a string 'name'");
+    std::string why;
+    if (name.empty() || name.find('/') != std::string::npos || !ros::names::validate(name, why))
+      throw StartupError("parameter " + where + " '" + name + "' must be a valid ROS name without '/'");
+    if (!seen.insert(name).second)
+      throw StartupError("parameter " + where + " '" + name + "' is listed twice");
+    names.push_back(name);
+  }
+  return names;
+}
+
+std_msgs::ColorRGBA colour(float r, float g, float b, float a)
+{
+  std_msgs::ColorRGBA c;
+  c.r = r;
+  c.g = g;
+  c.b = b;
+  c.a = a;
+  return c;
+}
+
+geometry_msgs::Point point(const av::Vec3& v)
+{
+  geometry_msgs::Point p;
+  p.x = v.x;
+  p.y = v.y;
+  p.z = v.z;
+  return p;
+}
+
+class V2vRadioNode
+{
+public:
+  V2vRadioNode(ros::NodeHandle& nh, ros::NodeHandle& pnh)
+  {
+    const std::vector<std::string> vehicles = vehiclesFromParams(pnh);
+    av::RadioOptions options;
+    options.range = boundedParam(pnh, "range", 300.0, 1e-3, 1e6);
+    options.latency = boundedParam(pnh, "latency", 0.0, 0.0, 3600.0);
+    options.loss_probability = boundedParam(pnh, "loss_probability", 0.0, 0.0, 1.0);
+    options.antenna_height = boundedParam(pnh, "antenna_height", 1.5, 0.0, 1000.0);
+    options.los_step = boundedParam(pnh, "los_step", 1.0, 0.01, 100.0);
+    options.seed = static_cast<std::uint64_t>(boundedIntParam(pnh, "seed", 0, 0, 2147483647));
+    pnh.param("line_of_sight", options.line_of_sight, false);
+    const double marker_rate = boundedParam(pnh, "marker_rate", 2.0, 0.0, 100.0);
+    const double update_rate = boundedParam(pnh, "update_rate", 100.0, 1.0, 10000.0);
+    pnh.param<std::string>("frame_id", frame_id_, "map");
+
+    av::HeightFunction height;
+    std::string terrain_description = "none (line_of_sight false)";
+    if (options.line_of_sight)
+    {
+      std::string soils_file;
+      pnh.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+      try
+      {
+        soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
+      }
+      catch (const std::exception& e)
+      {
+        throw StartupError("parameter ~soils_file: " + std::string(e.what()));
+      }
+      at::LoadedSource loaded = at::loadTerrainFromParams(pnh, *soils_);
+      terrain_ = std::move(loaded.terrain);
+      terrain_description = loaded.description;
+      height = [terrain = terrain_.get()](double x, double y, double& h) {
+        const std::optional<double> z = terrain->height(x, y);
+        if (!z)
+          return false;
+        h = *z;
+        return true;
+      };
+    }
+    try
+    {
+      radio_ = std::make_unique<av::Radio>(vehicles, options, height);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError("parameter ~" + std::string(e.what()));
+    }
+
+    for (std::size_t k = 0; k < vehicles.size(); ++k)
+    {
+      in_pubs_.push_back(nh.advertise<avsp_msgs::VehicleState>(vehicles[k] + "/v2v/in", 100));
+      out_subs_.push_back(nh.subscribe<avsp_msgs::VehicleState>(
+          vehicles[k] + "/v2v/out", 100,
+          [this, k](const avsp_msgs::VehicleState::ConstPtr& msg) { onBroadcast(k, msg); }));
+    }
+    markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("v2v/fleet_markers", 1, true);
+    // On sim time deliveries go out on the /clock tick that reaches their due time, so the
+    // latency is exact to the clock step; on wall time a timer polls at ~update_rate.
+    if (ros::Time::isSimTime())
+      clock_sub_ = nh.subscribe("/clock", 100, &V2vRadioNode::onClock, this);
+    else
+      poll_timer_ = nh.createTimer(ros::Duration(1.0 / update_rate), [this](const ros::TimerEvent&) {
+        release(ros::Time::now().toSec());
+      });
+    if (marker_rate > 0.0)
+      marker_timer_ =
+          nh.createTimer(ros::Duration(1.0 / marker_rate), [this](const ros::TimerEvent&) { publishMarkers(); });
+    ROS_INFO("v2v_radio_node: %zu vehicles, range %g m, latency %g s, loss %g, line of sight %s (terrain: %s), "
+             "seed %llu",
+             vehicles.size(), options.range, options.latency, options.loss_probability,
+             options.line_of_sight ? "on" : "off", terrain_description.c_str(),
+             static_cast<unsigned long long>(options.seed));
+  }
+
+private:
+  struct Pending
+  {
+    avsp_msgs::VehicleState::ConstPtr message;
+    std::size_t remaining = 0;
+  };
+
+  void onBroadcast(std::size_t sender, const avsp_msgs::VehicleState::ConstPtr& msg)
+  {
+    const std::string& name = radio_->vehicles()[sender];
+    if (msg->vehicle_id != name)
+    {
+      ROS_WARN_THROTTLE(5.0, "v2v_radio_node: %s/v2v/out carries vehicle_id '%s', not '%s'; message dropped",
+                        name.c_str(), msg->vehicle_id.c_str(), name.c_str());
+      return;
+    }
+    const auto& p = msg->position;
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+    {
+      ROS_WARN_THROTTLE(5.0, "v2v_radio_node: %s/v2v/out has a non-finite position; message dropped", name.c_str());
+      return;
+    }
+    double stamp = msg->header.stamp.toSec();
+    if (msg->header.stamp.isZero())
+    {
+      stamp = ros::Time::now().toSec();
+      ROS_WARN_THROTTLE(5.0, "v2v_radio_node: %s/v2v/out has no header.stamp; latency counted from reception",
+                        name.c_str());
+    }
+    const std::uint64_t id = next_id_++;
+    const std::vector<av::Delivery> scheduled = radio_->transmit(sender, {p.x, p.y, p.z}, msg->seq, stamp, id);
+    if (!scheduled.empty())
+      pending_[id] = Pending{msg, scheduled.size()};
+    release(std::max(latest_clock_, ros::Time::now().toSec()));
+  }
+
+  void onClock(const rosgraph_msgs::Clock::ConstPtr& clock)
+  {
+    latest_clock_ = clock->clock.toSec();
+    release(latest_clock_);
+  }
+
+  void release(double now)
+  {
+    for (const av::Delivery& d : radio_->due(now))
+    {
+      auto it = pending_.find(d.message);
+      if (it == pending_.end())
+        continue;
+      in_pubs_[d.receiver].publish(it->second.message);
+      if (--it->second.remaining == 0)
+        pending_.erase(it);
+    }
+  }
+
+  void publishMarkers()
+  {
+    const std::vector<std::string>& names = radio_->vehicles();
+    const double range = radio_->options().range;
+    visualization_msgs::MarkerArray array;
+    visualization_msgs::Marker clear;
+    clear.action = visualization_msgs::Marker::DELETEALL;
+    array.markers.push_back(clear);
+    auto base = [this](const std::string& ns, int id, int type) {
+      visualization_msgs::Marker m;
+      m.header.frame_id = frame_id_;
+      m.header.stamp = ros::Time::now();
+      m.ns = ns;
+      m.id = id;
+      m.type = type;
+      m.action = visualization_msgs::Marker::ADD;
+      m.pose.orientation.w = 1.0;
+      return m;
+    };
+    visualization_msgs::Marker up = base("links", 0, visualization_msgs::Marker::LINE_LIST);
+    up.scale.x = 0.5;
+    up.color = colour(0.1f, 0.9f, 0.2f, 0.9f);
+    visualization_msgs::Marker blocked = base("blocked_links", 0, visualization_msgs::Marker::LINE_LIST);
+    blocked.scale.x = 0.3;
+    blocked.color = colour(0.95f, 0.2f, 0.1f, 0.7f);
+    for (std::size_t a = 0; a < names.size(); ++a)
+    {
+      av::Vec3 pa;
+      if (!radio_->antenna(a, pa))
+        continue;
+      visualization_msgs::Marker dot = base("vehicles", static_cast<int>(a), visualization_msgs::Marker::SPHERE);
+      dot.pose.position = point(pa);
+      dot.scale.x = dot.scale.y = dot.scale.z = 3.0;
+      dot.color = colour(0.2f, 0.5f, 1.0f, 1.0f);
+      array.markers.push_back(dot);
+      visualization_msgs::Marker label = base("labels", static_cast<int>(a), visualization_msgs::Marker::TEXT_VIEW_FACING);
+      label.pose.position = point(pa);
+      label.pose.position.z += 4.0;
+      label.scale.z = 3.0;
+      label.color = colour(1.0f, 1.0f, 1.0f, 1.0f);
+      label.text = names[a];
+      array.markers.push_back(label);
+      visualization_msgs::Marker circle = base("range", static_cast<int>(a), visualization_msgs::Marker::LINE_STRIP);
+      circle.scale.x = 0.3;
+      circle.color = colour(0.2f, 0.5f, 1.0f, 0.35f);
+      for (int k = 0; k <= 72; ++k)
+      {
+        const double angle = 2.0 * M_PI * k / 72.0;
+        circle.points.push_back(point({pa.x + range * std::cos(angle), pa.y + range * std::sin(angle), pa.z}));
+      }
+      array.markers.push_back(circle);
+      for (std::size_t b = a + 1; b < names.size(); ++b)
+      {
+        av::Vec3 pb;
+        if (!radio_->antenna(b, pb))
+          continue;
+        const av::Link link = radio_->link(a, b);
+        visualization_msgs::Marker* lines = link == av::Link::Up ? &up : link == av::Link::Blocked ? &blocked : nullptr;
+        if (lines)
+        {
+          lines->points.push_back(point(pa));
+          lines->points.push_back(point(pb));
+        }
+      }
+    }
+    for (visualization_msgs::Marker* lines : {&up, &blocked})
+      if (!lines->points.empty())
+        array.markers.push_back(*lines);
+    markers_pub_.publish(array);
+  }
+
+  std::unique_ptr<at::SoilLibrary> soils_;
+  std::unique_ptr<at::DeformableTerrain> terrain_;  // outlives radio_, whose height function points to it
+  std::unique_ptr<av::Radio> radio_;
+  std::unordered_map<std::uint64_t, Pending> pending_;
+  std::uint64_t next_id_ = 0;
+  double latest_clock_ = 0.0;
+  std::string frame_id_;
+  std::vector<ros::Publisher> in_pubs_;
+  std::vector<ros::Subscriber> out_subs_;
+  ros::Subscriber clock_sub_;
+  ros::Publisher markers_pub_;
+  ros::Timer poll_timer_, marker_timer_;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ros::init(argc, argv, "v2v_radio_node");
+  ros::NodeHandle nh, pnh("~");
+  std::unique_ptr<V2vRadioNode> node;
+  try
+  {
+    node = std::make_unique<V2vRadioNode>(nh, pnh);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("v2v_radio_node: %s", e.what());
+    return 1;
+  }
+  ros::spin();
+  return 0;
+}
