@@ -128,12 +128,12 @@ CourseRun driveCourse(terrain::DeformableTerrain& ground, terrain::ObjectSet* ob
 void printCourse(const char* label, const CourseRun& c)
 {
   const double per = 1e6 / static_cast<double>(c.run.times.steps);
-  std::printf("  %-30s %5zu geoms: collision %.2f us per step (total step %.1f us, real-time factor %.1fx); "
-              "%.0f m, %ld steps in contact, %zu objects toppled\n",
-              label, c.geoms, c.run.times.collision * per,
-              (c.run.times.ode + c.run.times.contact + c.run.times.probe + c.run.times.other + c.run.times.collision) *
-                  per,
-              c.run.sim / c.run.wall, c.run.distance, c.contact_steps, c.toppled);
+  const dynamics::StepTimes& t = c.run.times;
+  std::printf("  %-30s %5zu geoms: collision %.2f us per step (total step %.1f us: ODE %.1f, soil contact %.1f; "
+              "real-time factor %.1fx); %.0f m, %ld steps in contact, %zu objects toppled\n",
+              label, c.geoms, t.collision * per, (t.ode + t.contact + t.probe + t.other + t.collision) * per,
+              t.ode * per, (t.contact + t.probe) * per, c.run.sim / c.run.wall, c.run.distance, c.contact_steps,
+              c.toppled);
 }
 
 void print(const char* label, const Run& r)
