@@ -1,7 +1,9 @@
 // Prints the vehicle simulation's figures (not a test): real-time factor at a 1 ms physics step
 // of one fed_alpha 4x4 driving on deformable soil, and microseconds per vehicle-step split
 // into ODE step, soil contact, stiffness probes and the rest; the terrain update is the
-// contact's extra cost with deformation on over the same run with it off.
+// contact's extra cost with deformation on over the same run with it off. Then the cost of
+// obstacle collision: the same vehicle on the default course (avsp_terrain) with none of its
+// objects as obstacles, with all of them, and driving into its woods.
 // Usage: bench_vehicle_sim SOILS.yaml FED_ALPHA.yaml [seconds, default 60] [soil ...]
 #include <chrono>
 #include <cmath>
@@ -10,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <avsp_terrain/default_course.hpp>
 #include <avsp_terrain/deformable_terrain.hpp>
 #include <avsp_terrain/soil.hpp>
 
@@ -68,15 +71,81 @@ Run drive(const terrain::SoilParameters& soil, const dynamics::VehicleModel& mod
   return run;
 }
 
+/// fed_alpha holding 5 m/s straight ahead from (x, y) heading yaw on the default course, its
+/// objects as obstacles when `objects` is given.
+struct CourseRun
+{
+  Run run;
+  std::size_t geoms = 0;
+  long contact_steps = 0;
+  std::size_t toppled = 0;
+};
+
+CourseRun driveCourse(terrain::DeformableTerrain& ground, terrain::ObjectSet* objects,
+                      const dynamics::VehicleModel& model, double x, double y, double yaw, double seconds)
+{
+  dynamics::WorldOptions options;
+  options.profile = true;
+  dynamics::World world(ground, options);
+  CourseRun out;
+  std::size_t toppled_before = 0;
+  if (objects)
+  {
+    world.setObstacles(*objects);
+    for (const terrain::TerrainObject& o : objects->all())
+      toppled_before += o.toppled;
+  }
+  out.geoms = world.obstacleGeomCount();
+  const std::size_t id = world.addVehicle(model, world.restingPose(model, x, y, yaw, 0.01));
+  double integral = 0.0;
+  Eigen::Vector3d last = world.state(id).pose.translation();
+  const auto t0 = Clock::now();
+  const auto steps = static_cast<long>(std::lround(seconds / options.step));
+  for (long k = 0; k < steps; ++k)
+  {
+    const dynamics::VehicleState& s = world.state(id);
+    const double error = 5.0 - s.body_velocity.x();
+    integral = std::clamp(integral + 0.3 * error * options.step, 0.0, 1.0);
+    dynamics::DriveCommand c;
+    c.throttle = std::clamp(0.5 * error + integral, 0.0, 1.0);
+    world.setCommand(id, c);
+    world.step();
+    const dynamics::VehicleState& after = world.state(id);
+    out.run.distance += (after.pose.translation() - last).head<2>().norm();
+    last = after.pose.translation();
+    out.contact_steps += after.obstacle_contacts > 0;
+  }
+  out.run.wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  out.run.sim = world.time();
+  out.run.times = world.times();
+  if (objects)
+    for (const terrain::TerrainObject& o : objects->all())
+      out.toppled += o.toppled;
+  out.toppled -= std::min(out.toppled, toppled_before);
+  return out;
+}
+
+void printCourse(const char* label, const CourseRun& c)
+{
+  const double per = 1e6 / static_cast<double>(c.run.times.steps);
+  const dynamics::StepTimes& t = c.run.times;
+  std::printf("  %-30s %5zu geoms: collision %.2f us per step (total step %.1f us: ODE %.1f, soil contact %.1f; "
+              "real-time factor %.1fx); %.0f m, %ld steps in contact, %zu objects toppled\n",
+              label, c.geoms, t.collision * per, (t.ode + t.contact + t.probe + t.other + t.collision) * per,
+              t.ode * per, (t.contact + t.probe) * per, c.run.sim / c.run.wall, c.run.distance, c.contact_steps,
+              c.toppled);
+}
+
 void print(const char* label, const Run& r)
 {
   const double per = 1e6 / static_cast<double>(r.times.steps);
   std::printf("  %-34s real-time factor %6.1fx  (%.1f s simulated in %.2f s, %.0f m, sinkage up to %.1f mm)\n", label,
               r.sim / r.wall, r.sim, r.wall, r.distance, 1e3 * r.max_rut);
-  std::printf("  %-34s us per vehicle-step: ODE %.1f, soil contact %.1f, stiffness probes %.1f, rest %.1f "
-              "(total %.1f)\n",
-              "", r.times.ode * per, r.times.contact * per, r.times.probe * per, r.times.other * per,
-              (r.times.ode + r.times.contact + r.times.probe + r.times.other) * per);
+  std::printf("  %-34s us per vehicle-step: ODE %.1f, soil contact %.1f, stiffness probes %.1f, collision %.2f, "
+              "rest %.1f (total %.1f)\n",
+              "", r.times.ode * per, r.times.contact * per, r.times.probe * per, r.times.collision * per,
+              r.times.other * per,
+              (r.times.ode + r.times.contact + r.times.probe + r.times.collision + r.times.other) * per);
 }
 }  // namespace
 
@@ -117,6 +186,34 @@ int main(int argc, char** argv)
       options.solver = dynamics::Solver::kIterative;
       print("deformable, iterative solver (20 it.)", drive(soils.get(name), model, seconds, options));
     }
+
+    // Obstacles: the default course's objects (seed 1, 600 m x 400 m; 0.5 m cells, as the
+    // objects do not depend on the cell size and the grid only has to carry the vehicle).
+    terrain::CourseOptions course_options;
+    course_options.cell_size = 0.5;
+    terrain::Course course = terrain::makeDefaultCourse(course_options);
+    std::size_t grass = 0, rigid = 0;
+    for (const terrain::TerrainObject& o : course.objects.all())
+    {
+      grass += o.type == terrain::ObjectType::kGrass;
+      rigid += o.type != terrain::ObjectType::kGrass && !std::isfinite(o.strength);
+    }
+    std::printf("default course (600 m x 400 m, seed 1): %zu objects (%zu grass, %zu rigid, %zu toppleable); "
+                "%s at 5 m/s:\n",
+                course.objects.size(), grass, rigid, course.objects.size() - grass - rigid, model.model.c_str());
+    terrain::DeformableTerrain ground(std::move(course.heights), terrain::paletteFromNames(course.soil_names, soils),
+                                      std::move(course.soil_map), terrain::DeformableTerrain::Options{ true });
+    // Up the gravel dirt trail (open ground, objects kept a few metres off it): broad phase only.
+    const terrain::CourseFeature& trail = course.feature("dirt_trail");
+    const double trail_x = 0.5 * (trail.min_x + trail.max_x), trail_y = trail.min_y + 8.0;
+    printCourse("up the trail, no obstacles", driveCourse(ground, nullptr, model, trail_x, trail_y, 0.5 * M_PI, seconds));
+    terrain::ObjectSet all = course.objects;
+    printCourse("up the trail, all objects", driveCourse(ground, &all, model, trail_x, trail_y, 0.5 * M_PI, seconds));
+    const terrain::CourseFeature& woods = course.feature("woods");
+    terrain::ObjectSet forest = course.objects;
+    printCourse("into the woods, all objects",
+                driveCourse(ground, &forest, model, woods.min_x - 10.0, 0.5 * (woods.min_y + woods.max_y), 0.0,
+                            std::min(seconds, 20.0)));
   }
   catch (const std::exception& e)
   {

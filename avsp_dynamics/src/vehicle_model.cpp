@@ -148,6 +148,40 @@ public:
     return out;
   }
 
+  /// The <collision> boxes of every link not in `running_gear` (whose cylinders are wheels).
+  std::vector<CollisionBox> collisionBoxes(const std::set<std::string>& running_gear) const
+  {
+    std::vector<CollisionBox> out;
+    // links_ is a std::map: link-name order, the same on every load.
+    for (const auto& kv : model_->links_)
+    {
+      const urdf::LinkSharedPtr& link = kv.second;
+      if (running_gear.count(link->name))
+        continue;
+      for (const urdf::CollisionSharedPtr& c : link->collision_array)
+      {
+        if (!c || !c->geometry)
+          continue;
+        if (c->geometry->type != urdf::Geometry::BOX)
+          fail("link '" + link->name +
+               "': <collision> must be a box (chassis links collide with obstacles and other vehicles as boxes; "
+               "only wheel, road wheel, sprocket and idler links have cylinders)");
+        const urdf::Vector3& dim = static_cast<const urdf::Box*>(c->geometry.get())->dim;
+        CollisionBox box;
+        box.link = link->name;
+        box.size = Eigen::Vector3d(dim.x, dim.y, dim.z);
+        box.pose = restPose(link->name) * toIsometry(c->origin);
+        if (!box.size.allFinite() || !(box.size.minCoeff() > 0.0) || !box.pose.matrix().allFinite())
+          fail("link '" + link->name + "': <collision> box size must be finite and > 0 and its origin finite");
+        out.push_back(box);
+      }
+    }
+    if (out.empty())
+      fail("no link other than the running gear has a <collision> box: the vehicle could not collide with "
+           "obstacles or other vehicles");
+    return out;
+  }
+
   const urdf::ModelInterface& model() const { return *model_; }
 
 private:
@@ -434,6 +468,19 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
         root.fail("wheels", "a skid_steer vehicle steers by wheel speed; remove steering_joint");
       }
     }
+
+    // Chassis collision boxes: every <collision> that is not a wheel's or track's cylinder.
+    std::set<std::string> running_gear;
+    for (const WheelSpec& w : m.wheels)
+      running_gear.insert(w.link);
+    for (const TrackSpec& t : m.tracks)
+    {
+      running_gear.insert(urdf.model().getJoint(t.sprocket_joint)->child_link_name);
+      running_gear.insert(urdf.model().getJoint(t.idler_joint)->child_link_name);
+      for (const RoadWheelSpec& r : t.road_wheels)
+        running_gear.insert(r.link);
+    }
+    m.collision_boxes = urdf.collisionBoxes(running_gear);
 
     readDrivetrain(root, m);
     const Section b = root.map("brakes");

@@ -9,6 +9,8 @@
 
 #include <ode/ode.h>
 
+#include "obstacle_collision.hpp"
+
 namespace avsp
 {
 namespace dynamics
@@ -101,6 +103,14 @@ public:
   void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
   void afterStep(double time);
   const VehicleState& state() const { return state_; }
+  /// The bodies that collide with obstacles and other vehicles (obstacle_collision.hpp).
+  VehicleBodies collisionBodies() const;
+  /// What obstacles and other vehicles did over the last step, into state().
+  void setCollisionReport(const CollisionReport& r)
+  {
+    state_.obstacle_contacts = r.contacts;
+    state_.obstacle_impulse = r.impulse;
+  }
 
 private:
   struct Wheel
@@ -346,6 +356,17 @@ SimVehicle::~SimVehicle()
   }
   if (chassis_)
     dBodyDestroy(chassis_);
+}
+
+VehicleBodies SimVehicle::collisionBodies() const
+{
+  VehicleBodies b;
+  b.chassis = chassis_;
+  b.chassis_com = chassis_com_;
+  b.mass = model_.total_mass;
+  for (const Wheel& w : wheels_)
+    b.wheels.push_back(CollisionWheel{ w.body, w.spec->radius, w.spec->width });
+  return b;
 }
 
 void SimVehicle::couple(const std::string& key, const std::vector<std::pair<std::size_t, std::size_t>>& pairs)
@@ -730,7 +751,8 @@ void SimVehicle::afterStep(double time)
 // ---------------------------------------------------------------------------------------
 
 World::World(terrain::DeformableTerrain& terrain, const WorldOptions& options)
-  : terrain_(terrain), options_(options), ode_(std::make_unique<Ode>())
+  : terrain_(terrain), options_(options), ode_(std::make_unique<Ode>()),
+    collision_(std::make_unique<ObstacleCollision>(options.step))
 {
   auto require = [](bool ok, const std::string& what) {
     if (!ok)
@@ -758,7 +780,8 @@ World::World(terrain::DeformableTerrain& terrain, const WorldOptions& options)
 
 World::~World()
 {
-  vehicles_.clear();  // bodies and joints before the world
+  collision_.reset();  // geoms before the bodies they ride on
+  vehicles_.clear();   // bodies and joints before the world
 }
 
 std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name)
@@ -768,7 +791,50 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
                                 "' is not finite");
   vehicles_.push_back(
       std::make_unique<SimVehicle>(ode_->world, model, pose, name.empty() ? model.model : name, options_));
+  try
+  {
+    collision_->addVehicle(model.collision_boxes, vehicles_.back()->collisionBodies());
+  }
+  catch (...)
+  {
+    collision_->removeLastVehicle();
+    vehicles_.pop_back();
+    throw;
+  }
   return vehicles_.size() - 1;
+}
+
+void World::setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity)
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::setVelocity: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  if (!velocity.allFinite())
+    throw std::invalid_argument("World::setVelocity: velocity of '" + vehicles_[vehicle]->state().name +
+                                "' is not finite");
+  const VehicleBodies b = vehicles_[vehicle]->collisionBodies();
+  dBodySetLinearVel(b.chassis, velocity.x(), velocity.y(), velocity.z());
+  dBodySetAngularVel(b.chassis, 0.0, 0.0, 0.0);
+  for (const CollisionWheel& w : b.wheels)
+  {
+    // Rolling without slip: omega = (v . forward) / r about the axle (the body's y).
+    const Eigen::Vector3d axle = rotationOf(w.body).col(1);
+    const Eigen::Vector3d forward = axle.cross(Eigen::Vector3d::UnitZ()).normalized();
+    const Eigen::Vector3d omega = velocity.dot(forward) / w.radius * axle;
+    dBodySetLinearVel(w.body, velocity.x(), velocity.y(), velocity.z());
+    dBodySetAngularVel(w.body, omega.x(), omega.y(), omega.z());
+  }
+  vehicles_[vehicle]->afterStep(time());
+}
+
+void World::setObstacles(terrain::ObjectSet& objects)
+{
+  collision_->setObstacles(objects, terrain_);
+}
+
+std::size_t World::obstacleGeomCount() const
+{
+  return collision_->obstacleGeomCount();
 }
 
 std::size_t World::vehicleCount() const
@@ -791,6 +857,8 @@ void World::step()
   const auto t0 = times ? Clock::now() : Clock::time_point();
   for (auto& v : vehicles_)
     v->beforeStep(terrain_, ode_->contacts, times);
+  const auto tc = times ? Clock::now() : Clock::time_point();
+  collision_->collide(ode_->world, ode_->contacts);
   const auto t1 = times ? Clock::now() : Clock::time_point();
   // ODE's QuickStep may shuffle constraints with its global generator: run it from this
   // world's own state so results do not depend on other worlds or earlier runs.
@@ -801,17 +869,22 @@ void World::step()
     dWorldQuickStep(ode_->world, options_.step);
   rng_state_ = dRandGetSeed();
   const auto t2 = times ? Clock::now() : Clock::time_point();
+  collision_->afterStep();
   dJointGroupEmpty(ode_->contacts);
   ++steps_;
-  for (auto& v : vehicles_)
-    v->afterStep(time());
+  for (std::size_t i = 0; i < vehicles_.size(); ++i)
+  {
+    vehicles_[i]->afterStep(time());
+    vehicles_[i]->setCollisionReport(collision_->report(i));
+  }
   if (times)
   {
     const auto t3 = Clock::now();
     const double contacts = times->contact + times->probe;
     times->ode += seconds(t1, t2);
+    times->collision += seconds(tc, t1);
     // beforeStep's time less what the contacts added to their own counters this step.
-    times->other += seconds(t0, t1) - (contacts - contacts_before) + seconds(t2, t3);
+    times->other += seconds(t0, tc) - (contacts - contacts_before) + seconds(t2, t3);
     ++times->steps;
   }
 }

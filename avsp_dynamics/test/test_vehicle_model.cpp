@@ -209,6 +209,37 @@ TEST(VehicleModel, AckermannSteeringWithinJointLimits)
   EXPECT_EQ(m.drivetrain.differentials.at("center"), avsp::dynamics::Differential::kLocked);
 }
 
+// Chassis collision boxes: the URDF <collision> box of each non-running-gear link, placed in
+// base_link (fed_alpha: chassis box 4.9 x 2.2 x 1.2 m on a fixed joint 0.55 m above base_link;
+// m113: the hull, not the road wheels, sprockets and idlers).
+TEST(VehicleModel, CollisionBoxesAreTheChassisLinksBoxesInBaseLink)
+{
+  const VehicleModel f = loadVehicleModel(kConfigDir + "/fed_alpha.yaml");
+  ASSERT_EQ(f.collision_boxes.size(), 1u);
+  EXPECT_EQ(f.collision_boxes[0].link, "chassis");
+  EXPECT_NEAR((f.collision_boxes[0].size - Eigen::Vector3d(4.9, 2.2, 1.2)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((f.collision_boxes[0].pose.translation() - Eigen::Vector3d(0.0, 0.0, 0.55)).norm(), 0.0, 1e-12);
+  EXPECT_TRUE(f.collision_boxes[0].pose.linear().isIdentity(1e-12));
+  const VehicleModel m = loadVehicleModel(kConfigDir + "/m113.yaml");
+  ASSERT_EQ(m.collision_boxes.size(), 1u);
+  EXPECT_EQ(m.collision_boxes[0].link, "chassis");
+  EXPECT_NEAR((m.collision_boxes[0].size - Eigen::Vector3d(4.86, 1.9, 1.8)).norm(), 0.0, 1e-12);
+
+  // A rotated, offset <collision> origin: the box's axes and centre follow it into base_link.
+  ScratchConfig c("fed_alpha");
+  c.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>)",
+             R"(<collision>
+      <origin xyz="0.3 0 0.1" rpy="0 0 1.5707963267948966"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>)");
+  const VehicleModel r = loadVehicleModel(c.write());
+  ASSERT_EQ(r.collision_boxes.size(), 1u);
+  EXPECT_NEAR((r.collision_boxes[0].pose.translation() - Eigen::Vector3d(0.3, 0.0, 0.65)).norm(), 0.0, 1e-12);
+  // The box's own x (its 4.9 m length) now lies along base y.
+  EXPECT_NEAR((r.collision_boxes[0].pose.linear().col(0) - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-12);
+}
+
 // --- bad descriptions: each names the file and the key ---
 
 TEST(VehicleModelErrors, NegativeMassInUrdfNamesFileAndLink)
@@ -317,6 +348,44 @@ TEST(VehicleModelErrors, MissingSensorMount)
   c.editUrdf("<link name=\"radar\">", "<link name=\"radar_gone\">");
   const std::string err = loadError(c.write());
   EXPECT_CONTAINS(err, "sensor mount link 'radar'");
+}
+
+TEST(VehicleModelErrors, BadCollisionGeometryNamesLink)
+{
+  {
+    ScratchConfig c("fed_alpha");
+    c.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>)",
+               R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 0 1.2"/></geometry>)");
+    const std::string err = loadError(c.write());
+    EXPECT_CONTAINS(err, c.urdfPath());
+    EXPECT_CONTAINS(err, "link 'chassis'");
+    EXPECT_CONTAINS(err, "box size must be finite and > 0");
+  }
+  {
+    ScratchConfig c("fed_alpha");
+    c.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>)",
+               R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><sphere radius="1.2"/></geometry>)");
+    const std::string err = loadError(c.write());
+    EXPECT_CONTAINS(err, "link 'chassis'");
+    EXPECT_CONTAINS(err, "must be a box");
+  }
+  {
+    ScratchConfig c("fed_alpha");
+    c.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>
+    </collision>)",
+               "");
+    EXPECT_CONTAINS(loadError(c.write()), "no link other than the running gear has a <collision> box");
+  }
 }
 
 TEST(VehicleModelErrors, MissingFilesAndBrokenYaml)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace avsp
@@ -85,14 +86,30 @@ void ObjectSet::insertIntoBuckets(const TerrainObject& o)
 
 std::uint32_t ObjectSet::add(TerrainObject object)
 {
-  const bool finite = std::isfinite(object.x) && std::isfinite(object.y) && std::isfinite(object.yaw) &&
-                      std::isfinite(object.length) && std::isfinite(object.width) && std::isfinite(object.height);
-  if (!finite || !(object.length > 0.0) || !(object.width > 0.0) || object.height < 0.0)
-    throw std::invalid_argument(std::string("ObjectSet::add: ") + toString(object.type) +
-                                ": position and sizes must be finite, length and width > 0, height >= 0");
-  if (!(object.strength >= 0.0) || !(object.rolling_resistance >= 0.0))
-    throw std::invalid_argument(std::string("ObjectSet::add: ") + toString(object.type) +
-                                ": strength and rolling_resistance must be >= 0");
+  // Errors name the object as it would have been listed: its id-to-be, kind and position.
+  auto reject = [&](const std::string& why) {
+    std::ostringstream what;
+    what << "ObjectSet::add: object " << objects_.size() << " (" << toString(object.type) << " at (" << object.x
+         << ", " << object.y << ")): " << why;
+    throw std::invalid_argument(what.str());
+  };
+  auto describe = [](const char* name, double value, const char* rule) {
+    std::ostringstream what;
+    what << name << " must be " << rule << ", got " << value;
+    return what.str();
+  };
+  if (!std::isfinite(object.x) || !std::isfinite(object.y) || !std::isfinite(object.yaw))
+    reject("position and yaw must be finite");
+  if (!std::isfinite(object.length) || !(object.length > 0.0))
+    reject(describe("length", object.length, "finite and > 0 m"));
+  if (!std::isfinite(object.width) || !(object.width > 0.0))
+    reject(describe("width", object.width, "finite and > 0 m"));
+  if (!std::isfinite(object.height) || !(object.height >= 0.0))
+    reject(describe("height", object.height, "finite and >= 0 m"));
+  if (!(object.strength >= 0.0))
+    reject(describe("strength", object.strength, ">= 0 N (+inf = rigid)"));
+  if (!(object.rolling_resistance >= 0.0))
+    reject(describe("rolling_resistance", object.rolling_resistance, ">= 0"));
   object.id = static_cast<std::uint32_t>(objects_.size());
   objects_.push_back(object);
   insertIntoBuckets(objects_.back());

@@ -1,5 +1,6 @@
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -71,6 +72,23 @@ TEST(ObjectSet, RejectsBadObjects)
   EXPECT_THROW(set.add(object(ObjectType::kRock, NAN, 0, 1.0, 1.0, INFINITY)), std::invalid_argument);
   EXPECT_THROW(set.add(object(ObjectType::kShrub, 0, 0, 1.0, 1.0, -5.0)), std::invalid_argument);
   EXPECT_THROW(ObjectSet(0.0), std::invalid_argument);
+  // The error names the object (the id it would have had, its kind and position) and the field.
+  set.add(object(ObjectType::kRock, 0, 0, 1.0, 1.0, INFINITY));
+  try
+  {
+    set.add(object(ObjectType::kTree, 3.5, -2, 0.4, NAN, INFINITY));
+    ADD_FAILURE() << "a NaN width was accepted";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("object 1 (tree at (3.5, -2))"), std::string::npos) << what;
+    EXPECT_NE(what.find("width must be finite and > 0 m, got nan"), std::string::npos) << what;
+  }
+  TerrainObject tall = object(ObjectType::kPole, 1, 1, 0.1, 0.1, 100.0);
+  tall.height = INFINITY;
+  EXPECT_THROW(set.add(tall), std::invalid_argument);
+  EXPECT_EQ(set.size(), 1u);
   EXPECT_EQ(objectTypeFromString("fence"), ObjectType::kFence);
   EXPECT_THROW(objectTypeFromString("tank"), std::invalid_argument);
 }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace avsp
 {
@@ -46,6 +47,14 @@ struct Body
   Eigen::Vector3d rest_position;         ///< m, link origin in base_link with all joints at 0
   Eigen::Vector3d com;                   ///< m, centre of mass in base_link with all joints at 0
   Eigen::Matrix3d inertia;               ///< kg m^2, about the centre of mass, in base_link axes
+};
+
+/// A box of a chassis link's URDF <collision>: what collides with obstacles and other vehicles.
+struct CollisionBox
+{
+  std::string link;              ///< the URDF link it belongs to
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< box centre and axes in base_link at the rest pose
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();          ///< m, full edge lengths along the box's own x, y, z (> 0)
 };
 
 /// A road wheel of a wheeled vehicle, with its suspension and (optional) steering joints.
@@ -151,6 +160,9 @@ struct VehicleModel
   DrivetrainSpec drivetrain;
   BrakeSpec brakes;
   std::map<std::string, Eigen::Vector3d> sensor_mounts;  ///< lidar/radar/gps/imu, m in base_link
+  /// The <collision> boxes of every link that is not running gear (wheels, road wheels,
+  /// sprockets, idlers: their cylinders are the running gear's), at least one.
+  std::vector<CollisionBox> collision_boxes;
 
   /// m, front-axle x minus rear-axle x (wheeled), or track contact length (tracked).
   double wheelbase() const;

@@ -28,6 +28,13 @@
  * is the soil's own (probed), traction and lateral force as friction rows bounded by what the
  * soil gives at the current slip (force-dependent slip = the soil's slip velocity per newton),
  * rolling and bulldozing resistance as a force at the wheel centre. README.md explains why.
+ *
+ * Obstacles (World::setObstacles): ODE collision (dCollide) is used only between the vehicles'
+ * chassis boxes (URDF <collision> boxes) and wheel cylinders and the terrain's objects
+ * (avsp_terrain ObjectSet) or other vehicles; never with the ground, and never within one
+ * vehicle. Rigid objects (strength +inf: buildings, barriers, rocks, large trees) are stiff
+ * contacts with Coulomb friction; toppleable ones (shrubs, small trees, poles, fences) resist
+ * with up to their strength and, when pushed that hard, topple through ObjectSet::push.
  */
 #include <chrono>
 #include <cstdint>
@@ -102,6 +109,11 @@ struct VehicleState
   double engine_torque = 0.0;   ///< N m at the crankshaft (skid-steer: sum of the side motors)
   DriveCommand command;         ///< the command in force (clamped)
   std::vector<WheelState> wheels;  ///< in model.wheels order
+  /// Contact points with obstacles and other vehicles over the last step (0 = touching nothing).
+  int obstacle_contacts = 0;
+  /// N s, impulse obstacles and other vehicles gave the vehicle over the last step (map frame):
+  /// the rigid contacts' constraint forces and the toppleable objects' resistance, times the step.
+  Eigen::Vector3d obstacle_impulse = Eigen::Vector3d::Zero();
 };
 
 /// Accumulated wall time of World::step() by part (World options.profile).
@@ -112,9 +124,11 @@ struct StepTimes
   double contact = 0.0;    ///< s in wheelContact with deform = options.deform_terrain
   double probe = 0.0;      ///< s in the stiffness probes (wheelContact without deformation)
   double other = 0.0;      ///< s in the rest (actuators, drivetrain, joints, telemetry)
+  double collision = 0.0;  ///< s finding obstacle and vehicle-vehicle contacts and making their joints
 };
 
-class SimVehicle;  // one vehicle's ODE bodies and joints (vehicle_sim.cpp)
+class SimVehicle;         // one vehicle's ODE bodies and joints (vehicle_sim.cpp)
+class ObstacleCollision;  // ODE collision with obstacles and between vehicles (obstacle_collision.cpp)
 
 /**
  * @brief An ODE world with a fixed step driving vehicles over a deformable terrain.
@@ -154,6 +168,33 @@ public:
    */
   void setCommand(std::size_t vehicle, const DriveCommand& command);
 
+  /**
+   * @brief Sets every body of a vehicle moving at `velocity` (m/s, map), the chassis without
+   *        rotation and each wheel spinning to roll along its heading (no slip): a vehicle
+   *        launched at speed. Takes effect from the next step; state() shows it at once.
+   * @throw std::out_of_range for an unknown vehicle index
+   * @throw std::invalid_argument when the velocity is not finite
+   */
+  void setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity);
+
+  /**
+   * @brief The vehicles collide with the objects of `objects` from the next step on, replacing
+   *        any earlier set. Each object not grass and not toppled becomes a static geom standing
+   *        on the terrain as it is now (from 0.5 m below the lowest ground under its footprint
+   *        to its height above the ground at its centre): trees, shrubs and poles as upright
+   *        cylinders of diameter (length + width) / 2, the rest as boxes of their footprint.
+   *        Objects of finite strength topple through ObjectSet::push when a vehicle pushes them
+   *        that hard (their `toppled` and `fall_direction` change) and stop colliding; objects
+   *        toppled by anyone else stop colliding too.
+   * @param objects kept by reference and modified: must outlive the World (or be replaced)
+   * @throw std::invalid_argument naming the object (id, kind, position) when one has a length,
+   *        width or height that is not finite and > 0, or stands off the terrain; the previous
+   *        obstacles stay then
+   */
+  void setObstacles(terrain::ObjectSet& objects);
+  /// Objects that became geoms in the last setObstacles() (0 without).
+  std::size_t obstacleGeomCount() const;
+
   /// One physics step of options().step seconds.
   void step();
   /// Steps until `seconds` more have elapsed (rounded to whole steps).
@@ -186,6 +227,7 @@ private:
   WorldOptions options_;
   std::unique_ptr<Ode> ode_;
   std::vector<std::unique_ptr<SimVehicle>> vehicles_;
+  std::unique_ptr<ObstacleCollision> collision_;
   std::uint64_t steps_ = 0;
   unsigned long rng_state_ = 0;  ///< ODE's dRand state between this world's steps
   StepTimes times_;

@@ -60,7 +60,9 @@ public:
 
   /**
    * @brief Adds an object and returns its id (ids count from 0 in insertion order).
-   * @throw std::invalid_argument for non-finite or non-positive sizes, negative strength
+   * @throw std::invalid_argument naming the object (the id it would have had, its kind and
+   *        position) and the field: non-finite position or yaw, length or width not finite and
+   *        > 0, height not finite and >= 0, negative (or NaN) strength or rolling resistance
    */
   std::uint32_t add(TerrainObject object);
 
