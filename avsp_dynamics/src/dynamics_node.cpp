@@ -22,6 +22,7 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <avsp_msgs/drive_command_conversions.hpp>
@@ -168,14 +169,22 @@ public:
     ruts_every_ = ruts_rate > 0.0 ? std::max<std::uint64_t>(1, std::llround(1.0 / (ruts_rate * options.step))) : 0;
 
     loadTerrain();
+    bool obstacles = true;
+    pnh_.param("obstacles", obstacles, true);
     try
     {
       world_ = std::make_unique<ad::World>(*terrain_, options);
+      if (obstacles && objects_.size() > 0)
+        world_->setObstacles(objects_);
     }
     catch (const std::invalid_argument& e)
     {
       throw StartupError(e.what());
     }
+    if (obstacles)
+      for (const at::TerrainObject& o : objects_.all())
+        if (std::isfinite(o.strength) && !o.toppled)
+          standing_.push_back(o.id);
 
     for (const VehicleSpec& s : specs)
     {
@@ -217,6 +226,7 @@ public:
       vehicles_.push_back(std::move(v));
     }
     transforms_.resize(vehicles_.size());
+    toppled_pub_ = nh_.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 100);
     ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
     if (publish_clock_)
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
@@ -359,7 +369,10 @@ private:
     }
     const std::uint64_t n = world_->stepCount();
     if (n % odom_every_ == 0)
+    {
       publishStates();
+      publishToppled();
+    }
     if (ruts_every_ > 0 && n % ruts_every_ == 0 && ruts_pub_.getNumSubscribers() > 0)
       publishRuts();
   }
@@ -492,6 +505,36 @@ private:
     v.telemetry_pub.publish(tm);
   }
 
+  /// Objects the vehicles pushed over since the last call, once each, in id order; the vehicle
+  /// named is the one nearest the object (the collision does not say who pushed).
+  void publishToppled()
+  {
+    auto fallen = std::stable_partition(standing_.begin(), standing_.end(),
+                                        [this](std::uint32_t id) { return !objects_.get(id).toppled; });
+    for (auto it = fallen; it != standing_.end(); ++it)
+    {
+      const at::TerrainObject& o = objects_.get(*it);
+      avsp_msgs::ObjectToppled msg;
+      msg.header.stamp = stamp();
+      msg.header.frame_id = "map";
+      msg.id = o.id;
+      msg.fall_direction = o.fall_direction;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& v : vehicles_)
+      {
+        const double d = (world_->state(v->id).pose.translation().head<2>() - Eigen::Vector2d(o.x, o.y)).norm();
+        if (d < nearest)
+        {
+          nearest = d;
+          msg.vehicle = v->name;
+        }
+      }
+      toppled_pub_.publish(msg);
+      ROS_INFO("dynamics_node: %s toppled object %u at (%.1f, %.1f)", msg.vehicle.c_str(), o.id, o.x, o.y);
+    }
+    standing_.erase(fallen, standing_.end());
+  }
+
   /// The grid points under each vehicle's wheels since the last call, as one TerrainPatch per
   /// vehicle: the bounding box of the wheel centres widened by a wheel's radius and width plus
   /// two cells (flowed soil lands on the neighbours of a contact).
@@ -536,7 +579,8 @@ private:
   ros::NodeHandle& pnh_;
   std::unique_ptr<at::SoilLibrary> soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;  // declared before world_: outlives it
-  at::ObjectSet objects_;                           // the terrain's standing objects
+  at::ObjectSet objects_;                           // the terrain's objects (the world collides with them)
+  std::vector<std::uint32_t> standing_;             ///< toppleable objects not yet reported fallen
   std::unique_ptr<ad::World> world_;
   std::vector<std::unique_ptr<VehicleIo>> vehicles_;
   std::vector<geometry_msgs::TransformStamped> transforms_;  ///< odom -> base_link per vehicle
@@ -547,7 +591,7 @@ private:
   bool wait_for_command_ = false;
   std::optional<ros::Time> follow_start_;  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
-  ros::Publisher ruts_pub_, clock_pub_;
+  ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_;
 };
 }  // namespace

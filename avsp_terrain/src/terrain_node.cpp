@@ -17,6 +17,7 @@
 
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/SaveMap.h>
+#include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <ros/package.h>
 #include <ros/ros.h>
@@ -136,6 +137,7 @@ public:
     ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 1, true);
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &TerrainNode::onPatch, this);
     environment_sub_ = nh_.subscribe("/environment", 10, &TerrainNode::onEnvironment, this);
+    toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &TerrainNode::onToppled, this);
     save_service_ = pnh_.advertiseService("save_map", &TerrainNode::onSaveMap, this);
 
     publishObjects();
@@ -362,6 +364,22 @@ private:
              patch.height);
   }
 
+  /// An object a vehicle pushed over (dynamics_node): it lies down in /terrain/objects and in
+  /// saved maps. Bad reports (unknown id, rigid object, NaN direction, other frame) are ignored
+  /// with a warning.
+  void onToppled(const avsp_msgs::ObjectToppled& msg)
+  {
+    std::string why;
+    if (!msg.header.frame_id.empty() && msg.header.frame_id != frame_id_)
+      why = "frame '" + msg.header.frame_id + "', expected '" + frame_id_ + "'";
+    else if (objects_.applyToppled(msg.id, msg.fall_direction, why))
+    {
+      publishObjects();
+      return;
+    }
+    ROS_WARN_THROTTLE(5.0, "terrain_node: /terrain/toppled ignored: %s", why.c_str());
+  }
+
   void onPatch(const ros::MessageEvent<const avsp_msgs::TerrainPatch>& event)
   {
     if (event.getPublisherName() == ros::this_node::getName())
@@ -515,7 +533,7 @@ private:
   double mesh_refresh_period_ = 10.0;
 
   ros::Publisher mesh_pub_, rut_markers_pub_, objects_pub_, ruts_pub_;
-  ros::Subscriber ruts_sub_, environment_sub_;
+  ros::Subscriber ruts_sub_, environment_sub_, toppled_sub_;
   ros::ServiceServer save_service_;
 };
 }  // namespace

@@ -171,6 +171,28 @@ bool ObjectSet::push(std::uint32_t id, double force, double direction)
   return true;
 }
 
+bool ObjectSet::applyToppled(std::uint32_t id, double fall_direction, std::string& why)
+{
+  if (id >= objects_.size())
+  {
+    why = "no object with id " + std::to_string(id) + " (have " + std::to_string(objects_.size()) + ")";
+    return false;
+  }
+  if (!std::isfinite(fall_direction))
+  {
+    why = "object " + std::to_string(id) + ": fall direction is not finite";
+    return false;
+  }
+  const TerrainObject& o = objects_[id];
+  if (!std::isfinite(o.strength))
+  {
+    why = "object " + std::to_string(id) + " is rigid: it cannot topple";
+    return false;
+  }
+  push(id, o.strength, fall_direction);
+  return true;
+}
+
 const TerrainObject& ObjectSet::get(std::uint32_t id) const
 {
   if (id >= objects_.size())

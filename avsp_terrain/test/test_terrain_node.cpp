@@ -17,6 +17,7 @@
 #include <string>
 
 #include <avsp_msgs/Environment.h>
+#include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <gtest/gtest.h>
@@ -314,6 +315,57 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
   ASSERT_EQ(wet.markers.size(), 24u);
   for (const auto& m : wet.markers)
     EXPECT_LT(meanBrightness(m), dry_brightness[m.id] - 0.01) << "chunk " << m.id << " did not darken";
+
+  // --- /terrain/toppled (from the dynamics): a shrub lies down along its fall direction; a
+  // rigid object, an unknown id and a NaN direction change nothing.
+  std::uint32_t shrub = 0, rigid = 0;
+  bool have_shrub = false, have_rigid = false;
+  for (const at::TerrainObject& o : course->objects.all())
+  {
+    if (!have_shrub && o.type == at::ObjectType::kShrub && std::isfinite(o.strength))
+      shrub = o.id, have_shrub = true;
+    if (!have_rigid && !std::isfinite(o.strength))
+      rigid = o.id, have_rigid = true;
+  }
+  ASSERT_TRUE(have_shrub && have_rigid) << "the course should have a shrub and a rigid object";
+  ros::Publisher toppled_pub = nh.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 10);
+  ASSERT_TRUE(spinUntil([&] { return toppled_pub.getNumSubscribers() > 0; })) << "no /terrain/toppled subscriber";
+  avsp_msgs::ObjectToppled bad_topple;
+  bad_topple.header.frame_id = "map";
+  bad_topple.id = rigid;
+  toppled_pub.publish(bad_topple);
+  bad_topple.id = static_cast<std::uint32_t>(course->objects.size());
+  toppled_pub.publish(bad_topple);
+  bad_topple.id = shrub;
+  bad_topple.fall_direction = std::nan("");
+  toppled_pub.publish(bad_topple);
+  const std::size_t objects_before = objects.size();
+  avsp_msgs::ObjectToppled fell;
+  fell.header.frame_id = "map";
+  fell.id = shrub;
+  fell.fall_direction = 0.5;
+  fell.vehicle = "test";
+  toppled_pub.publish(fell);
+  ASSERT_TRUE(spinUntil([&] { return objects.size() > objects_before; })) << "no /terrain/objects after a topple";
+  const visualization_msgs::MarkerArray after = objects.back();
+  ASSERT_EQ(after.markers.size(), course->objects.size());
+  for (const auto& m : after.markers)
+  {
+    const at::TerrainObject& o = course->objects.get(static_cast<std::uint32_t>(m.id));
+    if (m.id == static_cast<int>(shrub))
+    {
+      // Lying: its centre half its height out along the fall direction, tipped by 90 deg.
+      EXPECT_NEAR(m.pose.position.x, o.x + 0.5 * o.height * std::cos(0.5), 1e-9);
+      EXPECT_NEAR(m.pose.position.y, o.y + 0.5 * o.height * std::sin(0.5), 1e-9);
+      EXPECT_NEAR(std::abs(m.pose.orientation.x) + std::abs(m.pose.orientation.y), std::sqrt(0.5) * (std::cos(0.25) + std::sin(0.25)), 1e-9);
+    }
+    else
+    {
+      EXPECT_NEAR(m.pose.position.x, o.x, 1e-9) << "object " << m.id << " moved";
+      EXPECT_NEAR(m.pose.orientation.x, 0.0, 1e-12) << "object " << m.id << " tipped";
+      EXPECT_NEAR(m.pose.orientation.y, 0.0, 1e-12) << "object " << m.id << " tipped";
+    }
+  }
 }
 
 /// Runs terrain_node with bad parameters: it must exit 1 and say which parameter or file.

@@ -92,3 +92,33 @@ TEST(ObjectSet, RejectsBadObjects)
   EXPECT_EQ(objectTypeFromString("fence"), ObjectType::kFence);
   EXPECT_THROW(objectTypeFromString("tank"), std::invalid_argument);
 }
+
+// A topple reported by another process lands exactly as the local push would; bad reports
+// change nothing and say why.
+TEST(ObjectSet, AppliesReportedTopplesAndRefusesBadOnes)
+{
+  ObjectSet set;
+  TerrainObject shrub;
+  shrub.type = ObjectType::kShrub;
+  shrub.x = 1.0;
+  shrub.length = shrub.width = 1.0;
+  shrub.height = 1.2;
+  shrub.strength = 800.0;
+  TerrainObject rock = shrub;
+  rock.type = ObjectType::kRock;
+  rock.strength = std::numeric_limits<double>::infinity();
+  const std::uint32_t a = set.add(shrub), b = set.add(rock);
+  std::string why;
+  EXPECT_FALSE(set.applyToppled(7, 0.0, why));
+  EXPECT_NE(why.find("no object with id 7"), std::string::npos) << why;
+  EXPECT_FALSE(set.applyToppled(b, 0.0, why));
+  EXPECT_NE(why.find("rigid"), std::string::npos) << why;
+  EXPECT_FALSE(set.get(b).toppled);
+  EXPECT_FALSE(set.applyToppled(a, std::nan(""), why));
+  EXPECT_FALSE(set.get(a).toppled);
+  EXPECT_TRUE(set.applyToppled(a, 1.25, why));
+  EXPECT_TRUE(set.get(a).toppled);
+  EXPECT_EQ(set.get(a).fall_direction, 1.25);
+  EXPECT_TRUE(set.applyToppled(a, -2.0, why));  // already down: it stays where it fell
+  EXPECT_EQ(set.get(a).fall_direction, 1.25);
+}

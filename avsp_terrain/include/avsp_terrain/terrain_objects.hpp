@@ -80,6 +80,14 @@ public:
    */
   bool push(std::uint32_t id, double force, double direction);
 
+  /**
+   * @brief Applies a topple another process reported (avsp_msgs/ObjectToppled): the object
+   *        falls towards `fall_direction` as if pushed with its strength.
+   * @return false, with `why` naming the id and the reason, for an unknown id, a rigid object
+   *         or a non-finite direction (nothing changes); true otherwise, also when it already lay
+   */
+  bool applyToppled(std::uint32_t id, double fall_direction, std::string& why);
+
   const TerrainObject& get(std::uint32_t id) const;
   std::size_t size() const { return objects_.size(); }
   const std::vector<TerrainObject>& all() const { return objects_; }
