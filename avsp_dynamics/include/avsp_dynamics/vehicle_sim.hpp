@@ -108,13 +108,13 @@ struct VehicleState
 struct StepTimes
 {
   std::uint64_t steps = 0;
-  double ode = 0.0;        ///< s in dWorldQuickStep
+  double ode = 0.0;        ///< s in the ODE step (dWorldStep or dWorldQuickStep)
   double contact = 0.0;    ///< s in wheelContact with deform = options.deform_terrain
   double probe = 0.0;      ///< s in the stiffness probes (wheelContact without deformation)
   double other = 0.0;      ///< s in the rest (actuators, drivetrain, joints, telemetry)
 };
 
-class SimVehicle;  // one vehicle's ODE bodies and joints (vehicle_sim.cpp)
+class SimVehicleBase;  // one vehicle's ODE bodies and joints (src/sim_vehicle_base.hpp)
 
 /**
  * @brief An ODE world with a fixed step driving vehicles over a deformable terrain.
@@ -185,7 +185,7 @@ private:
   terrain::DeformableTerrain& terrain_;
   WorldOptions options_;
   std::unique_ptr<Ode> ode_;
-  std::vector<std::unique_ptr<SimVehicle>> vehicles_;
+  std::vector<std::unique_ptr<SimVehicleBase>> vehicles_;
   std::uint64_t steps_ = 0;
   unsigned long rng_state_ = 0;  ///< ODE's dRand state between this world's steps
   StepTimes times_;
