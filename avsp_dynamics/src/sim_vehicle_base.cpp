@@ -47,7 +47,7 @@ Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Ei
 
 dJointID addSoilJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double mass, const ContactFrame& frame,
                       const terrain::ContactForces& soil, double stiffness, double min_slip,
-                      const WorldOptions& options, dJointFeedback* feedback)
+                      const WorldOptions& options, dJointFeedback* feedback, bool normal_spring)
 {
   const double h = options.step;
   const double f_n = soil.normal_force;
@@ -59,9 +59,20 @@ dJointID addSoilJoint(dWorldID world, dJointGroupID contacts, dBodyID body, doub
   // Normal row = implicit spring (kp) + damper (kd) whose force at the current state is the
   // soil's: depth = F / kp. Stiff soils (asphalt) stay stable at any step: the solver takes
   // the stiffness implicitly instead of the step overshooting it.
-  ct.surface.soft_erp = h * kp / (h * kp + kd);
-  ct.surface.soft_cfm = 1.0 / (h * kp + kd);
-  ct.geom.depth = f_n / kp;
+  if (normal_spring)
+  {
+    ct.surface.soft_erp = h * kp / (h * kp + kd);
+    ct.surface.soft_cfm = 1.0 / (h * kp + kd);
+    ct.geom.depth = f_n / kp;
+  }
+  else
+  {
+    // Inert: no push-out, and a compliance so large the row can only take a force of the
+    // order of 1e-3 N per m/s of approach (the exact solver needs its matrix regular).
+    ct.surface.soft_erp = 0.0;
+    ct.surface.soft_cfm = 1e3;
+    ct.geom.depth = 0.0;
+  }
   for (int a = 0; a < 3; ++a)
   {
     ct.geom.pos[a] = frame.point[a];

@@ -44,6 +44,15 @@ public:
   virtual std::vector<dBodyID> bodies() const = 0;
 };
 
+/**
+ * @brief Builds a tracked vehicle (tracked_vehicle.cpp).
+ * @throw ConfigError naming the model's YAML (or URDF) and the key/link it cannot simulate;
+ *        nothing is left in the world when it throws
+ */
+std::unique_ptr<SimVehicleBase> makeTrackedVehicle(dWorldID world, const VehicleModel& model,
+                                                   const Eigen::Isometry3d& pose, const std::string& name,
+                                                   const WorldOptions& options);
+
 namespace sim
 {
 using Clock = std::chrono::steady_clock;
@@ -161,11 +170,14 @@ Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Ei
  *        soil's; traction and lateral force as friction rows bounded by the soil's forces, with
  *        force-dependent slip = the sliding velocity per newton (never below min_slip).
  * @param mass kg, the body's: the damper is contact_damping_ratio of its mode on kp
+ * @param normal_spring false: the joint's normal row is left inert (a damper of 1e-3 N s/m):
+ *        the caller carries the normal force by other means (tracked_vehicle.cpp's hold on
+ *        rigid-plastic soil); the friction rows are the same
  * @return the contact joint (in `contacts`), with `feedback` attached
  */
 dJointID addSoilJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double mass, const ContactFrame& frame,
                       const terrain::ContactForces& soil, double stiffness, double min_slip,
-                      const WorldOptions& options, dJointFeedback* feedback);
+                      const WorldOptions& options, dJointFeedback* feedback, bool normal_spring = true);
 
 /**
  * @brief Resistance (T12) as a force at the body's centre opposing its travel along t1: the

@@ -129,8 +129,7 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
   // Everything that can reject the model is checked before the first ODE object exists, so
   // a rejected vehicle leaves nothing behind in the world.
   if (model_.drive_type == DriveType::kTracked)
-    throw ConfigError(model_.yaml_path + ": key 'drive_type': tracked vehicles are not simulated yet " +
-                      "(avsp_dynamics builds wheeled vehicles: ackermann, skid_steer)");
+    throw ConfigError(model_.yaml_path + ": key 'drive_type': tracked: build it with makeTrackedVehicle");
   if (model_.wheels.empty())
     throw ConfigError(model_.yaml_path + ": key 'wheels': a wheeled vehicle needs wheels");
   std::vector<const Body*> wheel_bodies(model_.wheels.size(), nullptr);
@@ -627,8 +626,11 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
   if (!pose.matrix().allFinite())
     throw std::invalid_argument("World::addVehicle: pose of '" + (name.empty() ? model.model : name) +
                                 "' is not finite");
-  vehicles_.push_back(
-      std::make_unique<SimVehicle>(ode_->world, model, pose, name.empty() ? model.model : name, options_));
+  const std::string vehicle_name = name.empty() ? model.model : name;
+  if (model.drive_type == DriveType::kTracked)
+    vehicles_.push_back(makeTrackedVehicle(ode_->world, model, pose, vehicle_name, options_));
+  else
+    vehicles_.push_back(std::make_unique<SimVehicle>(ode_->world, model, pose, vehicle_name, options_));
   return vehicles_.size() - 1;
 }
 
