@@ -35,6 +35,9 @@ constexpr double kRegularization = 1e-5;
 /// m/s: a segment on rigid-plastic soil leaving its rut faster than this is not held (the soil
 /// does not follow a rising plate); slower, it rests on the rut's floor.
 constexpr double kSeparationSpeed = 0.01;
+/// m/s: below this ground and belt speed a segment is at rest: its traction rows may take up
+/// to the soil's full shear strength (fading to T7's slip-dependent force at this speed).
+constexpr double kRestSpeed = 0.05;
 
 /// The hull's pose and velocity at the start of a step (world axes).
 struct Hull
@@ -118,6 +121,8 @@ private:
     bool holding = false;          ///< the floor carries the wheel this step
     bool rigid_plastic = false;    ///< rigid-plastic soil under its segment this step
     dJointFeedback hold_feedback{};
+    double rest_strength = 0.0;    ///< N, the soil's shear strength under the segment at rest (0: none)
+    int rest_steps = 0;            ///< steps since it was read
   };
 
   struct Side
@@ -445,7 +450,7 @@ TrackedVehicle::Arm TrackedVehicle::armOf(const RoadWheel& w, const Hull& hull) 
   const Eigen::Vector3d r = hull.r.transpose() * (c - hull.x) - w.pivot_from_com;
   const Eigen::Vector3d u = hull.r.transpose() * (vec(dBodyGetLinearVel(w.body)) - hull.pointVelocity(c));
   Arm a;
-  a.length = std::hypot(r.x(), r.z());
+  a.length = std::sqrt(r.x() * r.x() + r.z() * r.z());
   a.radial = Eigen::Vector3d(r.x(), 0.0, r.z()) / a.length;
   a.tangent = Eigen::Vector3d(a.radial.z(), 0.0, -a.radial.x());  // +y x radial
   // The rotation about +y taking the URDF arm to the current one.
@@ -652,6 +657,38 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   frame.point_velocity = velocity + omega.cross(frame.point - centre);
   const double min_slip = kRegularization / (model_.total_mass * 9.81);
 
+  // At rest T7's shear force is ill-conditioned: its slip (T8) and slip angle are ratios of
+  // speeds near 0, so the force the soil offers, and its split between the traction rows,
+  // flickered from step to step; on a slope the braked carrier crept at a mm/s. A segment at
+  // rest can mobilise the soil's whole strength in any direction: its shear force skidding
+  // (read from the terrain at full slip, without deforming, reused while at rest) bounds both
+  // rows, fading to T7's own force at kRestSpeed.
+  const double speed = std::max(std::hypot(velocity.dot(frame.t1), velocity.dot(frame.t2)), std::abs(side.belt_speed));
+  if (speed < kRestSpeed)
+  {
+    if (!(w.rest_strength > 0.0) || ++w.rest_steps >= options_.stiffness_probe_interval)
+    {
+      terrain::TrackPatch skid = patch;
+      if (w.rigid_plastic)
+        skid.centre.z() -= kProbeDepth;
+      skid.sprocket_spin_rate = 0.0;
+      skid.velocity = kRestSpeed * forward;
+      const auto probe_start = times ? Clock::now() : Clock::time_point();
+      const terrain::ContactForces skidding = terrain.trackContact(skid, h, false);
+      if (times)
+        times->probe += seconds(probe_start, Clock::now());
+      w.rest_strength = std::hypot(skidding.longitudinal_force, skidding.lateral_force);
+      w.rest_steps = 0;
+    }
+    const double strength = w.rest_strength * (1.0 - speed / kRestSpeed);
+    w.soil.longitudinal_force = std::max(std::abs(w.soil.longitudinal_force), strength);
+    w.soil.lateral_force = std::max(std::abs(w.soil.lateral_force), strength);
+  }
+  else
+  {
+    w.rest_strength = 0.0;
+  }
+
   if (w.rigid_plastic)
   {
     // A spring carrying the floor's pressure would throw the segment off the floor and each
@@ -699,8 +736,8 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
 
 void TrackedVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
 {
+  // The arms and belts as afterStep() measured them (nothing moved since).
   const Hull hull(chassis_);
-  measure(hull);
   updateDrivetrain(hull);
   for (Side& side : sides_)
   {
