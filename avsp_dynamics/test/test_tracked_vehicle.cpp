@@ -82,12 +82,6 @@ double sumSegments(const VehicleState& s, double TrackSegmentState::*field)
       sum += seg.*field;
   return sum;
 }
-
-/// Throttle for a track speed v (m/s): the tracked throttle is a fraction of max_speed.
-double throttleFor(const VehicleModel& m, double v)
-{
-  return v / m.drivetrain.max_speed;
-}
 }  // namespace
 
 // At rest on flat gravel the soil carries the weight, and each torsion bar the moment of its
@@ -111,6 +105,7 @@ TEST(TrackedVehicle, RestsOnFirmSoilAtItsRideHeight)
               sumSegments(s, &TrackSegmentState::normal_force) / weight);
 
   const double k = m.torsion.torsion_stiffness;
+  double worst_angle = 0.0, worst_moment = 0.0;
   for (std::size_t t = 0; t < 2; ++t)
   {
     for (std::size_t i = 0; i < s.tracks[t].road_wheels.size(); ++i)
@@ -134,8 +129,12 @@ TEST(TrackedVehicle, RestsOnFirmSoilAtItsRideHeight)
                               seg.traction_force * (-z);
       EXPECT_NEAR(rw.torsion_torque, expected, 0.01 * expected);
       EXPECT_NEAR(rw.torsion_torque, k * (m.torsion.preload_angle + a), 1e-4 * expected);
+      worst_angle = std::max(worst_angle, std::abs(a));
+      worst_moment = std::max(worst_moment, std::abs(rw.torsion_torque / expected - 1.0));
     }
   }
+  std::printf("arm angles within %.4f rad of the URDF pose; torsion torque / moment balance within %.2f %%\n",
+              worst_angle, 100.0 * worst_moment);
   // The YAML preload is the static twist: (m g / wheels - m_wheel g) lever / k.
   const RoadWheelSpec& w0 = m.tracks[0].road_wheels[0];
   const double wheels = static_cast<double>(m.tracks[0].road_wheels.size() + m.tracks[1].road_wheels.size());
@@ -278,14 +277,15 @@ TEST(TrackedVehicle, SinkageOnBekkerSoilMatchesFlatPlateAndBeatsTheFourByFour)
   EXPECT_LT(track.sinkage, 0.8 * wheels.sinkage);
 }
 
-// Straight drive on firm ground: the sprocket servo reaches throttle x max_speed of track
-// speed, the vehicle runs straight at the ground speed the slip leaves, and the slip reported
+// Straight drive: on gravel and sandy loam the sprocket servo reaches throttle x max_speed of
+// track speed; in mud the engine's power limit holds it below (sum of T omega = efficiency x
+// power). The vehicle runs straight at the ground speed the slip leaves, and the slip reported
 // is T8 with T10's theoretical speed: (r_s omega - v) / (r_s omega), r_s = p N / (2 pi).
 TEST(TrackedVehicle, DrivesStraightWithT10Slip)
 {
   const VehicleModel m = vehicle("m113");
   const double r_s = m.track.effectiveSprocketRadius();
-  for (const std::string soil : { "gravel", "sandy_loam" })
+  for (const std::string soil : { "gravel", "sandy_loam", "mud" })
   {
     SCOPED_TRACE(soil);
     auto ground = makeTerrain(soil, 80, 10, 0.1);
@@ -304,27 +304,42 @@ TEST(TrackedVehicle, DrivesStraightWithT10Slip)
     }
     const VehicleState& s = world.state(id);
     const double target = throttle * m.drivetrain.max_speed;
+    // In mud the engine cannot hold the target: the sprockets then run at its power limit,
+    // sum of T omega = efficiency x max power (each sprocket takes half the engine's torque).
+    double power = 0.0;
+    for (const TrackState& t : s.tracks)
+      power += t.drive_torque * t.sprocket_speed;
+    const double limit = m.drivetrain.efficiency * m.drivetrain.engine_max_power;
+    if (soil == "mud")
+    {
+      EXPECT_NEAR(power, limit, 0.01 * limit);
+      std::printf("mud: sprocket power %.1f kW, efficiency x engine power %.1f kW\n", 1e-3 * power, 1e-3 * limit);
+    }
     for (const TrackState& t : s.tracks)
     {
       SCOPED_TRACE(t.side);
-      EXPECT_NEAR(r_s * t.sprocket_speed, target, 0.02 * target);
+      if (soil == "mud")
+        EXPECT_LT(r_s * t.sprocket_speed, 0.98 * target);
+      else
+        EXPECT_NEAR(r_s * t.sprocket_speed, target, 0.02 * target);
       EXPECT_NEAR(t.track_speed, r_s * t.sprocket_speed, 1e-9);
       const double v = s.body_velocity.x();
       const double closed = (r_s * t.sprocket_speed - v) / (r_s * t.sprocket_speed);
-      EXPECT_NEAR(t.slip, closed, 1e-3);
+      EXPECT_NEAR(t.slip, closed, 1e-5 + 0.01 * closed);
       double segment_slip = 0.0;
       for (const TrackSegmentState& seg : t.segments)
         segment_slip += seg.slip / t.segments.size();
-      EXPECT_NEAR(segment_slip, closed, 2e-3);
+      EXPECT_NEAR(segment_slip, closed, 5e-5 + 0.02 * closed);
       EXPECT_GT(t.slip, -1e-3);
-      std::printf("%s %s track: v = %.3f m/s, r_s omega = %.3f m/s, slip %.4f (closed form %.4f)\n", soil.c_str(),
-                  t.side.c_str(), v, r_s * t.sprocket_speed, t.slip, closed);
+      std::printf("%s %s track: v = %.4f m/s, r_s omega = %.4f m/s, slip %.5f (closed form %.5f, segments' mean "
+                  "%.5f)\n",
+                  soil.c_str(), t.side.c_str(), v, r_s * t.sprocket_speed, t.slip, closed, segment_slip);
     }
-    EXPECT_GT(s.body_velocity.x(), 0.9 * target);
+    EXPECT_GT(s.body_velocity.x(), 0.85 * target);
     EXPECT_LT(std::abs(s.pose.translation().y()), 0.05) << "it should run straight";
     // The sprocket's joint angle integrates its speed (robot_state_publisher).
     EXPECT_GT(turned, 0.9 * target / r_s * 7.0);
-    if (soil == "sandy_loam")
+    if (soil != "gravel")
     {
       EXPECT_GT(s.tracks[0].slip, 0.002) << "soft soil takes some slip to carry the resistance";
     }

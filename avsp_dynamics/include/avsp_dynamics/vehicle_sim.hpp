@@ -45,8 +45,10 @@
  *    the engine's torque/power through the gear ratio; brakes on the sprockets;
  *  - soil: one track segment per road wheel (ground length / road wheels, shoe width) under the
  *    wheel, terrain.trackContact() with the segment's place on the whole track (T10, T11), its
- *    forces handed to ODE exactly as a wheel's (implicit normal spring, friction rows bounded by
- *    the soil's force, resistance at the wheel centre).
+ *    forces handed to ODE as a wheel's (implicit normal spring, friction rows bounded by the
+ *    soil's force, resistance at the wheel centre); on rigid-plastic (Bekker) soil the rut's
+ *    floor holds the wheel up to the floor's force instead of a spring, and at rest the rows
+ *    may take the soil's whole shear strength (README.md says why).
  */
 #include <chrono>
 #include <cstdint>
