@@ -103,5 +103,10 @@ std::pair<double, double> skidSteerSides(double throttle, double steering)
   return steering >= 0.0 ? std::make_pair(inner, throttle) : std::make_pair(throttle, inner);
 }
 
+std::pair<double, double> trackedSides(double throttle, double steering, double pivot)
+{
+  return skidSteerSides(std::max(throttle, pivot * std::abs(steering)), steering);
+}
+
 }  // namespace dynamics
 }  // namespace avsp

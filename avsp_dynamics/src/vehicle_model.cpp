@@ -248,7 +248,7 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
   std::set<std::string> sides;
   for (const Section& t : root.sequence("tracks"))
   {
-    t.allowOnly({ "side", "sprocket_joint", "idler_joint", "road_wheels" });
+    t.allowOnly({ "side", "sprocket_joint", "idler_joint", "belt_link", "road_wheels" });
     TrackSpec spec;
     spec.side = t.string("side");
     if (spec.side != "left" && spec.side != "right")
@@ -259,10 +259,23 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     const auto sprocket =
         urdf.joint(t, "sprocket_joint", urdf::Joint::CONTINUOUS, "continuous", Eigen::Vector3d::UnitY());
     spec.sprocket_joint = sprocket->name;
+    spec.sprocket_link = sprocket->child_link_name;
     urdf.cylinder(t, "sprocket_joint", sprocket, spec.sprocket_radius, width);
     const auto idler = urdf.joint(t, "idler_joint", urdf::Joint::CONTINUOUS, "continuous", Eigen::Vector3d::UnitY());
     spec.idler_joint = idler->name;
+    spec.idler_link = idler->child_link_name;
     urdf.cylinder(t, "idler_joint", idler, spec.idler_radius, width);
+    // The belt circulates around the hull: its mass moves with the hull and, at track speed,
+    // adds rotating inertia to the drive (the dynamics needs to know which link it is).
+    spec.belt_link = t.string("belt_link");
+    const urdf::LinkConstSharedPtr belt = urdf.model().getLink(spec.belt_link);
+    if (!belt)
+      t.fail("belt_link", "link '" + spec.belt_link + "' is not in " + m.urdf_path);
+    if (!belt->inertial)
+      t.fail("belt_link", "link '" + spec.belt_link + "' needs an <inertial> (the belt's mass) in " + m.urdf_path);
+    if (!belt->parent_joint || belt->parent_joint->type != urdf::Joint::FIXED)
+      t.fail("belt_link", "link '" + spec.belt_link + "' must hang from a fixed joint (it moves with the hull) in " +
+                              m.urdf_path);
     for (const Section& r : t.sequence("road_wheels"))
     {
       r.allowOnly({ "arm_joint", "spin_joint" });
@@ -274,8 +287,18 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       if (spin->parent_link_name != arm->child_link_name)
         r.fail("spin_joint", "joint '" + spin->name + "' must hang from the arm link '" + arm->child_link_name + "'");
       wheel.link = spin->child_link_name;
+      wheel.arm_link = arm->child_link_name;
       urdf.cylinder(r, "spin_joint", spin, wheel.radius, wheel.width);
       wheel.rest_position = urdf.restPose(wheel.link).translation();
+      const Eigen::Isometry3d arm_pose = urdf.restPose(wheel.arm_link);
+      wheel.pivot = arm_pose.translation();
+      wheel.arm_axis_sign = (arm_pose.linear() * Eigen::Vector3d(arm->axis.x, arm->axis.y, arm->axis.z)).y() < 0.0 ? -1.0 : 1.0;
+      if (!arm->limits || !(arm->limits->lower < 0.0 && arm->limits->upper > 0.0))
+        r.fail("arm_joint", "joint '" + arm->name + "' needs limits with lower < 0 < upper (arm travel, rad)");
+      wheel.arm_lower = arm->limits->lower;
+      wheel.arm_upper = arm->limits->upper;
+      if ((wheel.rest_position - wheel.pivot).norm() < 1e-3)
+        r.fail("arm_joint", "joint '" + arm->name + "' sits on the wheel's axle: a road arm needs a length");
       spec.road_wheels.push_back(wheel);
     }
     if (spec.road_wheels.size() < 2)

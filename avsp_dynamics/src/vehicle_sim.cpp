@@ -10,6 +10,7 @@
 #include <ode/ode.h>
 
 #include "obstacle_collision.hpp"
+#include "sim_vehicle_base.hpp"
 
 namespace avsp
 {
@@ -17,63 +18,13 @@ namespace dynamics
 {
 namespace
 {
-using Clock = std::chrono::steady_clock;
-
-static_assert(sizeof(dReal) == sizeof(double), "avsp_dynamics needs ODE built in double precision (libode-dev)");
+using namespace sim;
 
 void initOde()
 {
   static std::once_flag once;
   std::call_once(once, [] { dInitODE2(0); });
 }
-
-Eigen::Vector3d vec(const dReal* v)
-{
-  return Eigen::Vector3d(v[0], v[1], v[2]);
-}
-
-Eigen::Matrix3d rotationOf(dBodyID body)
-{
-  const dReal* r = dBodyGetRotation(body);  // 3x4, row-major
-  Eigen::Matrix3d m;
-  m << r[0], r[1], r[2], r[4], r[5], r[6], r[8], r[9], r[10];
-  return m;
-}
-
-void setRotation(dBodyID body, const Eigen::Matrix3d& m)
-{
-  dMatrix3 r = { m(0, 0), m(0, 1), m(0, 2), 0.0, m(1, 0), m(1, 1), m(1, 2), 0.0, m(2, 0), m(2, 1), m(2, 2), 0.0 };
-  dBodySetRotation(body, r);
-}
-
-void setMass(dBodyID body, double mass, const Eigen::Matrix3d& inertia)
-{
-  dMass m;
-  dMassSetParameters(&m, mass, 0.0, 0.0, 0.0, inertia(0, 0), inertia(1, 1), inertia(2, 2), inertia(0, 1),
-                     inertia(0, 2), inertia(1, 2));
-  dBodySetMass(body, &m);
-}
-
-/// Parallel-axis term: inertia of a point mass m at offset d.
-Eigen::Matrix3d pointInertia(double m, const Eigen::Vector3d& d)
-{
-  return m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
-}
-
-double seconds(Clock::time_point a, Clock::time_point b)
-{
-  return std::chrono::duration<double>(b - a).count();
-}
-
-/// m: the stiffness probe lowers the wheel this much (far above float rounding of the
-/// terrain's state, ~1e-9 m, far below any sinkage that matters).
-constexpr double kProbeDepth = 1e-5;
-/// m: the normal row's virtual penetration (soil force / stiffness) never exceeds this, so a
-/// contact whose probe found no stiffness (no new grid point loaded) still acts as a spring.
-constexpr double kMaxVirtualDepth = 0.02;
-/// m/s: resistance (T12) is a kinetic force; below this wheel speed it fades linearly to 0 so
-/// a wheel at rest is not pushed back and forth by a force whose direction flips each step.
-constexpr double kResistanceFadeSpeed = 0.1;
 }  // namespace
 
 struct World::Ode
@@ -90,23 +41,21 @@ struct World::Ode
 };
 
 /// One wheeled vehicle's ODE bodies, joints and actuators.
-class SimVehicle
+class SimVehicle : public SimVehicleBase
 {
 public:
   SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name,
              const WorldOptions& options);
-  ~SimVehicle();
+  ~SimVehicle() override;
   SimVehicle(const SimVehicle&) = delete;
   SimVehicle& operator=(const SimVehicle&) = delete;
 
-  void setCommand(const DriveCommand& command) { command_ = command; }
-  void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
-  void afterStep(double time);
-  const VehicleState& state() const { return state_; }
-  /// The bodies that collide with obstacles and other vehicles (obstacle_collision.hpp).
-  VehicleBodies collisionBodies() const;
-  /// What obstacles and other vehicles did over the last step, into state().
-  void setCollisionReport(const CollisionReport& r)
+  void setCommand(const DriveCommand& command) override { command_ = command; }
+  void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times) override;
+  void afterStep(double time) override;
+  const VehicleState& state() const override { return state_; }
+  VehicleBodies collisionBodies() const override;
+  void setCollisionReport(const CollisionReport& r) override
   {
     state_.obstacle_contacts = r.contacts;
     state_.obstacle_impulse = r.impulse;
@@ -128,10 +77,7 @@ private:
     Eigen::Vector3d t1 = Eigen::Vector3d::UnitX(), t2 = Eigen::Vector3d::UnitY();
     terrain::ContactForces soil;
     dJointFeedback feedback{};
-    // Last stiffness probe: kept while the contact looks the same (see soilContact).
-    double stiffness = 0.0;       ///< N/m, 0 = none
-    double probed_force = 0.0;    ///< N, soil normal force when probed
-    int steps_since_probe = 0;
+    StiffnessProbe probe;  ///< last soil stiffness probe, kept while the contact looks the same
   };
 
   /// Two wheels a locked differential turns at the same speed: an ODE angular motor between
@@ -154,8 +100,6 @@ private:
   void updateCouplings();
   void updateSuspension();
   void soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
-  Eigen::Vector3d surfaceNormal(const terrain::DeformableTerrain& terrain, const Eigen::Vector3d& centre,
-                                const Eigen::Vector3d& forward, double radius, double width) const;
   void couple(const std::string& key, const std::vector<std::pair<std::size_t, std::size_t>>& pairs);
 
   VehicleModel model_;
@@ -172,7 +116,7 @@ private:
   const double regularization_ = 1e-5;
   std::vector<std::size_t> driven_front_, driven_rear_, driven_left_, driven_right_;
   std::vector<Coupling> couplings_;
-  double side_integral_[2] = { 0.0, 0.0 };  ///< skid-steer speed servo integrators, N m
+  SideServo servo_[2];  ///< skid-steer speed servos, left and right
   double engine_speed_ = 0.0, engine_torque_ = 0.0;
   DriveCommand command_;
   VehicleState state_;
@@ -185,8 +129,7 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
   // Everything that can reject the model is checked before the first ODE object exists, so
   // a rejected vehicle leaves nothing behind in the world.
   if (model_.drive_type == DriveType::kTracked)
-    throw ConfigError(model_.yaml_path + ": key 'drive_type': tracked vehicles are not simulated yet " +
-                      "(avsp_dynamics builds wheeled vehicles: ackermann, skid_steer)");
+    throw ConfigError(model_.yaml_path + ": key 'drive_type': tracked: build it with makeTrackedVehicle");
   if (model_.wheels.empty())
     throw ConfigError(model_.yaml_path + ": key 'wheels': a wheeled vehicle needs wheels");
   std::vector<const Body*> wheel_bodies(model_.wheels.size(), nullptr);
@@ -208,25 +151,16 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
 
   // Chassis = every body that is not a wheel, lumped rigidly at the rest pose: mass, centre
   // of mass, inertia about it by the parallel-axis theorem.
-  auto isWheel = [&](const Body& b) {
-    return std::find(wheel_bodies.begin(), wheel_bodies.end(), &b) != wheel_bodies.end();
-  };
-  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  std::vector<const Body*> chassis_bodies;
   for (const Body& b : model_.bodies)
-  {
-    if (!isWheel(b))
-    {
-      chassis_mass_ += b.mass;
-      moment += b.mass * b.com;
-    }
-  }
+    if (std::find(wheel_bodies.begin(), wheel_bodies.end(), &b) == wheel_bodies.end())
+      chassis_bodies.push_back(&b);
+  const LumpedBody chassis = lump(chassis_bodies);
+  chassis_mass_ = chassis.mass;
   if (!(chassis_mass_ > 0.0))
     throw ConfigError(model_.urdf_path + ": no link other than the wheels has mass: the chassis would be massless");
-  chassis_com_ = moment / chassis_mass_;
-  Eigen::Matrix3d chassis_inertia = Eigen::Matrix3d::Zero();
-  for (const Body& b : model_.bodies)
-    if (!isWheel(b))
-      chassis_inertia += b.inertia + pointInertia(b.mass, b.com - chassis_com_);
+  chassis_com_ = chassis.com;
+  const Eigen::Matrix3d& chassis_inertia = chassis.inertia;
 
   const Eigen::Matrix3d rot = pose.linear();
   chassis_ = dBodyCreate(world_);
@@ -479,20 +413,9 @@ void SimVehicle::updateDrivetrain()
         inertia += wheels_[i].spin_inertia;
       double torque = 0.0;
       if (command_.brake > 0.0)
-      {
-        side_integral_[s] = 0.0;  // braking has priority; the servo restarts from rest
-      }
+        servo_[s].reset();  // braking has priority; the servo restarts from rest
       else
-      {
-        const double error = fraction[s] * d.max_speed / radius - speed;
-        // Proportional gain: half dead-beat on the bare wheels (the vehicle's mass behind
-        // them only slows the loop); integral over 0.1 s removes the load's steady error.
-        const double kp = 0.5 * inertia / h;
-        const double proposal = side_integral_[s] + kp * error;
-        torque = std::clamp(proposal, -available, available);
-        if (torque == proposal)  // integrate only when not saturated (no wind-up)
-          side_integral_[s] = std::clamp(side_integral_[s] + kp / 0.1 * error * h, -available, available);
-      }
+        torque = servo_[s].torque(fraction[s] * d.max_speed / radius - speed, inertia, available, h);
       for (std::size_t i : *ids[s])
         wheels_[i].drive_torque = torque / ids[s]->size();
       engine_speed_ += 0.5 * d.gear_ratio * std::abs(speed);
@@ -544,31 +467,6 @@ void SimVehicle::updateSuspension()
   }
 }
 
-Eigen::Vector3d SimVehicle::surfaceNormal(const terrain::DeformableTerrain& terrain, const Eigen::Vector3d& centre,
-                                          const Eigen::Vector3d& forward, double radius, double width) const
-{
-  // The ground's slope around the wheel from four heights beside its own rut (outside the
-  // wheel's width, ahead and behind): the rut's walls must not tilt the normal, or its
-  // back-and-front depth difference would act as a second, spurious rolling resistance.
-  const Eigen::Vector3d left = Eigen::Vector3d::UnitZ().cross(forward);
-  const double a = radius, b = 0.5 * width + 0.5 * radius;
-  double hgt[2][2];
-  for (int i = 0; i < 2; ++i)
-  {
-    for (int j = 0; j < 2; ++j)
-    {
-      const Eigen::Vector3d p = centre + (i ? a : -a) * forward + (j ? b : -b) * left;
-      const auto z = terrain.height(p.x(), p.y());
-      if (!z)
-        return Eigen::Vector3d::UnitZ();
-      hgt[i][j] = *z;
-    }
-  }
-  const double slope_fwd = (hgt[1][0] + hgt[1][1] - hgt[0][0] - hgt[0][1]) / (4.0 * a);
-  const double slope_left = (hgt[0][1] + hgt[1][1] - hgt[0][0] - hgt[1][0]) / (4.0 * b);
-  return (Eigen::Vector3d::UnitZ() - slope_fwd * forward - slope_left * left).normalized();
-}
-
 void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts,
                              StepTimes* times)
 {
@@ -599,90 +497,42 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
     times->contact += seconds(start, contacted);
   if (w.soil.contact_points == 0 || !(w.soil.normal_force > 0.0))
   {
-    w.stiffness = 0.0;  // airborne: the next touchdown probes afresh
+    w.probe.stiffness = 0.0;  // airborne: the next touchdown probes afresh
     return;
   }
 
-  // The soil's own vertical stiffness at this state, probed 10 um deeper without deforming.
-  // A probe costs as much as the contact, so it is reused while the contact keeps its load
-  // (within 10 %) for up to stiffness_probe_interval steps: the implicit normal row stays
+  // The soil's own vertical stiffness at this state, probed 10 um deeper without deforming,
+  // reused while the contact keeps its load (StiffnessProbe): the implicit normal row stays
   // stable as long as its stiffness is not below half the soil's (README).
   const double f_n = w.soil.normal_force;
-  ++w.steps_since_probe;
-  if (w.stiffness <= 0.0 || w.steps_since_probe >= options_.stiffness_probe_interval ||
-      std::abs(f_n - w.probed_force) > 0.1 * w.probed_force)
+  if (w.probe.due(f_n, options_.stiffness_probe_interval))
   {
     terrain::WheelPatch probe = patch;
     probe.centre.z() -= kProbeDepth;
     const double probed = terrain.wheelContact(probe, h, false).normal_force;
     if (times)
       times->probe += seconds(contacted, Clock::now());
-    w.stiffness = (probed - f_n) / kProbeDepth;
-    w.probed_force = f_n;
-    w.steps_since_probe = 0;
+    w.probe.record(probed, f_n);
   }
-  const double kp = std::max({ w.stiffness, f_n / kMaxVirtualDepth, 1e3 });
-  const double kd = 2.0 * options_.contact_damping_ratio * std::sqrt(kp * w.mass);
 
-  const Eigen::Vector3d n = surfaceNormal(terrain, centre, forward, w.spec->radius, w.spec->width);
-  const Eigen::Vector3d t1 = (forward - forward.dot(n) * n).normalized();
-  const Eigen::Vector3d t2 = n.cross(t1);
-  w.normal = n;
-  w.t1 = t1;
-  w.t2 = t2;
-  const Eigen::Vector3d point = centre - w.spec->radius * n;
-  const Eigen::Vector3d point_velocity = velocity + omega.cross(point - centre);
-
-  dContact ct{};
-  ct.surface.mode = dContactSoftERP | dContactSoftCFM | dContactMu2 | dContactFDir1 | dContactSlip1 | dContactSlip2;
-  // Normal row = implicit spring (kp) + damper (kd) whose force at the current state is the
-  // soil's: depth = F / kp. Stiff soils (asphalt) stay stable at any step: the solver takes
-  // the stiffness implicitly instead of the step overshooting it.
-  ct.surface.soft_erp = h * kp / (h * kp + kd);
-  ct.surface.soft_cfm = 1.0 / (h * kp + kd);
-  ct.geom.depth = f_n / kp;
-  for (int a = 0; a < 3; ++a)
-  {
-    ct.geom.pos[a] = point[a];
-    ct.geom.normal[a] = n[a];
-    ct.fdir1[a] = t1[a];
-  }
-  // Friction rows: force-dependent slip v = slip * F reproduces the soil's force at the
-  // current slip velocity (slip = |v| / |F|) and, being implicit, can only bring the slip
-  // velocity towards zero within the step, never across it; the bound |F| keeps the row
-  // from giving more than the soil does at this slip (T7's limit). The row takes the soil's
-  // magnitude and always opposes the contact's sliding: shear on a wheel never pushes along
-  // the slip (at near-zero or reversing speeds T8's sign is ill-conditioned; applied as an
-  // explicit force it fed the wheel's spin back on itself within a few steps).
-  const double soil_force[2] = { w.soil.longitudinal_force, w.soil.lateral_force };
-  const Eigen::Vector3d dirs[2] = { t1, t2 };
-  double bound[2] = { 0.0, 0.0 }, slip[2] = { 0.0, 0.0 };
-  for (int r = 0; r < 2; ++r)
-  {
-    // A row bounded by a force far below the load (rounding, no slip) is left out: its
-    // [-bound, bound] box is degenerate for the exact LCP solver.
-    bound[r] = std::abs(soil_force[r]) > 1e-6 * f_n ? std::abs(soil_force[r]) : 0.0;
-    if (bound[r] > 0.0)
-      slip[r] = std::abs(point_velocity.dot(dirs[r])) / bound[r];
-  }
-  ct.surface.mu = bound[0];
-  ct.surface.mu2 = bound[1];
+  ContactFrame frame;
+  frame.normal = groundNormal(terrain, centre, forward, w.spec->radius, 0.5 * w.spec->width + 0.5 * w.spec->radius);
+  frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
+  frame.t2 = frame.normal.cross(frame.t1);
+  w.normal = frame.normal;
+  w.t1 = frame.t1;
+  w.t2 = frame.t2;
+  frame.point = centre - w.spec->radius * frame.normal;
+  frame.point_velocity = velocity + omega.cross(frame.point - centre);
   // A floor on the slip (1e-5 m/s at the vehicle's weight) keeps sticking rows from being
   // exactly rigid, hence redundant with the brakes and couplings, for the exact solver.
   const double min_slip = regularization_ / (model_.total_mass * 9.81);
-  ct.surface.slip1 = std::max(slip[0], min_slip);
-  ct.surface.slip2 = std::max(slip[1], min_slip);
-  const dJointID joint = dJointCreateContact(world_, contacts, &ct);
-  dJointAttach(joint, w.body, nullptr);
-  dJointSetFeedback(joint, &w.feedback);
+  addSoilJoint(world_, contacts, w.body, w.mass, frame, w.soil, w.probe.stiffness, min_slip, options_, &w.feedback);
   w.contact = true;
 
   // Resistance (T12) opposes the wheel's travel, through the axle: bulldozing and compaction
   // pressures act radially on a rigid wheel, so they exert no torque about its centre.
-  const double v_travel = velocity.dot(t1);
-  const double fade = std::max(kResistanceFadeSpeed, h * w.soil.resistance_force / w.mass);
-  const double r_force = -w.soil.resistance_force * std::clamp(v_travel / fade, -1.0, 1.0);
-  dBodyAddForce(w.body, r_force * t1.x(), r_force * t1.y(), r_force * t1.z());
+  applyResistance(w.body, w.mass, w.soil.resistance_force, frame.t1, velocity, h);
 }
 
 void SimVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
@@ -789,8 +639,11 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
   if (!pose.matrix().allFinite())
     throw std::invalid_argument("World::addVehicle: pose of '" + (name.empty() ? model.model : name) +
                                 "' is not finite");
-  vehicles_.push_back(
-      std::make_unique<SimVehicle>(ode_->world, model, pose, name.empty() ? model.model : name, options_));
+  const std::string vehicle_name = name.empty() ? model.model : name;
+  if (model.drive_type == DriveType::kTracked)
+    vehicles_.push_back(makeTrackedVehicle(ode_->world, model, pose, vehicle_name, options_));
+  else
+    vehicles_.push_back(std::make_unique<SimVehicle>(ode_->world, model, pose, vehicle_name, options_));
   try
   {
     collision_->addVehicle(model.collision_boxes, vehicles_.back()->collisionBodies());

@@ -109,6 +109,25 @@ TEST(SkidSteerSides, OuterAtThrottleInnerFromThrottleToReverse)
   EXPECT_EQ(skidSteerSides(0.0, 1.0), std::make_pair(0.0, 0.0));
 }
 
+// Tracks: as skid-steer while the throttle is above pivot |steering|; below it steering alone
+// still turns (in place at full steering, about the inner track at half), continuously.
+TEST(TrackedSides, SkidSteerAboveThePivotSpeedTurnsInPlaceWithoutThrottle)
+{
+  const double p = 0.05;
+  EXPECT_EQ(trackedSides(0.6, 0.3, p), skidSteerSides(0.6, 0.3));
+  EXPECT_EQ(trackedSides(0.6, -1.0, p), skidSteerSides(0.6, -1.0));
+  EXPECT_EQ(trackedSides(0.0, 0.0, p), std::make_pair(0.0, 0.0));
+  EXPECT_EQ(trackedSides(0.0, 1.0, p), std::make_pair(-p, p));   // in place, left
+  EXPECT_EQ(trackedSides(0.0, -1.0, p), std::make_pair(p, -p));  // in place, right
+  const auto half = trackedSides(0.0, 0.5, p);                   // about the left track
+  EXPECT_NEAR(half.first, 0.0, 1e-15);
+  EXPECT_EQ(half.second, 0.5 * p);
+  // Continuous where the throttle takes over at t = p |s|.
+  const auto below = trackedSides(0.04 - 1e-9, 0.8, p), above = trackedSides(0.04 + 1e-9, 0.8, p);
+  EXPECT_NEAR(below.first, above.first, 1e-8);
+  EXPECT_NEAR(below.second, above.second, 1e-8);
+}
+
 TEST(ClampedCommand, ClampsFiniteRejectsNonFiniteNamingTheField)
 {
   const DriveCommand c = clampedCommand(DriveCommand{ 1.5, -0.2, -3.0 });

@@ -438,7 +438,11 @@ TEST(VehicleModelFuzz, RandomByteEditsNeverCrash)
     catch (const ConfigError& e)
     {
       ++rejected;
-      EXPECT_CONTAINS(e.what(), ".yaml") << "error must name a file";
+      // The YAML, or the URDF when an edit makes a URDF link mean something else (a road wheel
+      // no longer listed is then a chassis link whose cylinder is refused).
+      const std::string what = e.what();
+      EXPECT_TRUE(what.find(".yaml") != std::string::npos || what.find(".urdf") != std::string::npos)
+          << "error must name a file: " << what;
     }
   }
   // Most random edits break something; a validator that accepted them all would be wrong.

@@ -23,7 +23,7 @@ namespace dynamics
 struct DriveCommand
 {
   double throttle = 0.0;  ///< [0, 1]: Ackermann: fraction of the available engine torque;
-                          ///< skid-steer: fraction of max_speed for the faster side
+                          ///< skid-steer and tracked: fraction of max_speed for the faster side
   double brake = 0.0;     ///< [0, 1]: fraction of brakes.max_torque on every wheel
   double steering = 0.0;  ///< [-1, 1], + = left: fraction of the full-lock steering angle
 };
@@ -100,6 +100,15 @@ private:
  *        t (1 - 2 |s|): s = +-0.5 pivots about the inner side, s = +-1 turns in place.
  */
 std::pair<double, double> skidSteerSides(double throttle, double steering);
+
+/**
+ * @brief Tracked-vehicle mixing: sprocket speed fractions (left, right) in [-1, 1] for throttle
+ *        t in [0, 1], steering s in [-1, 1] and pivot fraction p in [0, 1]:
+ *        skidSteerSides(max(t, p |s|), s). As skid-steer while t >= p |s|; below that the outer
+ *        track runs at p |s|, so that steering alone still turns the vehicle: in place at
+ *        |s| = 1 (tracks at -+p), about the inner track at |s| = 0.5.
+ */
+std::pair<double, double> trackedSides(double throttle, double steering, double pivot);
 
 }  // namespace dynamics
 }  // namespace avsp

@@ -78,10 +78,15 @@ struct RoadWheelSpec
 {
   std::string arm_joint;          ///< revolute joint about y (torsion bar)
   std::string spin_joint;         ///< continuous joint about y
+  std::string arm_link;           ///< the road arm link (child of arm_joint)
   std::string link;               ///< the road wheel link
   double radius;                  ///< m
   double width;                   ///< m
   Eigen::Vector3d rest_position;  ///< m, wheel centre in base_link
+  Eigen::Vector3d pivot;          ///< m, arm_joint's origin (the torsion bar's axis) in base_link
+  double arm_axis_sign = 1.0;     ///< +1 if arm_joint's axis is +y of base_link, -1 if -y
+  double arm_lower = 0.0;         ///< rad, arm_joint's lower limit (its own sign convention)
+  double arm_upper = 0.0;         ///< rad, arm_joint's upper limit
 };
 
 /// One side's track running gear.
@@ -90,6 +95,9 @@ struct TrackSpec
   std::string side;                        ///< left | right
   std::string sprocket_joint;
   std::string idler_joint;
+  std::string sprocket_link;               ///< child of sprocket_joint
+  std::string idler_link;                  ///< child of idler_joint
+  std::string belt_link;                   ///< link holding the track belt's mass, fixed to the hull
   double sprocket_radius;                  ///< m, URDF sprocket cylinder radius
   double idler_radius;                     ///< m
   std::vector<RoadWheelSpec> road_wheels;  ///< front to rear

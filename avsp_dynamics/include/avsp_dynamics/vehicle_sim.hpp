@@ -29,6 +29,27 @@
  * soil gives at the current slip (force-dependent slip = the soil's slip velocity per newton),
  * rolling and bulldozing resistance as a force at the wheel centre. README.md explains why.
  *
+ * What a tracked vehicle is in ODE (README.md, "How a tracked vehicle is built"):
+ *  - a hull body: every URDF link but the road wheels lumped (road arms, whose centre of mass
+ *    is on their pivot, sprockets, idlers and the track belts included);
+ *  - one body per road wheel, held on its trailing arm by explicit forces: a stiff spring-
+ *    damper keeping the wheel centre on the arm's circle about its pivot and its axle parallel
+ *    to the hull's, the torsion bar (YAML stiffness, damping, preload so that the URDF pose is
+ *    the static ride height) and bump stops at the URDF arm limits. Explicit, so that each
+ *    track's wheels form an ODE island of their own (ODE's exact solver costs the cube of an
+ *    island's rows);
+ *  - the belt as a kinematic constraint: a track's road wheels turn at one speed (ODE angular
+ *    motors between neighbours), each carrying its share of the sprocket's, idler's and belt's
+ *    rotating inertia; sprocket speed = road-wheel speed x wheel radius / (p N / 2 pi) (T10);
+ *  - drive: trackedSides() speed fractions per sprocket, each side's speed servo limited to half
+ *    the engine's torque/power through the gear ratio; brakes on the sprockets;
+ *  - soil: one track segment per road wheel (ground length / road wheels, shoe width) under the
+ *    wheel, terrain.trackContact() with the segment's place on the whole track (T10, T11), its
+ *    forces handed to ODE as a wheel's (implicit normal spring, friction rows bounded by the
+ *    soil's force, resistance at the wheel centre); on rigid-plastic (Bekker) soil the rut's
+ *    floor holds the wheel up to the floor's force instead of a spring, and at rest the rows
+ *    may take the soil's whole shear strength (README.md says why).
+ *
  * Obstacles (World::setObstacles): ODE collision (dCollide) is used only between the vehicles'
  * chassis boxes (URDF <collision> boxes) and wheel cylinders and the terrain's objects
  * (avsp_terrain ObjectSet) or other vehicles; never with the ground, and never within one
@@ -95,6 +116,65 @@ struct WheelState
   double brake_torque_limit = 0.0;  ///< N m, the brake's torque limit this step
 };
 
+/**
+ * @brief One track segment's soil contact this step: the patch of track under one road wheel
+ *        (the contract's WheelContact, for a track). SI units; forces act on the vehicle.
+ */
+struct TrackSegmentState
+{
+  std::string name;               ///< the road wheel's URDF link, e.g. left_road_wheel_1
+  bool in_contact = false;
+  double normal_force = 0.0;      ///< N, the soil's normal reaction (terrain model)
+  double applied_normal_force = 0.0;  ///< N, normal force ODE applied over the last step
+  double sinkage = 0.0;           ///< m, deepest point below the undeformed surface
+  double slip = 0.0;              ///< T8 with the sprocket's theoretical speed (T10), [-1, 1]
+  double slip_angle = 0.0;        ///< rad
+  double traction_force = 0.0;    ///< N, longitudinal soil force applied over the last step, + forward
+  double lateral_force = 0.0;     ///< N, lateral soil force applied over the last step, + to the left
+  double resistance_force = 0.0;  ///< N, compaction and bulldozing (T12 or Bekker's), >= 0
+  int contact_points = 0;         ///< terrain grid points under load
+  double length = 0.0;            ///< m, the segment's ground length along the track
+  double width = 0.0;             ///< m, the shoe width
+};
+
+/// One road wheel on its torsion-bar arm: the URDF joints' positions (robot_state_publisher)
+/// and the suspension's load. Angles about the joints' own axes, 0 at the URDF pose.
+struct RoadWheelState
+{
+  std::string link;            ///< road wheel link, e.g. left_road_wheel_1
+  std::string arm_joint;       ///< URDF revolute joint of the arm
+  std::string spin_joint;      ///< URDF continuous joint of the wheel on the arm
+  double arm_angle = 0.0;      ///< rad, arm_joint position (for the M113's +y axes: + lifts the wheel)
+  double arm_rate = 0.0;       ///< rad/s
+  double torsion_torque = 0.0; ///< N m the torsion bar (preload, twist, damper, bump stop) applies to
+                               ///< the arm, + pushes the wheel towards the ground
+  double spin_angle = 0.0;     ///< rad, spin_joint position (integrated), in [-pi, pi]
+  double spin_rate = 0.0;      ///< rad/s, spin_joint velocity (wheel relative to its arm), + rolls forward
+};
+
+/// One track (side) of a tracked vehicle after the last step. SI units.
+struct TrackState
+{
+  std::string side;             ///< left | right
+  std::string sprocket_joint;   ///< URDF continuous joint
+  std::string idler_joint;      ///< URDF continuous joint
+  double sprocket_speed = 0.0;  ///< rad/s relative to the hull, + drives forward
+  double sprocket_angle = 0.0;  ///< rad, integrated, in [-pi, pi]
+  double idler_speed = 0.0;     ///< rad/s: track speed / idler radius
+  double idler_angle = 0.0;     ///< rad, integrated, in [-pi, pi]
+  double track_speed = 0.0;     ///< m/s, belt relative to the hull: T10, p N sprocket_speed / (2 pi)
+  double ground_speed = 0.0;    ///< m/s, the hull's velocity at the track's centre along its heading
+  double slip = 0.0;            ///< T8 of the whole track: (track_speed - ground_speed) / track_speed
+                                ///< when driving, terrain::longitudinalSlip() in general, [-1, 1]
+  double drive_torque = 0.0;    ///< N m at the sprocket this step (+ forward)
+  double brake_torque_limit = 0.0;  ///< N m at the sprocket this step
+  double normal_force = 0.0;    ///< N, sum of the segments' soil normal forces
+  double traction_force = 0.0;  ///< N, sum of the segments' applied traction
+  double resistance_force = 0.0;  ///< N, sum of the segments' resistance
+  std::vector<RoadWheelState> road_wheels;  ///< front to rear (the model's order)
+  std::vector<TrackSegmentState> segments;  ///< one per road wheel, the same order
+};
+
 /// A vehicle's state after the last step.
 struct VehicleState
 {
@@ -105,10 +185,13 @@ struct VehicleState
   Eigen::Vector3d body_velocity = Eigen::Vector3d::Zero();     ///< m/s, base_link origin, base_link axes
   Eigen::Vector3d centre_of_mass = Eigen::Vector3d::Zero();    ///< m, all bodies, map
   double steering_angle = 0.0;  ///< rad, Ackermann bicycle angle (AckermannGeometry), + = left
-  double engine_speed = 0.0;    ///< rad/s (skid-steer: mean of the side motors)
-  double engine_torque = 0.0;   ///< N m at the crankshaft (skid-steer: sum of the side motors)
+  double engine_speed = 0.0;    ///< rad/s (skid-steer: mean of the side motors; tracked: gear ratio
+                                ///< x the faster sprocket's speed)
+  double engine_torque = 0.0;   ///< N m at the crankshaft (skid-steer: sum of the side motors;
+                                ///< tracked: sum of both sprockets' |torque| / (efficiency x ratio))
   DriveCommand command;         ///< the command in force (clamped)
-  std::vector<WheelState> wheels;  ///< in model.wheels order
+  std::vector<WheelState> wheels;  ///< wheeled vehicles, in model.wheels order; empty if tracked
+  std::vector<TrackState> tracks;  ///< tracked vehicles: left, then right; empty if wheeled
   /// Contact points with obstacles and other vehicles over the last step (0 = touching nothing).
   int obstacle_contacts = 0;
   /// N s, impulse obstacles and other vehicles gave the vehicle over the last step (map frame):
@@ -120,14 +203,14 @@ struct VehicleState
 struct StepTimes
 {
   std::uint64_t steps = 0;
-  double ode = 0.0;        ///< s in dWorldQuickStep
-  double contact = 0.0;    ///< s in wheelContact with deform = options.deform_terrain
-  double probe = 0.0;      ///< s in the stiffness probes (wheelContact without deformation)
+  double ode = 0.0;        ///< s in the ODE step (dWorldStep or dWorldQuickStep)
+  double contact = 0.0;    ///< s in wheelContact/trackContact with deform = options.deform_terrain
+  double probe = 0.0;      ///< s in the stiffness probes (contacts without deformation)
   double other = 0.0;      ///< s in the rest (actuators, drivetrain, joints, telemetry)
   double collision = 0.0;  ///< s finding obstacle and vehicle-vehicle contacts and making their joints
 };
 
-class SimVehicle;         // one vehicle's ODE bodies and joints (vehicle_sim.cpp)
+class SimVehicleBase;     // one vehicle's ODE bodies and joints (src/sim_vehicle_base.hpp)
 class ObstacleCollision;  // ODE collision with obstacles and between vehicles (obstacle_collision.cpp)
 
 /**
@@ -151,11 +234,13 @@ public:
 
   /**
    * @brief Builds a vehicle's ODE bodies and joints at `pose` (base_link in map), at rest,
-   *        suspension at its URDF rest position.
+   *        suspension at its URDF rest position. Wheeled (ackermann, skid_steer) or tracked.
    * @param name used in telemetry and errors; the model name when empty
    * @return the vehicle's index
    * @throw ConfigError naming the model's YAML and the key/link when the model cannot be
-   *        simulated (tracked vehicles are not supported yet; a wheel link without mass)
+   *        simulated (a wheel or road wheel link without mass or off its axle, a track without
+   *        road wheels, a sprocket, idler or belt link without mass; nothing is left in the
+   *        world when it throws)
    * @throw std::invalid_argument when the pose is not finite
    */
   std::size_t addVehicle(const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name = "");
@@ -226,7 +311,7 @@ private:
   terrain::DeformableTerrain& terrain_;
   WorldOptions options_;
   std::unique_ptr<Ode> ode_;
-  std::vector<std::unique_ptr<SimVehicle>> vehicles_;
+  std::vector<std::unique_ptr<SimVehicleBase>> vehicles_;
   std::unique_ptr<ObstacleCollision> collision_;
   std::uint64_t steps_ = 0;
   unsigned long rng_state_ = 0;  ///< ODE's dRand state between this world's steps
