@@ -123,6 +123,7 @@ struct VehicleIo
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
+  double rut_margin = 0.0;                  ///< m, a contact's reach beyond its centre
   ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
   sensor_msgs::JointState joints;           ///< names fixed at start-up, values per publication
   // Area the wheels ran over since the last rut publication (map x, y, m).
@@ -210,6 +211,22 @@ public:
         if (!w.steering_joint.empty())
           v->joints.name.push_back(w.steering_joint);
       }
+      for (const ad::TrackSpec& t : v->model.tracks)
+      {
+        v->joints.name.push_back(t.sprocket_joint);
+        v->joints.name.push_back(t.idler_joint);
+        for (const ad::RoadWheelSpec& w : t.road_wheels)
+        {
+          v->joints.name.push_back(w.arm_joint);
+          v->joints.name.push_back(w.spin_joint);
+        }
+      }
+      // m: how far outside its centre a contact deforms the soil (the rut patch's margin).
+      for (const ad::WheelSpec& w : v->model.wheels)
+        v->rut_margin = std::max(v->rut_margin, w.radius + w.width);
+      for (const ad::TrackSpec& t : v->model.tracks)
+        for (const ad::RoadWheelSpec& w : t.road_wheels)
+          v->rut_margin = std::max(v->rut_margin, w.radius + v->model.track.shoe_width);
       v->joints.position.assign(v->joints.name.size(), 0.0);
       v->joints.velocity.assign(v->joints.name.size(), 0.0);
       ros::NodeHandle vnh(nh_, s.name);
@@ -366,6 +383,10 @@ private:
         if (s.wheels[w].in_contact && ruts_every_ > 0)
           coverWheel(*v, s.pose * v->model.wheels[w].rest_position);
       }
+      for (std::size_t t = 0; t < s.tracks.size() && ruts_every_ > 0; ++t)
+        for (std::size_t k = 0; k < s.tracks[t].segments.size(); ++k)
+          if (s.tracks[t].segments[k].in_contact)
+            coverWheel(*v, s.pose * v->model.tracks[t].road_wheels[k].rest_position);
     }
     const std::uint64_t n = world_->stepCount();
     if (n % odom_every_ == 0)
@@ -468,7 +489,32 @@ private:
       if (!v.model.wheels[w].steering_joint.empty())
         js.position[k++] = ws.steering_angle;
     }
+    for (const ad::TrackState& t : s.tracks)
+    {
+      js.position[k] = t.sprocket_angle;
+      js.velocity[k++] = t.sprocket_speed;
+      js.position[k] = t.idler_angle;
+      js.velocity[k++] = t.idler_speed;
+      for (const ad::RoadWheelState& w : t.road_wheels)
+      {
+        js.position[k] = w.arm_angle;
+        js.velocity[k++] = w.arm_rate;
+        js.position[k] = w.spin_angle;
+        js.velocity[k++] = w.spin_rate;
+      }
+    }
     v.joint_pub.publish(js);
+  }
+
+  /// The soil at the grid point nearest `p` (map), "" off the grid.
+  std::string soilUnder(const Eigen::Vector3d& p) const
+  {
+    const at::ElevationGrid& g = terrain_->base();
+    const double fi = std::round((p.x() - g.originX()) / g.dx());
+    const double fj = std::round((p.y() - g.originY()) / g.dy());
+    if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
+      return terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
+    return "";
   }
 
   void publishTelemetry(VehicleIo& v, const ad::VehicleState& s, const ros::Time& t)
@@ -481,26 +527,24 @@ private:
     tm.command.throttle = s.command.throttle;
     tm.command.brake = s.command.brake;
     tm.command.steering = s.command.steering;
-    const at::ElevationGrid& g = terrain_->base();
+    // Per wheel, or per track segment (the patch under each road wheel), in the model's order.
+    auto add = [&](const std::string& name, const auto& c, const Eigen::Vector3d& rest) {
+      avsp_msgs::WheelContact m;
+      m.name = name;
+      m.normal_force = c.normal_force;
+      m.sinkage = c.sinkage;
+      m.slip = c.slip;
+      m.slip_angle = c.slip_angle;
+      m.traction_force = c.traction_force;
+      m.resistance_force = c.resistance_force;
+      m.soil = soilUnder(s.pose * rest);
+      tm.contacts.push_back(m);
+    };
     for (std::size_t w = 0; w < v.model.wheels.size(); ++w)
-    {
-      const ad::WheelState& ws = s.wheels[w];
-      avsp_msgs::WheelContact c;
-      c.name = v.model.wheels[w].link;
-      c.normal_force = ws.normal_force;
-      c.sinkage = ws.sinkage;
-      c.slip = ws.slip;
-      c.slip_angle = ws.slip_angle;
-      c.traction_force = ws.traction_force;
-      c.resistance_force = ws.resistance_force;
-      // The soil at the grid point nearest the wheel centre.
-      const Eigen::Vector3d centre = s.pose * v.model.wheels[w].rest_position;
-      const double fi = std::round((centre.x() - g.originX()) / g.dx());
-      const double fj = std::round((centre.y() - g.originY()) / g.dy());
-      if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
-        c.soil = terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
-      tm.contacts.push_back(c);
-    }
+      add(v.model.wheels[w].link, s.wheels[w], v.model.wheels[w].rest_position);
+    for (std::size_t k = 0; k < s.tracks.size(); ++k)
+      for (std::size_t w = 0; w < s.tracks[k].segments.size(); ++w)
+        add(s.tracks[k].segments[w].name, s.tracks[k].segments[w], v.model.tracks[k].road_wheels[w].rest_position);
     tm.stuck = v.stuck.stuck();
     v.telemetry_pub.publish(tm);
   }
@@ -546,10 +590,7 @@ private:
       if (!v->ran)
         continue;
       v->ran = false;
-      double margin = 0.0;
-      for (const ad::WheelSpec& w : v->model.wheels)
-        margin = std::max(margin, w.radius + w.width);
-      margin += 2.0 * g.dx();
+      const double margin = v->rut_margin + 2.0 * g.dx();
       auto index = [](double value, double origin, double d, std::size_t n) {
         const double f = std::floor((value - origin) / d);
         return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(n - 1)));

@@ -1,5 +1,6 @@
 #include "avsp_dynamics/stuck_detector.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -17,6 +18,18 @@ bool meanDrivenSlip(const VehicleModel& model, const VehicleState& state, double
     if (model.wheels[w].driven && state.wheels[w].in_contact)
     {
       sum += state.wheels[w].slip;
+      ++driven;
+    }
+  }
+  // A track is driven as a whole (its sprocket): its slip (T8 with T10's speed) counts once,
+  // while any of its segments touches the ground.
+  for (const TrackState& t : state.tracks)
+  {
+    const bool touching =
+        std::any_of(t.segments.begin(), t.segments.end(), [](const TrackSegmentState& g) { return g.in_contact; });
+    if (touching)
+    {
+      sum += t.slip;
       ++driven;
     }
   }

@@ -23,6 +23,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/JointState.h>
 
 #include "avsp_dynamics/vehicle_model.hpp"
 
@@ -305,6 +306,78 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
 
 // Tracked models are simulated by the core: the node starts them (their telemetry and joint
 // states are not wired into the node yet).
+// The tracked carrier in the same world: robot_state_publisher gets every URDF joint of its
+// running gear (sprockets, idlers, road arms, road wheels) with the sprockets turning under
+// throttle, and telemetry has one contact per track segment carrying the carrier's weight.
+TEST(DynamicsNode, TrackedCarrierPublishesRunningGearAndSegments)
+{
+  std::string config_dir;
+  ASSERT_TRUE(ros::NodeHandle("~").getParam("config_dir", config_dir));
+  const avsp::dynamics::VehicleModel model = avsp::dynamics::loadVehicleModel(config_dir + "/m113.yaml");
+  ros::NodeHandle nh;
+  std::vector<sensor_msgs::JointState> joints;
+  std::vector<avsp_msgs::VehicleTelemetry> telemetry;
+  std::vector<nav_msgs::Odometry> odom;
+  auto j_sub = nh.subscribe<sensor_msgs::JointState>(
+      "/carrier/joint_states", 100, [&](const sensor_msgs::JointState::ConstPtr& m) { joints.push_back(*m); });
+  auto t_sub = nh.subscribe<avsp_msgs::VehicleTelemetry>(
+      "/carrier/telemetry", 100, [&](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { telemetry.push_back(*m); });
+  auto o_sub = nh.subscribe<nav_msgs::Odometry>("/carrier/avt_341/odometry", 100,
+                                               [&](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
+  ros::Publisher cmd = nh.advertise<geometry_msgs::Twist>("/carrier/avt_341/cmd_vel", 10);
+  // At rest (no command: full brake) once settled.
+  ASSERT_TRUE(spinUntil([&] {
+    return !telemetry.empty() && telemetry.back().header.stamp.toSec() > 1.0 && !joints.empty() && !odom.empty();
+  })) << "no carrier joint_states/telemetry after 1 s of sim time";
+
+  std::vector<std::string> expected;
+  std::vector<std::string> segments;
+  for (const auto& t : model.tracks)
+  {
+    expected.push_back(t.sprocket_joint);
+    expected.push_back(t.idler_joint);
+    for (const auto& w : t.road_wheels)
+    {
+      expected.push_back(w.arm_joint);
+      expected.push_back(w.spin_joint);
+      segments.push_back(w.link);
+    }
+  }
+  const sensor_msgs::JointState js = joints.back();
+  EXPECT_EQ(js.name, expected);
+  ASSERT_EQ(js.position.size(), expected.size());
+  const avsp_msgs::VehicleTelemetry tm = telemetry.back();
+  ASSERT_EQ(tm.contacts.size(), segments.size());
+  double normal = 0.0;
+  for (std::size_t k = 0; k < segments.size(); ++k)
+  {
+    EXPECT_EQ(tm.contacts[k].name, segments[k]);
+    EXPECT_EQ(tm.contacts[k].soil, "gravel");
+    normal += tm.contacts[k].normal_force;
+  }
+  EXPECT_NEAR(normal, model.total_mass * 9.81, 0.02 * model.total_mass * 9.81);
+  EXPECT_FALSE(tm.stuck);
+
+  // Throttle: the sprockets (joint 0: left, then the right one after its road wheels) turn
+  // forward and the carrier moves off.
+  const std::size_t right_sprocket = 2 + 2 * model.tracks[0].road_wheels.size();
+  const double start_x = odom.back().pose.pose.position.x;
+  const double until = odom.back().header.stamp.toSec() + 2.0;
+  std::size_t seen = odom.size();
+  ASSERT_TRUE(spinUntil([&] {
+    if (odom.size() > seen)
+    {
+      seen = odom.size();
+      cmd.publish(twist(0.5, 0.0, 0.0));
+    }
+    return !odom.empty() && odom.back().header.stamp.toSec() >= until;
+  }));
+  ASSERT_FALSE(joints.empty());
+  EXPECT_GT(joints.back().velocity[0], 1.0) << "left sprocket rad/s";
+  EXPECT_GT(joints.back().velocity[right_sprocket], 1.0) << "right sprocket rad/s";
+  EXPECT_GT(odom.back().pose.pose.position.x - start_x, 0.5);
+}
+
 TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
 {
   auto [code, out] = runBadNode("no_such_model", "rover7");

@@ -13,8 +13,9 @@ namespace avsp
 namespace dynamics
 {
 /**
- * @brief Mean longitudinal slip (T8) of the driven wheels that touch the ground.
- * @return false when no driven wheel is in contact (the vehicle cannot be spinning its wheels)
+ * @brief Mean longitudinal slip (T8) of the driven wheels that touch the ground, or of the
+ *        tracks (T8 with T10's speed) with a segment on the ground.
+ * @return false when nothing driven is in contact (the vehicle cannot be spinning its wheels)
  */
 bool meanDrivenSlip(const VehicleModel& model, const VehicleState& state, double& slip);
 
