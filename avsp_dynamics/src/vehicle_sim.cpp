@@ -115,6 +115,7 @@ private:
   /// m/s or rad/s: velocity error the constraint regularizations allow at full load.
   const double regularization_ = 1e-5;
   std::vector<std::size_t> driven_front_, driven_rear_, driven_left_, driven_right_;
+  std::vector<std::size_t> driven_;  ///< driven_front_ then driven_rear_ (Ackermann engine speed)
   std::vector<Coupling> couplings_;
   SideServo servo_[2];  ///< skid-steer speed servos, left and right
   double engine_speed_ = 0.0, engine_torque_ = 0.0;
@@ -200,6 +201,10 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
     // Implicit spring-damper along axis 1 (ODE manual: ERP = hk/(hk+c), CFM = 1/(hk+c)).
     dJointSetHinge2Param(w.joint, dParamSuspensionERP, h * k / (h * k + c));
     dJointSetHinge2Param(w.joint, dParamSuspensionCFM, 1.0 / (h * k + c));
+    // Brake motor on the axle: holds zero spin relative to the chassis; its torque limit is
+    // set every step from the command (updateDrivetrain).
+    dJointSetHinge2Param(w.joint, dParamVel2, 0.0);
+    dJointSetHinge2Param(w.joint, dParamCFM2, regularization_ / model_.brakes.max_torque);
     if (spec.steering_joint.empty())
     {
       dJointSetHinge2Param(w.joint, dParamLoStop, 0.0);
@@ -229,6 +234,8 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
     (w.rest_position.x() > mean_x ? driven_front_ : driven_rear_).push_back(i);
     (w.rest_position.y() > 0.0 ? driven_left_ : driven_right_).push_back(i);
   }
+  driven_ = driven_front_;
+  driven_.insert(driven_.end(), driven_rear_.begin(), driven_rear_.end());
   // Locked differentials as wheel pairs held at equal speed: an axle (or a skid-steer side)
   // chains its driven wheels; a centre lock pairs each front wheel with the rear wheel on its
   // side (with open axle differentials this also keeps left-right speed differences equal
@@ -380,10 +387,8 @@ void SimVehicle::updateDrivetrain()
 
   if (model_.drive_type == DriveType::kAckermann)
   {
-    std::vector<std::size_t> driven = driven_front_;
-    driven.insert(driven.end(), driven_rear_.begin(), driven_rear_.end());
     double radius = 0.0;
-    const double speed = meanSpeed(driven, radius);
+    const double speed = meanSpeed(driven_, radius);
     engine_speed_ = d.gear_ratio * speed;
     const double total = command_.throttle * wheelTorqueAvailable(d, speed, radius);
     engine_torque_ = total / (d.efficiency * d.gear_ratio);
@@ -428,10 +433,9 @@ void SimVehicle::updateDrivetrain()
   {
     // ODE's hinge torque acts +axis on body 1 and -axis on body 2; the wheel is body 2.
     dJointAddHinge2Torques(w.joint, 0.0, -w.drive_torque);
-    // Brake: a velocity motor holding zero spin relative to the chassis, up to its torque.
-    dJointSetHinge2Param(w.joint, dParamVel2, 0.0);
+    // Brake: a velocity motor holding zero spin relative to the chassis (target and compliance
+    // set once in the constructor), up to its torque.
     dJointSetHinge2Param(w.joint, dParamFMax2, w.brake_limit);
-    dJointSetHinge2Param(w.joint, dParamCFM2, regularization_ / model_.brakes.max_torque);
   }
 }
 
