@@ -391,11 +391,12 @@ StateSynchronizer::Push StateSynchronizer::push(std::size_t vehicle, const Vehic
   if (state.time < released_)
     return Push::kLate;
   last_pushed_[vehicle] = state.time;
+  newest_ = std::max(newest_, state.time);
   queues_[vehicle].push_back(state);
   return Push::kQueued;
 }
 
-std::optional<StateSynchronizer::Batch> StateSynchronizer::next(double now)
+std::optional<StateSynchronizer::Batch> StateSynchronizer::next()
 {
   waited_out_.clear();
   double t = std::numeric_limits<double>::infinity();
@@ -407,7 +408,7 @@ std::optional<StateSynchronizer::Batch> StateSynchronizer::next(double now)
   for (std::size_t k = 0; k < queues_.size(); ++k)
     if (queues_[k].empty())
     {
-      if (!(now > t + timeout_))
+      if (!(newest_ > t + timeout_))
         return std::nullopt;  // it may still deliver a state at or before t
       waited_out_.push_back(k);
     }

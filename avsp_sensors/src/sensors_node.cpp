@@ -12,7 +12,8 @@
 // Time. Everything runs on the odometry's stamps (sim time): each sensor samples on its own
 // grid of sim times at the first odometry at or after each grid time, so a run depends on the
 // odometry only, not on when messages arrive. The vehicles' streams are merged in stamp order
-// (StateSynchronizer) so that every vehicle's sensors see the others at the same time.
+// (StateSynchronizer) so that every vehicle's sensors see the others at the same time; the
+// callbacks only queue states, the main loop senses the times that are complete.
 #include <cstdarg>
 #include <cstdint>
 #include <cstdio>
@@ -29,6 +30,7 @@
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <ros/callback_queue.h>
 #include <ros/package.h>
 #include <ros/ros.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -159,8 +161,6 @@ public:
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &SensorsNode::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &SensorsNode::onToppled, this);
     environment_sub_ = nh_.subscribe("/environment", 10, &SensorsNode::onEnvironment, this);
-    // Vehicles that stopped publishing are waited out on the sim clock: look again now and then.
-    timeout_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), [this](const ros::WallTimerEvent&) { drain(); });
     ROS_INFO("sensors_node: %zu vehicle(s) on %s (%zu objects), world frame '%s', %u ray-casting thread(s)%s",
              vehicles_.size(), source_.c_str(), objects_.size(), world_frame_.c_str(), threads_,
              threads_ == 0 ? " (0 = all cores)" : "");
@@ -420,7 +420,6 @@ private:
                           v.odom_topic.c_str(), state.time);
         return;
     }
-    drain();
   }
 
   /// A change of the world takes effect at the first sensor time at or after its stamp (at once
@@ -510,15 +509,17 @@ private:
   }
 
   // ---- sensing ---------------------------------------------------------------------------
-  /// Runs every time whose states are complete, in time order.
+public:
+  /// Runs every time whose states are complete, in time order (after the callbacks that were
+  /// waiting have queued their states).
   void drain()
   {
-    const double now = asn::stampSeconds(ros::Time::now());
-    while (std::optional<as::StateSynchronizer::Batch> batch = sync_->next(now))
+    while (std::optional<as::StateSynchronizer::Batch> batch = sync_->next())
     {
       for (std::size_t k : sync_->waitedOut())
-        warnThrottled(5.0, "sensors_node: %s silent for more than ~odometry_timeout at %.3f s; going on without it",
-                          vehicles_[k]->odom_topic.c_str(), batch->time);
+        warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going on "
+                           "without it",
+                      vehicles_[k]->odom_topic.c_str(), batch->time);
       for (auto it = events_.begin(); it != events_.end() && it->first <= batch->time;)
       {
         it->second();
@@ -538,6 +539,7 @@ private:
     }
   }
 
+private:
   void sense(VehicleIo& v, const as::VehicleState& state)
   {
     as::SuiteOutput out;
@@ -621,7 +623,6 @@ private:
   std::vector<geometry_msgs::TransformStamped> static_frames_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Subscriber ruts_sub_, toppled_sub_, environment_sub_;
-  ros::WallTimer timeout_timer_;
 };
 }  // namespace
 
@@ -639,7 +640,14 @@ int main(int argc, char** argv)
     ROS_FATAL("sensors_node: %s", e.what());
     return 1;
   }
-  ros::spin();
+  // Callbacks only queue: all that are waiting run first, then the complete times are sensed,
+  // so a node lagging behind the simulation sees every vehicle's queued states together.
+  ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+  while (ros::ok())
+  {
+    queue->callAvailable(ros::WallDuration(0.01));
+    node->drain();
+  }
   node->reportCosts();  // after shutdown: rosconsole no longer prints, so plain stdout
   return 0;
 }

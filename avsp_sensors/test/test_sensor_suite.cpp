@@ -441,7 +441,7 @@ TEST(StateSynchronizer, AnyInterleavingOfTheStreamsGivesTheSameBatches)
   for (int run = 0; run < 20; ++run)
   {
     std::mt19937 rng(run);
-    StateSynchronizer sync(3, 1.0);
+    StateSynchronizer sync(3, 10.0);
     std::vector<std::size_t> next(3, 0);
     std::vector<std::pair<double, std::vector<std::size_t>>> batches;
     while (next[0] < streams[0].size() || next[1] < streams[1].size() || next[2] < streams[2].size())
@@ -450,7 +450,7 @@ TEST(StateSynchronizer, AnyInterleavingOfTheStreamsGivesTheSameBatches)
       if (next[v] >= streams[v].size())
         continue;
       ASSERT_EQ(sync.push(v, streams[v][next[v]++]), StateSynchronizer::Push::kQueued);
-      while (auto b = sync.next(0.0))  // the clock stands still: nobody is waited out
+      while (auto b = sync.next())  // the streams span < 10 s: nobody is waited out
         batches.emplace_back(b->time, b->vehicles);
     }
     if (run == 0)
@@ -463,24 +463,42 @@ TEST(StateSynchronizer, AnyInterleavingOfTheStreamsGivesTheSameBatches)
   EXPECT_EQ(reference[1].second, (std::vector<std::size_t>{ 0, 1 }));
 }
 
-TEST(StateSynchronizer, SilentVehicleIsWaitedOutOnTheClockAndLateOrRepeatedStatesAreRefused)
+TEST(StateSynchronizer, SilentVehicleIsWaitedOutOnceTheOthersRunAheadAndLateOrRepeatedStatesAreRefused)
 {
   StateSynchronizer sync(2, 0.5);
   ASSERT_EQ(sync.push(0, at(1.0, 0, 0, 0)), StateSynchronizer::Push::kQueued);
-  EXPECT_FALSE(sync.next(1.2));  // vehicle 1 may still deliver a state at 1.0
-  const auto b = sync.next(1.51);
+  ASSERT_EQ(sync.push(0, at(1.5, 0, 0, 0)), StateSynchronizer::Push::kQueued);
+  EXPECT_FALSE(sync.next());  // vehicle 0 is only 0.5 s ahead: vehicle 1 may still deliver 1.0
+  EXPECT_TRUE(sync.waitedOut().empty());
+  ASSERT_EQ(sync.push(0, at(1.51, 0, 0, 0)), StateSynchronizer::Push::kQueued);
+  const auto b = sync.next();
   ASSERT_TRUE(b);
   EXPECT_EQ(b->time, 1.0);
+  EXPECT_EQ(b->vehicles, std::vector<std::size_t>{ 0 });
   EXPECT_EQ(sync.waitedOut(), std::vector<std::size_t>{ 1 });
+  EXPECT_FALSE(sync.next());  // 1.5: vehicle 0 is only 0.01 s beyond it
   EXPECT_EQ(sync.push(1, at(0.9, 0, 0, 0)), StateSynchronizer::Push::kLate);
   EXPECT_EQ(sync.push(0, at(1.0, 0, 0, 0)), StateSynchronizer::Push::kNotAfterLast);
-  EXPECT_EQ(sync.push(1, at(1.1, 0, 0, 0)), StateSynchronizer::Push::kQueued);
-  EXPECT_EQ(sync.push(0, at(1.1, 0, 0, 0)), StateSynchronizer::Push::kQueued);
-  const auto c = sync.next(1.1);
+  EXPECT_EQ(sync.push(1, at(1.5, 0, 0, 0)), StateSynchronizer::Push::kQueued);  // back again
+  const auto c = sync.next();
   ASSERT_TRUE(c);
+  EXPECT_EQ(c->time, 1.5);
   EXPECT_EQ(c->vehicles, (std::vector<std::size_t>{ 0, 1 }));
   ASSERT_TRUE(sync.latest(1));
-  EXPECT_EQ(sync.latest(1)->time, 1.1);
+  EXPECT_EQ(sync.latest(1)->time, 1.5);
+  // A node that lags (every queue full) never waits anybody out.
+  StateSynchronizer lagging(2, 0.1);
+  for (int k = 0; k < 100; ++k)
+    lagging.push(0, at(0.01 * k, 0, 0, 0));
+  for (int k = 0; k < 100; ++k)
+    lagging.push(1, at(0.01 * k, 0, 0, 0));
+  int batches = 0;
+  while (auto d = lagging.next())
+  {
+    EXPECT_EQ(d->vehicles.size(), 2u);
+    ++batches;
+  }
+  EXPECT_EQ(batches, 100);
 }
 
 TEST(TerrainPatch, AppliedPatchMatchesARebuildAndIsClippedToTheGrid)

@@ -794,6 +794,118 @@ TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
       EXPECT_NE(out.find(s), std::string::npos) << "'" << s << "' not in: " << out;
   }
 }
+
+// ---- sensors_dynamics.test: behind the real dynamics_node ---------------------------------
+
+TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
+{
+  ros::NodeHandle nh, pnh("~");
+  std::string config_dir;
+  ASSERT_TRUE(pnh.getParam("config_dir", config_dir));
+  const as::node::VehicleFrames ego_frames = as::node::loadVehicleFrames(config_dir + "/fed_alpha.yaml");
+  Topic<sensor_msgs::Imu> imu, mule_imu;
+  Topic<sensor_msgs::PointCloud2> cloud;
+  Topic<avsp_msgs::RadarTargetArray> targets;
+  Topic<sensor_msgs::NavSatFix> fixes;
+  Topic<nav_msgs::Odometry> ego_odom, mule_odom;
+  imu.subscribe(nh, "/ego/imu/data");
+  mule_imu.subscribe(nh, "/mule/imu/data");
+  cloud.subscribe(nh, "/ego/avt_341/points");
+  targets.subscribe(nh, "/ego/radar/targets");
+  fixes.subscribe(nh, "/ego/gps/fix");
+  ego_odom.subscribe(nh, "/ego/avt_341/odometry");
+  mule_odom.subscribe(nh, "/mule/avt_341/odometry");
+  // Until 4 s of sim time have been sensed (the dynamics may run ahead: the sensors follow).
+  const double until = 4.0;
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        return !imu.messages.empty() && imu.messages.back().header.stamp.toSec() >= until &&
+               !mule_imu.messages.empty() && mule_imu.messages.back().header.stamp.toSec() >= until;
+      },
+      90.0))
+      << "IMU samples: ego " << imu.messages.size() << ", mule " << mule_imu.messages.size();
+  spinUntil([] { return false; }, 0.5);
+
+  // Rates per sim time over [1, 4): IMU 100 Hz, lidar, radar and GPS 10 Hz.
+  const double from = 1.0, span = until - from;
+  EXPECT_NEAR(static_cast<double>(imu.countIn(from, until)), 100.0 * span, 10.0 * span);
+  EXPECT_NEAR(static_cast<double>(mule_imu.countIn(from, until)), 100.0 * span, 10.0 * span);
+  EXPECT_NEAR(static_cast<double>(cloud.countIn(from, until)), 10.0 * span, 1.0 * span);
+  EXPECT_NEAR(static_cast<double>(targets.countIn(from, until)), 10.0 * span, 1.0 * span);
+  EXPECT_NEAR(static_cast<double>(fixes.countIn(from, until)), 10.0 * span, 1.0 * span);
+  std::printf("[sensors_node test] behind dynamics_node over %.0f s of sim time: %zu + %zu IMU samples, %zu sweeps, "
+              "%zu radar scans, %zu fixes\n",
+              span, imu.countIn(from, until), mule_imu.countIn(from, until), cloud.countIn(from, until),
+              targets.countIn(from, until), fixes.countIn(from, until));
+
+  // Braked and settled after the first second: +g and no rotation.
+  for (const Topic<sensor_msgs::Imu>* t : { &imu, &mule_imu })
+  {
+    Eigen::Vector3d f = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+    std::size_t n = 0;
+    for (const auto& s : t->messages)
+      if (s.header.stamp.toSec() >= 2.0)
+      {
+        f += Eigen::Vector3d(s.linear_acceleration.x, s.linear_acceleration.y, s.linear_acceleration.z);
+        w += Eigen::Vector3d(s.angular_velocity.x, s.angular_velocity.y, s.angular_velocity.z);
+        ++n;
+      }
+    ASSERT_GT(n, 100u);
+    f /= static_cast<double>(n);
+    w /= static_cast<double>(n);
+    EXPECT_NEAR(f.norm(), 9.81, 0.05) << t->name;
+    EXPECT_LT(w.norm(), 0.005) << t->name;
+  }
+
+  // ego's radar (2.45 m ahead of its base_link) sees mule's rear (1.8 m behind mule's base_link,
+  // 12 m ahead), standing still.
+  ASSERT_FALSE(mule_odom.messages.empty());
+  ASSERT_FALSE(ego_odom.messages.empty());
+  const auto& mp = mule_odom.messages.back().pose.pose.position;
+  const auto& ep = ego_odom.messages.back().pose.pose.position;
+  std::size_t scans = 0, seen = 0;
+  for (const auto& scan : targets.messages)
+  {
+    if (scan.header.stamp.toSec() < 2.0)
+      continue;
+    ++scans;
+    for (const auto& t : scan.targets)
+      if (std::abs(t.azimuth) < 0.1 && std::abs(t.centroid.x - (mp.x - 1.8 - (ep.x + 2.45))) < 0.5)
+      {
+        ++seen;
+        EXPECT_LT(std::abs(t.range_rate), 0.1);
+        break;
+      }
+  }
+  EXPECT_GT(scans, 15u);
+  EXPECT_EQ(seen, scans);
+
+  // The lidar: the flat ground (z = 0, ruts under the wheels aside), mule's body, not ego's.
+  std::size_t ground = 0, flat = 0, on_mule = 0, own = 0;
+  for (const auto& c : cloud.messages)
+  {
+    if (c.header.stamp.toSec() < 2.0)
+      continue;
+    EXPECT_EQ(c.header.frame_id, "odom");
+    for (const Point& p : points(c))
+    {
+      own += insideBoxes(ego_frames, ep.x, ep.y, ep.z, p, -0.05) ? 1 : 0;
+      if (std::abs(p.x - mp.x) < 3.0 && std::abs(p.y - mp.y) < 2.0)
+      {
+        on_mule += p.z > 0.3 ? 1 : 0;
+        continue;
+      }
+      if (std::abs(p.x - ep.x) < 3.5 && std::abs(p.y - ep.y) < 2.5)
+        continue;
+      ++ground;
+      flat += std::abs(p.z) < 0.1 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(ground, 10000u);
+  EXPECT_EQ(flat, ground);
+  EXPECT_GT(on_mule, 100u);
+  EXPECT_EQ(own, 0u);
+}
 }  // namespace
 
 int main(int argc, char** argv)

@@ -257,13 +257,15 @@ private:
  * arbitrarily. next() releases the earliest queued time only once every vehicle has a queued
  * state (none can still deliver an earlier one), with the states of all vehicles at that time:
  * the same streams give the same batches however they interleaved. A vehicle that has nothing
- * queued is waited for until the sim clock `now` passes the batch time by `timeout`; then it is
- * treated as silent (its last state stays its state) until it delivers again.
+ * queued is waited for until another vehicle's stream has run `timeout` s of sim time beyond
+ * the pending time; then it is treated as silent (its last state stays its state) until it
+ * delivers again. The streams themselves are the clock: a node that lags behind the simulation
+ * (its queues full) never waits a vehicle out.
  */
 class StateSynchronizer
 {
 public:
-  /// @param timeout s of sim time, >= 0
+  /// @param timeout s of sim time, >= 0 (+inf: wait for ever)
   StateSynchronizer(std::size_t vehicles, double timeout);
 
   /// Why push() refused a state.
@@ -283,8 +285,8 @@ public:
     std::vector<VehicleState> states;
   };
 
-  /// The next complete time, if any (see the class). @param now sim clock, s
-  std::optional<Batch> next(double now);
+  /// The next complete time, if any (see the class).
+  std::optional<Batch> next();
 
   /// The latest released state of a vehicle (none before its first).
   const std::optional<VehicleState>& latest(std::size_t vehicle) const { return latest_.at(vehicle); }
@@ -297,6 +299,7 @@ private:
   std::vector<std::deque<VehicleState>> queues_;
   std::vector<std::optional<VehicleState>> latest_;
   std::vector<double> last_pushed_;
+  double newest_ = -std::numeric_limits<double>::infinity();  ///< latest time any vehicle pushed
   double released_ = -std::numeric_limits<double>::infinity();
   std::vector<std::size_t> waited_out_;
 };
