@@ -1,0 +1,82 @@
+#pragma once
+/**
+ * @file sensor_params.hpp
+ * @brief sensors_node's parameters (README.md, "sensors_node"): the vehicle list and each
+ *        vehicle's sensor configuration read from XML-RPC values (what ros::NodeHandle::getParam
+ *        returns for a YAML map), every key type-checked, unknown keys refused and every value
+ *        checked by the core's validation, so a bad configuration names its key. No master needed:
+ *        the functions take the values, not a NodeHandle.
+ */
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <xmlrpcpp/XmlRpcValue.h>
+
+#include "avsp_sensors/sensor_suite.hpp"
+
+namespace avsp
+{
+namespace sensors
+{
+namespace node
+{
+/// One entry of ~vehicles (the same list dynamics_node reads; its x, y, yaw are ignored here).
+struct VehicleEntry
+{
+  std::string name;   ///< namespace and frame prefix
+  std::string model;  ///< config_dir/<model>.yaml
+};
+
+/**
+ * @brief Reads ~vehicles: a non-empty list of {name, model} (x, y, yaw allowed and ignored).
+ * @throw avsp::msgs::StartupError naming the entry and key: not a list, a missing or non-string
+ *        name/model, an invalid or duplicate name, an unknown key
+ */
+std::vector<VehicleEntry> parseVehicles(const XmlRpc::XmlRpcValue& list);
+
+/// Where an ultrasonic range finder sits: a URDF link of its name, or a pose in base_link that
+/// the node publishes as a static transform.
+struct UltrasonicMount
+{
+  std::optional<Eigen::Isometry3d> pose;  ///< base_link -> sensor; nullopt: the URDF link `name`
+};
+
+/**
+ * @brief One vehicle's sensors as configured, before the vehicle's URDF gives the mounts: the
+ *        core configuration (mounts identity) and the URDF link of each sensor.
+ */
+struct SensorsSpec
+{
+  SuiteConfig suite;
+  std::string lidar_link = "lidar", radar_link = "radar", gps_link = "gps", imu_link = "imu";
+  std::string magnetometer_link = "imu";
+  std::vector<UltrasonicMount> ultrasonic_mounts;  ///< per suite.ultrasonics entry
+  /// Magnetometer field values given in the configuration (else the IGRF dipole at the origin).
+  std::optional<double> magnetometer_intensity, magnetometer_inclination_deg;
+  /// Parameter name of each section as read (e.g. "lidar" -> "~vehicle_sensors/ego/lidar").
+  std::map<std::string, std::string> keys;
+};
+
+/**
+ * @brief One vehicle's sensor configuration. Each section (lidar, radar, gps, imu,
+ *        magnetometer, ultrasonic, occupancy) is taken from `vehicle` if it has it, else from
+ *        `common`, else the defaults; `enabled: false` removes a sensor.
+ * @param vehicle the vehicle's own map (~vehicle_sensors/<name>), or nullptr
+ * @param vehicle_path its parameter name for messages, e.g. "~vehicle_sensors/ego"
+ * @param common the map shared by all vehicles (~sensors), or nullptr
+ * @param common_path e.g. "~sensors"
+ * @throw avsp::msgs::StartupError naming the key ("parameter ~sensors/radar/max_range ...")
+ */
+SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& vehicle_path,
+                         const XmlRpc::XmlRpcValue* common, const std::string& common_path);
+
+/// True when any vehicle of `specs` has a GPS or a magnetometer without an explicit field (they
+/// need the geodetic reference ~latitude, ~longitude).
+bool needsOrigin(const std::vector<SensorsSpec>& specs);
+
+}  // namespace node
+}  // namespace sensors
+}  // namespace avsp

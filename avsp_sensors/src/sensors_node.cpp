@@ -1,0 +1,653 @@
+// sensors_node: the sensors of one or more vehicles over the shared terrain. Per vehicle, from
+// its odometry: lidar sweeps (avt_341/points), radar targets and points, GPS fixes, IMU and
+// magnetometer samples, ultrasonic ranges, and its OctoMap (octomap/occupied_cells,
+// avt_341/occupancy_grid, ~<vehicle>/save_map). The ray-cast scene is kept current from
+// /terrain/ruts, /terrain/toppled and the other vehicles' poses; the lidar's weather from
+// /environment.
+//
+// Thin: the sensors, their schedules and the merge of the vehicles' odometry streams are
+// avsp_sensors_core (sensor_suite.hpp); parameters and messages are converted in src/ros/.
+// Parameters and topics: README.md, "sensors_node".
+//
+// Time. Everything runs on the odometry's stamps (sim time): each sensor samples on its own
+// grid of sim times at the first odometry at or after each grid time, so a run depends on the
+// odometry only, not on when messages arrive. The vehicles' streams are merged in stamp order
+// (StateSynchronizer) so that every vehicle's sensors see the others at the same time; the
+// callbacks only queue states, the main loop senses the times that are complete.
+#include <cstdarg>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <avsp_msgs/Environment.h>
+#include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/SaveMap.h>
+#include <avsp_msgs/TerrainPatch.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <ros/callback_queue.h>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/soil.hpp>
+#include <avsp_terrain/terrain_source_params.hpp>
+
+#include "avsp_sensors/random.hpp"
+#include "avsp_sensors/ros/conversions.hpp"
+#include "avsp_sensors/ros/sensor_params.hpp"
+#include "avsp_sensors/ros/vehicle_frames.hpp"
+#include "avsp_sensors/sensor_suite.hpp"
+#include "avsp_sensors/terrain_patch.hpp"
+
+namespace as = avsp::sensors;
+namespace asn = avsp::sensors::node;
+namespace at = avsp::terrain;
+
+namespace
+{
+using avsp::msgs::boundedIntParam;
+using avsp::msgs::boundedParam;
+using avsp::msgs::StartupError;
+
+/// FNV-1a of a vehicle name: its sensors' seeds do not depend on its place in ~vehicles.
+std::uint64_t nameHash(const std::string& s)
+{
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s)
+    h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+/**
+ * @brief A warning at most once per `period` s of wall time per call site and subject (the
+ *        format string with its first argument, e.g. the topic), the first one always; the
+ *        repeats it swallowed are counted in the next one. ROS_WARN_THROTTLE counts sim time and
+ *        drops everything in the first period after time 0 (its last-hit time starts at 0).
+ */
+void warnThrottled(double period, const char* format, ...) __attribute__((format(printf, 2, 3)));
+void warnThrottled(double period, const char* format, ...)
+{
+  char text[2048];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(text, sizeof(text), format, args);
+  va_end(args);
+  struct Seen
+  {
+    ros::WallTime last;
+    unsigned swallowed = 0;
+  };
+  static std::map<std::string, Seen> seen;
+  // The subject: the format and the text up to its first ':' (the topic or vehicle).
+  const std::string message(text);
+  Seen& s = seen[std::string(format) + "|" + message.substr(0, message.find(':', 14))];
+  const ros::WallTime now = ros::WallTime::now();
+  if (!s.last.isZero() && (now - s.last).toSec() < period)
+  {
+    ++s.swallowed;
+    return;
+  }
+  if (s.swallowed > 0)
+    ROS_WARN("%s (and %u more like it since the last report)", text, s.swallowed);
+  else
+    ROS_WARN("%s", text);
+  s.last = now;
+  s.swallowed = 0;
+}
+
+/// One vehicle's ROS side.
+struct VehicleIo
+{
+  std::string name;
+  std::size_t index = 0;
+  std::unique_ptr<as::VehicleSensors> sensors;
+  std::vector<as::BodyBox> boxes;
+  std::string odom_topic, base_frame;
+  std::string lidar_frame, radar_frame, gps_frame, imu_frame, mag_frame;
+  std::vector<std::string> range_frames;
+  ros::Subscriber odom_sub;
+  ros::Publisher points_pub, targets_pub, radar_points_pub, radar_markers_pub, gps_pub, imu_pub, mag_pub;
+  ros::Publisher cells_pub, grid_pub;
+  std::vector<ros::Publisher> range_pubs;
+  ros::ServiceServer save_service;
+
+  /// Wall time spent, s, and counts, for the cost report at shutdown.
+  struct Costs
+  {
+    std::size_t sweeps = 0, radar_scans = 0, states = 0, maps = 0;
+    double lidar = 0.0, occupancy = 0.0, cloud = 0.0, radar = 0.0, other = 0.0, map_products = 0.0;
+  } costs;
+};
+
+class SensorsNode
+{
+public:
+  SensorsNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh)
+  {
+    XmlRpc::XmlRpcValue list;
+    if (!pnh_.getParam("vehicles", list))
+      throw StartupError("parameter ~vehicles must be a non-empty list of {name, model}");
+    const std::vector<asn::VehicleEntry> entries = asn::parseVehicles(list);
+    const std::vector<asn::SensorsSpec> specs = readSensorSpecs(entries);
+
+    pnh_.param<std::string>("world_frame", world_frame_, "odom");
+    if (world_frame_.empty())
+      throw StartupError("parameter ~world_frame must not be empty");
+    const int seed = boundedIntParam(pnh_, "seed", 0, 0, 2147483647);
+    threads_ = static_cast<unsigned>(boundedIntParam(pnh_, "threads", 0, 0, 256));
+    const double timeout = boundedParam(pnh_, "odometry_timeout", 1.0, 0.0, 3600.0);
+    const float body_reflectivity = static_cast<float>(boundedParam(pnh_, "body_reflectivity", 0.5, 0.0, 1.0));
+    body_reflectivity_ = body_reflectivity;
+    const std::optional<as::EnuFrame> origin = readOrigin(asn::needsOrigin(specs));
+
+    std::string config_dir, soils_file;
+    pnh_.param<std::string>("config_dir", config_dir, ros::package::getPath("avsp") + "/config/vehicles");
+    pnh_.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+
+    // Vehicles: their descriptions give the mounts and the bodies others see.
+    for (std::size_t k = 0; k < entries.size(); ++k)
+      vehicles_.push_back(makeVehicle(entries[k], specs[k], k, config_dir, origin, static_cast<std::uint64_t>(seed)));
+
+    loadScene(soils_file);
+    sync_ = std::make_unique<as::StateSynchronizer>(vehicles_.size(), timeout);
+    advertise();
+    ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &SensorsNode::onPatch, this);
+    toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &SensorsNode::onToppled, this);
+    environment_sub_ = nh_.subscribe("/environment", 10, &SensorsNode::onEnvironment, this);
+    ROS_INFO("sensors_node: %zu vehicle(s) on %s (%zu objects), world frame '%s', %u ray-casting thread(s)%s",
+             vehicles_.size(), source_.c_str(), objects_.size(), world_frame_.c_str(), threads_,
+             threads_ == 0 ? " (0 = all cores)" : "");
+  }
+
+  /// One line per vehicle on stdout: wall time per sweep, scan, state and map publication.
+  void reportCosts() const
+  {
+    for (const auto& v : vehicles_)
+    {
+      const VehicleIo::Costs& c = v->costs;
+      auto per = [](double total, std::size_t n) { return n > 0 ? 1e3 * total / static_cast<double>(n) : 0.0; };
+      std::printf("sensors_node: %s cost (wall ms): lidar %.1f per sweep + OctoMap insertion %.1f + PointCloud2 %.1f "
+                  "(%zu sweeps); radar %.2f per scan (%zu); GPS/IMU/mag/ultrasonic %.3f per state (%zu); occupied "
+                  "cells + 2-D grid %.1f per publication (%zu)\n",
+                  v->name.c_str(), per(c.lidar, c.sweeps), per(c.occupancy, c.sweeps), per(c.cloud, c.sweeps),
+                  c.sweeps, per(c.radar, c.radar_scans), c.radar_scans, per(c.other, c.states), c.states,
+                  per(c.map_products, c.maps), c.maps);
+    }
+    std::fflush(stdout);
+  }
+
+private:
+  // ---- start-up ---------------------------------------------------------------------------
+  std::vector<asn::SensorsSpec> readSensorSpecs(const std::vector<asn::VehicleEntry>& entries)
+  {
+    XmlRpc::XmlRpcValue common, per_vehicle;
+    const bool has_common = pnh_.getParam("sensors", common);
+    const bool has_per_vehicle = pnh_.getParam("vehicle_sensors", per_vehicle);
+    if (has_per_vehicle)
+    {
+      if (per_vehicle.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+        throw StartupError("parameter ~vehicle_sensors must be a map of <vehicle name>: {sensor sections}");
+      for (auto it = per_vehicle.begin(); it != per_vehicle.end(); ++it)
+      {
+        bool known = false;
+        for (const auto& e : entries)
+          known = known || e.name == it->first;
+        if (!known)
+          throw StartupError("parameter ~vehicle_sensors/" + it->first + ": there is no vehicle '" + it->first +
+                             "' in ~vehicles");
+      }
+    }
+    std::vector<asn::SensorsSpec> specs;
+    for (const auto& e : entries)
+    {
+      XmlRpc::XmlRpcValue* own = has_per_vehicle && per_vehicle.hasMember(e.name) ? &per_vehicle[e.name] : nullptr;
+      specs.push_back(asn::parseSensors(own, "~vehicle_sensors/" + e.name, has_common ? &common : nullptr, "~sensors"));
+    }
+    return specs;
+  }
+
+  std::optional<as::EnuFrame> readOrigin(bool required)
+  {
+    const bool given = pnh_.hasParam("latitude") || pnh_.hasParam("longitude");
+    if (!required && !given)
+      return std::nullopt;
+    if (!pnh_.hasParam("latitude") || !pnh_.hasParam("longitude"))
+      throw StartupError("parameters ~latitude and ~longitude (deg, the map origin's WGS-84 position) are required "
+                         "with a GPS or a magnetometer without intensity and inclination_deg");
+    const double lat = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
+    const double lon = boundedParam(pnh_, "longitude", 0.0, -180.0, 180.0);
+    const double alt = boundedParam(pnh_, "altitude", 0.0, -1e4, 1e5);
+    return as::EnuFrame(as::Geodetic{ lat, lon, alt });
+  }
+
+  std::unique_ptr<VehicleIo> makeVehicle(const asn::VehicleEntry& entry, asn::SensorsSpec spec, std::size_t index,
+                                         const std::string& config_dir, const std::optional<as::EnuFrame>& origin,
+                                         std::uint64_t seed)
+  {
+    auto v = std::make_unique<VehicleIo>();
+    v->name = entry.name;
+    v->index = index;
+    const std::string where = "vehicle '" + entry.name + "' (model '" + entry.model + "', ~config_dir " + config_dir + ")";
+    asn::VehicleFrames frames;
+    try
+    {
+      frames = asn::loadVehicleFrames(config_dir + "/" + entry.model + ".yaml");
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError(where + ": " + e.what());
+    }
+    v->boxes = frames.boxes;
+    v->base_frame = entry.name + "/" + frames.root_link;
+    auto mount = [&](const std::string& link, const std::string& key) {
+      if (!frames.hasLink(link))
+        throw StartupError(where + ": parameter " + key + " = '" + link + "' is not a link of " + frames.urdf_path);
+      return frames.link(link);
+    };
+    as::SuiteConfig& suite = spec.suite;
+    if (suite.lidar)
+    {
+      suite.lidar->mount = mount(spec.lidar_link, spec.keys.at("lidar") + "/frame");
+      v->lidar_frame = suite.lidar->registered ? world_frame_ : entry.name + "/" + spec.lidar_link;
+    }
+    if (suite.radar)
+    {
+      suite.radar->mount = mount(spec.radar_link, spec.keys.at("radar") + "/frame");
+      v->radar_frame = entry.name + "/" + spec.radar_link;
+    }
+    if (suite.gps)
+    {
+      suite.gps->mount = mount(spec.gps_link, spec.keys.at("gps") + "/frame");
+      v->gps_frame = entry.name + "/" + spec.gps_link;
+    }
+    if (suite.imu)
+    {
+      suite.imu->mount = mount(spec.imu_link, spec.keys.at("imu") + "/frame");
+      v->imu_frame = entry.name + "/" + spec.imu_link;
+    }
+    if (suite.magnetometer)
+    {
+      suite.magnetometer->mount = mount(spec.magnetometer_link, spec.keys.at("magnetometer") + "/frame");
+      v->mag_frame = entry.name + "/" + spec.magnetometer_link;
+      if (!spec.magnetometer_intensity || !spec.magnetometer_inclination_deg)
+      {
+        const as::EarthField dipole = as::dipoleEarthField(origin->origin());
+        suite.magnetometer->field.intensity = spec.magnetometer_intensity.value_or(dipole.intensity);
+        suite.magnetometer->field.inclination_deg = spec.magnetometer_inclination_deg.value_or(dipole.inclination_deg);
+      }
+    }
+    for (std::size_t k = 0; k < suite.ultrasonics.size(); ++k)
+    {
+      const std::string& name = suite.ultrasonics[k].name;
+      const std::optional<Eigen::Isometry3d>& pose = spec.ultrasonic_mounts[k].pose;
+      if (pose && frames.hasLink(name))
+        throw StartupError(where + ": ultrasonic '" + name + "' has x/y/z/roll/pitch/yaw but " + frames.urdf_path +
+                           " has a link '" + name + "' already: use one or the other");
+      if (!pose && !frames.hasLink(name))
+        throw StartupError(where + ": ultrasonic '" + name + "': " + frames.urdf_path + " has no link '" + name +
+                           "'; give its x, y, z, roll, pitch, yaw in base_link");
+      suite.ultrasonics[k].mount = pose ? *pose : frames.link(name);
+      v->range_frames.push_back(entry.name + "/" + name);
+      if (pose)
+        staticFrame(v->base_frame, v->range_frames.back(), *pose);
+    }
+    if (suite.occupancy)
+      suite.occupancy->config.threads = threads_;
+    suite.seed = as::streamKey(seed, nameHash(entry.name), 0);
+    try
+    {
+      v->sensors = std::make_unique<as::VehicleSensors>(suite, origin, static_cast<std::uint32_t>(index));
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(where + ": " + e.what());
+    }
+    return v;
+  }
+
+  void staticFrame(const std::string& parent, const std::string& child, const Eigen::Isometry3d& pose)
+  {
+    geometry_msgs::TransformStamped t;
+    t.header.frame_id = parent;
+    t.child_frame_id = child;
+    t.transform.translation.x = pose.translation().x();
+    t.transform.translation.y = pose.translation().y();
+    t.transform.translation.z = pose.translation().z();
+    const Eigen::Quaterniond q(pose.linear());
+    t.transform.rotation.w = q.w();
+    t.transform.rotation.x = q.x();
+    t.transform.rotation.y = q.y();
+    t.transform.rotation.z = q.z();
+    static_frames_.push_back(t);
+  }
+
+  void loadScene(const std::string& soils_file)
+  {
+    std::unique_ptr<at::SoilLibrary> soils;
+    try
+    {
+      soils = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError("parameter ~soils_file: " + std::string(e.what()));
+    }
+    at::LoadedSource loaded = at::loadTerrainFromParams(pnh_, *soils);
+    if (loaded.filled_no_data > 0)
+      ROS_WARN("sensors_node: %s: %zu no-data points filled from their nearest valid neighbours",
+               loaded.description.c_str(), loaded.filled_no_data);
+    source_ = loaded.description;
+    objects_ = std::move(loaded.objects);
+    // The sensors keep the heights only (ruts arrive as heights); the soil state is dropped.
+    scene_ = std::make_unique<as::Scene>(as::HeightField::fromTerrain(*loaded.terrain));
+    loaded.terrain.reset();
+    scene_->setObjects(objects_);
+  }
+
+  void advertise()
+  {
+    for (auto& vp : vehicles_)
+    {
+      VehicleIo& v = *vp;
+      ros::NodeHandle vnh(nh_, v.name);
+      const as::SuiteConfig& c = v.sensors->config();
+      v.odom_topic = vnh.resolveName("avt_341/odometry");
+      VehicleIo* raw = &v;
+      // A deep queue: a burst of odometry (a fast clock) must not lose states (they fix the
+      // sampling times); the callback only queues them.
+      v.odom_sub = vnh.subscribe<nav_msgs::Odometry>(
+          "avt_341/odometry", 2000, [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
+      if (c.lidar)
+        v.points_pub = vnh.advertise<sensor_msgs::PointCloud2>("avt_341/points", 5);
+      if (c.radar)
+      {
+        v.targets_pub = vnh.advertise<avsp_msgs::RadarTargetArray>("radar/targets", 10);
+        v.radar_points_pub = vnh.advertise<sensor_msgs::PointCloud2>("radar/points", 10);
+        v.radar_markers_pub = vnh.advertise<visualization_msgs::MarkerArray>("radar/markers", 10);
+      }
+      if (c.gps)
+        v.gps_pub = vnh.advertise<sensor_msgs::NavSatFix>("gps/fix", 20);
+      if (c.imu)
+        v.imu_pub = vnh.advertise<sensor_msgs::Imu>("imu/data", 200);
+      if (c.magnetometer)
+        v.mag_pub = vnh.advertise<sensor_msgs::MagneticField>("mag", 50);
+      for (const as::UltrasonicSetup& u : c.ultrasonics)
+        v.range_pubs.push_back(vnh.advertise<sensor_msgs::Range>("ultrasonic/" + u.name, 20));
+      if (c.occupancy)
+      {
+        v.cells_pub = vnh.advertise<visualization_msgs::MarkerArray>("octomap/occupied_cells", 2);
+        v.grid_pub = vnh.advertise<nav_msgs::OccupancyGrid>("avt_341/occupancy_grid", 2);
+        v.save_service = pnh_.advertiseService<avsp_msgs::SaveMap::Request, avsp_msgs::SaveMap::Response>(
+            v.name + "/save_map",
+            [this, raw](avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res) {
+              return onSaveMap(*raw, req, res);
+            });
+      }
+    }
+    if (!static_frames_.empty())
+      static_broadcaster_.sendTransform(static_frames_);
+  }
+
+  // ---- inputs ----------------------------------------------------------------------------
+  void onOdometry(VehicleIo& v, const nav_msgs::Odometry& msg)
+  {
+    as::VehicleState state;
+    std::string why;
+    if (!asn::stateFromOdometry(msg, world_frame_, v.base_frame, state, why))
+    {
+      warnThrottled(2.0, "sensors_node: %s ignored: %s; the vehicle keeps its last good state",
+                        v.odom_topic.c_str(), why.c_str());
+      return;
+    }
+    switch (sync_->push(v.index, state))
+    {
+      case as::StateSynchronizer::Push::kQueued:
+        break;
+      case as::StateSynchronizer::Push::kNotAfterLast:
+        warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s is not after the previous one",
+                          v.odom_topic.c_str(), state.time);
+        return;
+      case as::StateSynchronizer::Push::kLate:
+        warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s arrived after the sensors moved past it "
+                               "(the vehicle was silent longer than ~odometry_timeout)",
+                          v.odom_topic.c_str(), state.time);
+        return;
+    }
+  }
+
+  /// A change of the world takes effect at the first sensor time at or after its stamp (at once
+  /// when it arrives late), so that its effect does not depend on message interleaving when it
+  /// is published ahead of time.
+  void schedule(const ros::Time& stamp, std::function<void()> apply)
+  {
+    events_.emplace(asn::stampSeconds(stamp), std::move(apply));
+  }
+
+  void onPatch(const ros::MessageEvent<const avsp_msgs::TerrainPatch>& event)
+  {
+    const avsp_msgs::TerrainPatch::ConstPtr msg = event.getMessage();
+    const std::string publisher = event.getPublisherName();
+    if (!msg->header.frame_id.empty() && msg->header.frame_id != "map" && msg->header.frame_id != world_frame_)
+    {
+      warnThrottled(5.0, "sensors_node: /terrain/ruts from %s in frame '%s', expected 'map'; ignored",
+                        publisher.c_str(), msg->header.frame_id.c_str());
+      return;
+    }
+    schedule(msg->header.stamp, [this, msg, publisher] {
+      try
+      {
+        as::applyHeightPatch(scene_->terrain(), asn::heightPatchFromMessage(*msg));
+      }
+      catch (const std::invalid_argument& e)
+      {
+        warnThrottled(5.0, "sensors_node: /terrain/ruts from %s rejected: %s", publisher.c_str(), e.what());
+      }
+    });
+  }
+
+  void onToppled(const avsp_msgs::ObjectToppled::ConstPtr& msg)
+  {
+    if (!msg->header.frame_id.empty() && msg->header.frame_id != "map" && msg->header.frame_id != world_frame_)
+    {
+      warnThrottled(5.0, "sensors_node: /terrain/toppled ignored: frame '%s', expected 'map'",
+                        msg->header.frame_id.c_str());
+      return;
+    }
+    schedule(msg->header.stamp, [this, msg] {
+      std::string why;
+      if (objects_.applyToppled(msg->id, msg->fall_direction, why))
+        scene_->setObjects(objects_);
+      else
+        warnThrottled(5.0, "sensors_node: /terrain/toppled ignored: %s", why.c_str());
+    });
+  }
+
+  void onEnvironment(const avsp_msgs::Environment::ConstPtr& msg)
+  {
+    as::Weather weather;
+    std::string why;
+    if (!asn::weatherFromEnvironment(*msg, weather, why))
+    {
+      warnThrottled(5.0, "sensors_node: /environment ignored: %s; the lidar keeps the last good weather",
+                        why.c_str());
+      return;
+    }
+    schedule(msg->header.stamp, [this, weather] { weather_ = weather; });
+  }
+
+  bool onSaveMap(VehicleIo& v, avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res)
+  {
+    res.success = false;
+    if (req.path.empty() || req.path[0] != '/')
+      res.message = "path '" + req.path + "' must be absolute";
+    else if (at::fileExtension(req.path) != ".bt")
+      res.message = "path '" + req.path + "' must end in .bt (OctoMap binary)";
+    else
+    {
+      try
+      {
+        v.sensors->occupancy()->save(req.path);
+        res.success = true;
+        res.message = req.path;
+        ROS_INFO("sensors_node: saved %s's OctoMap to %s", v.name.c_str(), req.path.c_str());
+      }
+      catch (const std::exception& e)
+      {
+        res.message = e.what();
+      }
+    }
+    if (!res.success)
+      ROS_WARN("sensors_node: %s/save_map: %s", v.name.c_str(), res.message.c_str());
+    return true;
+  }
+
+  // ---- sensing ---------------------------------------------------------------------------
+public:
+  /// Runs every time whose states are complete, in time order (after the callbacks that were
+  /// waiting have queued their states).
+  void drain()
+  {
+    while (std::optional<as::StateSynchronizer::Batch> batch = sync_->next())
+    {
+      for (std::size_t k : sync_->waitedOut())
+        warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going on "
+                           "without it",
+                      vehicles_[k]->odom_topic.c_str(), batch->time);
+      for (auto it = events_.begin(); it != events_.end() && it->first <= batch->time;)
+      {
+        it->second();
+        it = events_.erase(it);
+      }
+      std::vector<as::Body> bodies;
+      for (const auto& v : vehicles_)
+        if (const std::optional<as::VehicleState>& s = sync_->latest(v->index))
+        {
+          const std::vector<as::Body> b = as::vehicleBodies(v->boxes, *s, static_cast<std::uint32_t>(v->index),
+                                                            body_reflectivity_);
+          bodies.insert(bodies.end(), b.begin(), b.end());
+        }
+      scene_->setBodies(std::move(bodies));
+      for (std::size_t k = 0; k < batch->vehicles.size(); ++k)
+        sense(*vehicles_[batch->vehicles[k]], batch->states[k]);
+    }
+  }
+
+private:
+  void sense(VehicleIo& v, const as::VehicleState& state)
+  {
+    as::SuiteOutput out;
+    try
+    {
+      out = v.sensors->update(state, *scene_, weather_, threads_);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      warnThrottled(2.0, "sensors_node: %s at %.6f s: %s", v.name.c_str(), state.time, e.what());
+      return;
+    }
+    std_msgs::Header header;
+    header.stamp = asn::toStamp(out.time);
+    auto with = [&header](const std::string& frame) {
+      std_msgs::Header h = header;
+      h.frame_id = frame;
+      return h;
+    };
+    VehicleIo::Costs& costs = v.costs;
+    ++costs.states;
+    costs.other += out.cost.other;
+    if (out.lidar)
+    {
+      const ros::WallTime start = ros::WallTime::now();
+      std_msgs::Header h = with(v.lidar_frame);
+      h.stamp = asn::toStamp(out.lidar->start);
+      v.points_pub.publish(asn::toPointCloud2(out.lidar->scan, h));
+      ++costs.sweeps;
+      costs.lidar += out.cost.lidar;
+      costs.occupancy += out.cost.occupancy;
+      costs.cloud += (ros::WallTime::now() - start).toSec();
+      ROS_DEBUG("sensors_node: %s sweep at %.3f s: %zu points, cast %.1f ms, OctoMap %.1f ms", v.name.c_str(),
+                out.lidar->start, out.lidar->scan.points.size(), 1e3 * out.cost.lidar, 1e3 * out.cost.occupancy);
+    }
+    if (out.radar)
+    {
+      ++costs.radar_scans;
+      costs.radar += out.cost.radar;
+      const std_msgs::Header h = with(v.radar_frame);
+      v.targets_pub.publish(asn::radarTargets(out.radar->scan, h));
+      v.radar_points_pub.publish(asn::radarPoints(out.radar->scan, h));
+      if (v.radar_markers_pub.getNumSubscribers() > 0)
+        v.radar_markers_pub.publish(asn::radarMarkers(out.radar->scan, h));
+    }
+    if (out.gps)
+      v.gps_pub.publish(asn::toNavSatFix(*out.gps, with(v.gps_frame)));
+    if (out.imu)
+      v.imu_pub.publish(asn::toImu(*out.imu, with(v.imu_frame)));
+    if (out.magnetometer)
+      v.mag_pub.publish(asn::toMagneticField(*out.magnetometer, with(v.mag_frame)));
+    for (const auto& [k, reading] : out.ultrasonics)
+      v.range_pubs[k].publish(asn::toRange(reading, with(v.range_frames[k])));
+    if (out.occupancy_due)
+    {
+      const ros::WallTime start = ros::WallTime::now();
+      const Eigen::Vector3d p = state.pose.translation();
+      if (v.cells_pub.getNumSubscribers() > 0)
+        v.cells_pub.publish(asn::occupiedCellMarkers(v.sensors->occupancy()->occupiedCells(), with(world_frame_),
+                                                     p.z() - 2.0, p.z() + 4.0));
+      if (v.grid_pub.getNumSubscribers() > 0)
+        v.grid_pub.publish(asn::toOccupancyGrid(v.sensors->occupancyGrid(p.x(), p.y(), scene_->terrain()),
+                                                with(world_frame_)));
+      ++costs.maps;
+      costs.map_products += (ros::WallTime::now() - start).toSec();
+    }
+  }
+
+  ros::NodeHandle& nh_;
+  ros::NodeHandle& pnh_;
+  std::string world_frame_ = "odom";
+  unsigned threads_ = 0;
+  float body_reflectivity_ = 0.5f;
+  std::string source_;
+  at::ObjectSet objects_;
+  std::unique_ptr<as::Scene> scene_;
+  as::Weather weather_;
+  std::vector<std::unique_ptr<VehicleIo>> vehicles_;
+  std::unique_ptr<as::StateSynchronizer> sync_;
+  std::multimap<double, std::function<void()>> events_;  ///< world changes by stamp, in arrival order per stamp
+  std::vector<geometry_msgs::TransformStamped> static_frames_;
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
+  ros::Subscriber ruts_sub_, toppled_sub_, environment_sub_;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ros::init(argc, argv, "sensors_node");
+  ros::NodeHandle nh, pnh("~");
+  std::unique_ptr<SensorsNode> node;
+  try
+  {
+    node = std::make_unique<SensorsNode>(nh, pnh);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("sensors_node: %s", e.what());
+    return 1;
+  }
+  // Callbacks only queue: all that are waiting run first, then the complete times are sensed,
+  // so a node lagging behind the simulation sees every vehicle's queued states together.
+  ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+  while (ros::ok())
+  {
+    queue->callAvailable(ros::WallDuration(0.01));
+    node->drain();
+  }
+  node->reportCosts();  // after shutdown: rosconsole no longer prints, so plain stdout
+  return 0;
+}

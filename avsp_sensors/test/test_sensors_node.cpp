@@ -1,0 +1,919 @@
+// rostest of sensors_node (test/sensors_node.test). This node is the clock and the dynamics:
+// it publishes /clock and the odometry of two vehicles at 100 Hz in lockstep (each step waits
+// for both vehicles' IMU sample of that step), on the small default course built here with the
+// same parameters, so the ground, the buildings and the vehicles' poses are known exactly.
+// ego (fed_alpha) stands on the concrete pad facing east; other (mrzr) drives away from it
+// at 2 m/s along the same line. Everything is judged on what the node publishes, per sim time.
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <avsp_msgs/Environment.h>
+#include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/RadarTargetArray.h>
+#include <avsp_msgs/SaveMap.h>
+#include <avsp_msgs/TerrainPatch.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/Imu.h>
+#include <sensor_msgs/MagneticField.h>
+#include <sensor_msgs/NavSatFix.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/Range.h>
+#include <tf2_msgs/TFMessage.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <avsp_dynamics/vehicle_model.hpp>
+#include <avsp_terrain/default_course.hpp>
+#include <avsp_terrain/terrain_objects.hpp>
+
+#include "avsp_sensors/geodetic.hpp"
+#include "avsp_sensors/magnetometer.hpp"
+#include "avsp_sensors/ros/vehicle_frames.hpp"
+
+namespace at = avsp::terrain;
+namespace as = avsp::sensors;
+
+namespace
+{
+// The scenario (sensors_node.test and the placement below).
+constexpr double kStep = 0.01;                  // s, odometry period
+constexpr int kSteps = 650;                     // 0 .. 6.5 s of sim time
+constexpr double kFrom = 1.0, kTo = 6.0;        // s, the window the rates are counted in
+constexpr double kEgoX = 30.0, kEgoY = 131.0;   // m, on the concrete pad, facing east
+constexpr double kOtherX0 = 45.0, kOtherSpeed = 2.0;  // m, m/s: other drives east from here
+constexpr double kRutStamp = 2.0, kRutDepth = 0.3;    // s, m
+constexpr double kRutX0 = 24.0, kRutY0 = 122.0, kRutSide = 4.0;  // m, the rut square's corner and side
+constexpr double kFogStamp = 4.5, kFogVisibility = 20.0;         // s, m
+constexpr double kLatitude = 39.7425, kLongitude = -105.1786, kAltitude = 1830.0;
+
+/// Spins until `done` holds or `timeout` (wall s) passes; the deadline only guards a hang.
+bool spinUntil(const std::function<bool()>& done, double timeout = 30.0)
+{
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (ros::ok() && !done())
+  {
+    if (ros::WallTime::now() > deadline)
+      return false;
+    ros::spinOnce();
+    ros::WallDuration(0.0002).sleep();
+  }
+  return done();
+}
+
+/// Every message of one topic, in arrival order.
+template <typename M>
+struct Topic
+{
+  std::string name;
+  std::vector<M> messages;
+  ros::Subscriber sub;
+
+  void subscribe(ros::NodeHandle& nh, const std::string& topic)
+  {
+    name = topic;
+    sub = nh.subscribe<M>(topic, 5000, [this](const typename M::ConstPtr& m) { messages.push_back(*m); });
+  }
+  /// Messages stamped in [from, to).
+  std::size_t countIn(double from, double to) const
+  {
+    std::size_t n = 0;
+    for (const M& m : messages)
+    {
+      const double t = m.header.stamp.toSec();
+      n += (t >= from - 1e-6 && t < to - 1e-6) ? 1 : 0;
+    }
+    return n;
+  }
+};
+
+struct Point
+{
+  float x, y, z, intensity;
+  std::uint16_t ring;
+  float time;
+};
+
+std::vector<Point> points(const sensor_msgs::PointCloud2& c)
+{
+  std::vector<Point> out(c.width * c.height);
+  for (std::size_t k = 0; k < out.size(); ++k)
+  {
+    const std::uint8_t* p = &c.data[k * c.point_step];
+    std::memcpy(&out[k].x, p, 4);
+    std::memcpy(&out[k].y, p + 4, 4);
+    std::memcpy(&out[k].z, p + 8, 4);
+    std::memcpy(&out[k].intensity, p + 12, 4);
+    std::memcpy(&out[k].ring, p + 16, 2);
+    std::memcpy(&out[k].time, p + 20, 4);
+  }
+  return out;
+}
+
+/// Height of base_link above the ground for a vehicle standing on its wheels.
+double baseHeight(const std::string& config_dir, const std::string& model)
+{
+  const avsp::dynamics::VehicleModel m = avsp::dynamics::loadVehicleModel(config_dir + "/" + model + ".yaml");
+  return m.wheels.front().radius - m.wheels.front().rest_position.z();
+}
+
+/// Everything the run recorded; filled once by the first test.
+struct Scenario
+{
+  std::unique_ptr<at::Course> course;
+  std::string config_dir, soils_file;
+  double ground = 0.0;           // m, the pad's height under ego
+  double ego_z = 0.0, other_z = 0.0;  // m, base_link heights
+  as::node::VehicleFrames ego_frames, other_frames;
+  std::map<std::string, Topic<sensor_msgs::PointCloud2>> clouds;  // by topic
+  std::map<std::string, Topic<avsp_msgs::RadarTargetArray>> targets;
+  std::map<std::string, Topic<visualization_msgs::MarkerArray>> markers;
+  std::map<std::string, Topic<sensor_msgs::NavSatFix>> fixes;
+  std::map<std::string, Topic<sensor_msgs::Imu>> imus;
+  std::map<std::string, Topic<sensor_msgs::MagneticField>> mags;
+  Topic<sensor_msgs::Range> sonar;
+  Topic<nav_msgs::OccupancyGrid> grid;
+  Topic<tf2_msgs::TFMessage> tf_static;
+  std::vector<std::string> warnings;
+  ros::Subscriber log_sub;
+  bool completed = false;
+  std::string failure;
+
+  double otherX(double t) const { return kOtherX0 + kOtherSpeed * t; }
+  double groundAt(double x, double y) const { return course->heights.height(x, y).value_or(std::nan("")); }
+};
+Scenario* run = nullptr;
+
+nav_msgs::Odometry odometry(const std::string& vehicle, double t, double x, double y, double z, double speed)
+{
+  nav_msgs::Odometry o;
+  o.header.stamp = ros::Time(t);
+  o.header.frame_id = "odom";
+  o.child_frame_id = vehicle + "/base_link";
+  o.pose.pose.position.x = x;
+  o.pose.pose.position.y = y;
+  o.pose.pose.position.z = z;
+  o.pose.pose.orientation.w = 1.0;  // facing east
+  o.twist.twist.linear.x = speed;   // in base_link
+  return o;
+}
+
+/// The rut: the course's points in the square, lowered by kRutDepth.
+avsp_msgs::TerrainPatch rutPatch(const at::Course& course, double stamp)
+{
+  const at::ElevationGrid& g = course.heights;
+  avsp_msgs::TerrainPatch p;
+  p.header.stamp = ros::Time(stamp);
+  p.header.frame_id = "map";
+  p.origin.x = kRutX0;
+  p.origin.y = kRutY0;
+  p.resolution = g.dx();
+  p.width = static_cast<std::uint32_t>(std::lround(kRutSide / g.dx())) + 1;
+  p.height = p.width;
+  const std::size_t i0 = static_cast<std::size_t>(std::lround((kRutX0 - g.originX()) / g.dx()));
+  const std::size_t j0 = static_cast<std::size_t>(std::lround((kRutY0 - g.originY()) / g.dy()));
+  for (std::uint32_t r = 0; r < p.height; ++r)
+    for (std::uint32_t c = 0; c < p.width; ++c)
+      p.heights.push_back(static_cast<float>(g.pointHeight(i0 + c, j0 + r) - kRutDepth));
+  return p;
+}
+
+/// Runs the whole lockstep scenario once and records what the node published.
+void runScenario(Scenario& r)
+{
+  ros::NodeHandle nh, pnh("~");
+  r.log_sub = nh.subscribe<rosgraph_msgs::Log>("/rosout", 1000, [&r](const rosgraph_msgs::Log::ConstPtr& m) {
+    if (m->level >= rosgraph_msgs::Log::WARN)
+      r.warnings.push_back(m->msg);
+  });
+  for (const char* v : { "/ego", "/other" })
+  {
+    const std::string p(v);
+    r.clouds[p + "/avt_341/points"].subscribe(nh, p + "/avt_341/points");
+    r.clouds[p + "/radar/points"].subscribe(nh, p + "/radar/points");
+    r.targets[p + "/radar/targets"].subscribe(nh, p + "/radar/targets");
+    r.markers[p + "/radar/markers"].subscribe(nh, p + "/radar/markers");
+    r.fixes[p + "/gps/fix"].subscribe(nh, p + "/gps/fix");
+    r.imus[p + "/imu/data"].subscribe(nh, p + "/imu/data");
+    r.mags[p + "/mag"].subscribe(nh, p + "/mag");
+  }
+  r.markers["/ego/octomap/occupied_cells"].subscribe(nh, "/ego/octomap/occupied_cells");
+  r.sonar.subscribe(nh, "/ego/ultrasonic/sonar_down");
+  r.grid.subscribe(nh, "/ego/avt_341/occupancy_grid");
+  r.tf_static.subscribe(nh, "/tf_static");
+
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ros::Publisher ego_pub = nh.advertise<nav_msgs::Odometry>("/ego/avt_341/odometry", 100);
+  ros::Publisher other_pub = nh.advertise<nav_msgs::Odometry>("/other/avt_341/odometry", 100);
+  ros::Publisher ruts_pub = nh.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
+  ros::Publisher toppled_pub = nh.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 10);
+  ros::Publisher env_pub = nh.advertise<avsp_msgs::Environment>("/environment", 10);
+
+  // The node is up once it listens to everything and every output is connected.
+  const bool connected = spinUntil(
+      [&] {
+        for (ros::Publisher* p : { &clock_pub, &ego_pub, &other_pub, &ruts_pub, &toppled_pub, &env_pub })
+          if (p->getNumSubscribers() == 0)
+            return false;
+        auto all = [](auto& topics) {
+          for (auto& [name, t] : topics)
+            if (t.sub.getNumPublishers() == 0)
+              return false;
+          return true;
+        };
+        return all(r.clouds) && all(r.targets) && all(r.markers) && all(r.fixes) && all(r.imus) && all(r.mags) &&
+               r.sonar.sub.getNumPublishers() > 0 && r.grid.sub.getNumPublishers() > 0;
+      },
+      60.0);
+  if (!connected)
+  {
+    r.failure = "sensors_node did not connect to every topic within 60 s";
+    return;
+  }
+
+  auto imuAt = [&r](const std::string& topic, double t) {
+    const auto& m = r.imus[topic].messages;
+    return !m.empty() && std::abs(m.back().header.stamp.toSec() - t) < 1e-6;
+  };
+  const ros::WallTime wall_start = ros::WallTime::now();
+  for (int k = 0; k <= kSteps; ++k)
+  {
+    const double t = k * kStep;
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(t);
+    clock_pub.publish(c);
+    if (k == 100)
+    {
+      // Published 1 s ahead of its stamp: the rut, then messages the node must refuse.
+      ruts_pub.publish(rutPatch(*r.course, kRutStamp));
+      avsp_msgs::TerrainPatch bad = rutPatch(*r.course, kRutStamp);
+      bad.resolution = 0.3;
+      ruts_pub.publish(bad);
+      avsp_msgs::ObjectToppled unknown;
+      unknown.header.frame_id = "map";
+      unknown.id = 999999;
+      toppled_pub.publish(unknown);
+    }
+    if (k == 300)
+    {
+      nav_msgs::Odometry nan_odom = odometry("ego", t, kEgoX, kEgoY, r.ego_z, 0.0);
+      nan_odom.pose.pose.position.x = std::nan("");
+      ego_pub.publish(nan_odom);
+      avsp_msgs::Environment bad_env;
+      bad_env.header.stamp = ros::Time(t);
+      bad_env.fog_visibility = -1.0;
+      env_pub.publish(bad_env);
+    }
+    if (k == 350)
+    {
+      avsp_msgs::Environment fog;
+      fog.header.stamp = ros::Time(kFogStamp);
+      fog.fog_visibility = kFogVisibility;
+      fog.air_temperature = 283.0;
+      env_pub.publish(fog);
+    }
+    ego_pub.publish(odometry("ego", t, kEgoX, kEgoY, r.ego_z, 0.0));
+    other_pub.publish(odometry("other", t, r.otherX(t), kEgoY, r.other_z, kOtherSpeed));
+    if (!spinUntil([&] { return imuAt("/ego/imu/data", t) && imuAt("/other/imu/data", t); }))
+    {
+      r.failure = "no IMU sample of both vehicles for t = " + std::to_string(t) + " s within 30 s";
+      return;
+    }
+  }
+  // The last outputs of the last step (published after the IMU's) and the rosout backlog.
+  spinUntil([] { return false; }, 1.0);
+  r.completed = true;
+  std::printf("[sensors_node test] %d lockstep steps (%.1f s of sim time) in %.1f s of wall time\n", kSteps,
+              kSteps * kStep, (ros::WallTime::now() - wall_start).toSec());
+}
+
+class SensorsNode : public ::testing::Test
+{
+protected:
+  static void SetUpTestSuite()
+  {
+    if (run != nullptr)
+      return;
+    run = new Scenario();
+    ros::NodeHandle pnh("~");
+    pnh.getParam("config_dir", run->config_dir);
+    pnh.getParam("soils_file", run->soils_file);
+    at::CourseOptions o;
+    o.seed = 7;
+    o.cell_size = 0.5;
+    o.length_x = 300.0;
+    o.length_y = 200.0;
+    run->course = std::make_unique<at::Course>(at::makeDefaultCourse(o));
+    run->ground = run->groundAt(kEgoX, kEgoY);
+    run->ego_z = run->ground + baseHeight(run->config_dir, "fed_alpha");
+    run->other_z = run->groundAt(kOtherX0, kEgoY) + baseHeight(run->config_dir, "mrzr");
+    run->ego_frames = as::node::loadVehicleFrames(run->config_dir + "/fed_alpha.yaml");
+    run->other_frames = as::node::loadVehicleFrames(run->config_dir + "/mrzr.yaml");
+    runScenario(*run);
+  }
+
+  void SetUp() override { ASSERT_TRUE(run->completed) << run->failure; }
+};
+
+/// A map point inside a box of the vehicle at (x, y, z) facing east, widened by `margin`.
+bool insideBoxes(const as::node::VehicleFrames& f, double x, double y, double z, const Point& p, double margin)
+{
+  for (const as::BodyBox& b : f.boxes)
+  {
+    const Eigen::Vector3d local =
+        b.pose.inverse() * (Eigen::Vector3d(p.x, p.y, p.z) - Eigen::Vector3d(x, y, z));
+    if ((local.cwiseAbs() - 0.5 * b.size).maxCoeff() < margin)
+      return true;
+  }
+  return false;
+}
+
+/// A point within `margin` of a standing object's footprint (grass does not count).
+bool nearObject(const at::Course& course, double x, double y, double margin)
+{
+  for (std::uint32_t id : course.objects.query(x - 30.0, y - 30.0, x + 30.0, y + 30.0))
+  {
+    const at::TerrainObject& o = course.objects.get(id);
+    if (o.type == at::ObjectType::kGrass)
+      continue;
+    double hx, hy;
+    at::footprintHalfExtents(o, hx, hy);
+    if (std::abs(x - o.x) < hx + margin && std::abs(y - o.y) < hy + margin)
+      return true;
+  }
+  return false;
+}
+
+TEST_F(SensorsNode, EveryOutputArrivesAtItsConfiguredRateInSimTime)
+{
+  // Rates of sensors_node.test: lidar 10 Hz (VLP-16), radar 10 Hz (targets, points, markers),
+  // GPS 10 Hz (other: 5 Hz), IMU 100 Hz, magnetometer 15 Hz, sonar 20 Hz, occupancy 2 Hz.
+  const double span = kTo - kFrom;
+  auto expectRate = [span](const std::string& topic, std::size_t count, double rate) {
+    EXPECT_NEAR(static_cast<double>(count), rate * span, 0.1 * rate * span) << topic;
+    std::printf("[sensors_node test] %-30s %3zu messages in %.1f s of sim time (%.1f Hz configured)\n",
+                topic.c_str(), count, span, rate);
+  };
+  for (const char* v : { "/ego", "/other" })
+  {
+    const std::string p(v);
+    expectRate(p + "/avt_341/points", run->clouds[p + "/avt_341/points"].countIn(kFrom, kTo), 10.0);
+    expectRate(p + "/radar/targets", run->targets[p + "/radar/targets"].countIn(kFrom, kTo), 10.0);
+    expectRate(p + "/radar/points", run->clouds[p + "/radar/points"].countIn(kFrom, kTo), 10.0);
+    std::size_t marker_sets = 0;
+    for (const auto& m : run->markers[p + "/radar/markers"].messages)
+    {
+      const double t = m.markers.front().header.stamp.toSec();
+      marker_sets += (t >= kFrom - 1e-6 && t < kTo - 1e-6) ? 1 : 0;
+    }
+    expectRate(p + "/radar/markers", marker_sets, 10.0);
+    expectRate(p + "/gps/fix", run->fixes[p + "/gps/fix"].countIn(kFrom, kTo), p == "/ego" ? 10.0 : 5.0);
+    expectRate(p + "/imu/data", run->imus[p + "/imu/data"].countIn(kFrom, kTo), 100.0);
+    expectRate(p + "/mag", run->mags[p + "/mag"].countIn(kFrom, kTo), 15.0);
+  }
+  expectRate("/ego/ultrasonic/sonar_down", run->sonar.countIn(kFrom, kTo), 20.0);
+  expectRate("/ego/avt_341/occupancy_grid", run->grid.countIn(kFrom, kTo), 2.0);
+  std::size_t cell_sets = 0;
+  for (const auto& m : run->markers["/ego/octomap/occupied_cells"].messages)
+  {
+    const double t = m.markers.front().header.stamp.toSec();
+    cell_sets += (t >= kFrom - 1e-6 && t < kTo - 1e-6) ? 1 : 0;
+  }
+  expectRate("/ego/octomap/occupied_cells", cell_sets, 2.0);
+
+  // Not only counts: the samples sit on their grids (lidar sweeps start on whole 0.1 s, the
+  // IMU on every 10 ms step, each sensor's stamps strictly increasing).
+  for (const auto& c : run->clouds["/ego/avt_341/points"].messages)
+    EXPECT_NEAR(std::remainder(c.header.stamp.toSec(), 0.1), 0.0, 1e-6);
+  const auto& imu = run->imus["/ego/imu/data"].messages;
+  for (std::size_t k = 1; k < imu.size(); ++k)
+    ASSERT_NEAR((imu[k].header.stamp - imu[k - 1].header.stamp).toSec(), kStep, 1e-6) << k;
+}
+
+TEST_F(SensorsNode, OutputsAreInTheContractFrames)
+{
+  auto expectFrame = [](const std::string& topic, const std::string& got, const std::string& expected) {
+    EXPECT_EQ(got, expected) << topic;
+  };
+  expectFrame("ego points", run->clouds["/ego/avt_341/points"].messages.at(0).header.frame_id, "odom");
+  expectFrame("other points", run->clouds["/other/avt_341/points"].messages.at(0).header.frame_id, "other/lidar");
+  for (const char* v : { "ego", "other" })
+  {
+    const std::string n(v), p = "/" + n;
+    expectFrame(p + " targets", run->targets[p + "/radar/targets"].messages.at(0).header.frame_id, n + "/radar");
+    expectFrame(p + " radar points", run->clouds[p + "/radar/points"].messages.at(0).header.frame_id, n + "/radar");
+    expectFrame(p + " gps", run->fixes[p + "/gps/fix"].messages.at(0).header.frame_id, n + "/gps");
+    expectFrame(p + " imu", run->imus[p + "/imu/data"].messages.at(0).header.frame_id, n + "/imu");
+    expectFrame(p + " mag", run->mags[p + "/mag"].messages.at(0).header.frame_id, n + "/imu");
+  }
+  expectFrame("sonar", run->sonar.messages.at(0).header.frame_id, "ego/sonar_down");
+  expectFrame("grid", run->grid.messages.at(0).header.frame_id, "odom");
+  const auto& cells = run->markers["/ego/octomap/occupied_cells"].messages.back();
+  ASSERT_GE(cells.markers.size(), 2u);
+  expectFrame("occupied cells", cells.markers[1].header.frame_id, "odom");
+  // The PointCloud2 fields of ARCHITECTURE.md: x, y, z, intensity, ring (+ time).
+  const auto& cloud = run->clouds["/ego/avt_341/points"].messages.at(0);
+  std::vector<std::string> names;
+  for (const auto& f : cloud.fields)
+    names.push_back(f.name);
+  EXPECT_EQ(names, (std::vector<std::string>{ "x", "y", "z", "intensity", "ring", "time" }));
+
+  // The sonar is not a URDF link: the node publishes its frame on /tf_static.
+  bool found = false;
+  for (const auto& m : run->tf_static.messages)
+    for (const auto& t : m.transforms)
+      if (t.child_frame_id == "ego/sonar_down")
+      {
+        found = true;
+        EXPECT_EQ(t.header.frame_id, "ego/base_link");
+        EXPECT_NEAR(t.transform.translation.x, 2.0, 1e-9);
+        EXPECT_NEAR(t.transform.translation.z, 0.5, 1e-9);
+        EXPECT_NEAR(t.transform.rotation.y, std::sin(M_PI / 4), 1e-9);  // pitch 90 deg: looking down
+      }
+  EXPECT_TRUE(found) << "no static transform ego/base_link -> ego/sonar_down";
+}
+
+TEST_F(SensorsNode, LidarPointsLieOnTheGroundAndShowTheBuildingsAndTheOtherVehicle)
+{
+  const auto& sweeps = run->clouds["/ego/avt_341/points"].messages;
+  std::size_t ground = 0, on_ground = 0, below = 0, building = 0, own = 0, other = 0, used = 0;
+  double worst_below = 0.0;
+  for (const auto& c : sweeps)
+  {
+    const double t0 = c.header.stamp.toSec();
+    if (t0 > kRutStamp - 0.2 + 1e-6)
+      break;  // before the rut arrives
+    ++used;
+    // The scene of a sweep is the world at its end: other stands where it was then.
+    const double ox = run->otherX(t0 + 0.1);
+    for (const Point& p : points(c))
+    {
+      own += insideBoxes(run->ego_frames, kEgoX, kEgoY, run->ego_z, p, -0.05) ? 1 : 0;
+      if (insideBoxes(run->other_frames, ox, kEgoY, run->other_z, p, 0.05))
+      {
+        ++other;
+        continue;
+      }
+      // Building 0 of the course: (48, 123), 14 m x 9 m.
+      if (p.x > 40.9 && p.x < 55.1 && p.y > 118.4 && p.y < 127.6 && p.z > run->ground + 0.3)
+        ++building;
+      if (nearObject(*run->course, p.x, p.y, 1.0) || insideBoxes(run->other_frames, ox, kEgoY, run->other_z, p, 0.5))
+        continue;
+      const double h = run->groundAt(p.x, p.y);
+      if (!std::isfinite(h))
+        continue;
+      ++ground;
+      on_ground += std::abs(p.z - h) < 0.1 ? 1 : 0;
+      below += p.z < h - 0.3 ? 1 : 0;
+      worst_below = std::min(worst_below, p.z - h);
+    }
+  }
+  ASSERT_GE(used, 15u);
+  std::printf("[sensors_node test] %zu sweeps: %zu ground points, %.3f %% within 0.1 m of the course; %zu on "
+              "building 0, %zu on other, %zu on ego\n",
+              used, ground, 100.0 * on_ground / std::max<std::size_t>(1, ground), building, other, own);
+  EXPECT_GT(ground, 100000u);
+  EXPECT_GE(static_cast<double>(on_ground), 0.995 * ground);
+  EXPECT_EQ(below, 0u) << "a point 0.3 m under the ground (worst " << worst_below << " m)";
+  EXPECT_GT(building, 50u * used) << "building 0 is not in the cloud";
+  EXPECT_GT(other, 10u * used) << "the other vehicle is not in the cloud";
+  EXPECT_EQ(own, 0u) << "ego sees its own body";
+
+  // other's own cloud is in its lidar frame: every point within the VLP-16's 100 m, and some.
+  for (const auto& c : run->clouds["/other/avt_341/points"].messages)
+  {
+    const std::vector<Point> pts = points(c);
+    ASSERT_GT(pts.size(), 1000u);
+    for (const Point& p : pts)
+      ASSERT_LT(std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z), 100.5f);
+  }
+}
+
+TEST_F(SensorsNode, RutsFromTheTerrainReachTheLidarAtTheirStamp)
+{
+  const double x0 = kRutX0 + 0.5, x1 = kRutX0 + kRutSide - 0.5, y0 = kRutY0 + 0.5, y1 = kRutY0 + kRutSide - 0.5;
+  std::size_t before = 0, before_flat = 0, after = 0, after_deep = 0;
+  for (const auto& c : run->clouds["/ego/avt_341/points"].messages)
+  {
+    const double t0 = c.header.stamp.toSec();
+    if (t0 > kFogStamp - 0.2)
+      break;
+    for (const Point& p : points(c))
+    {
+      if (p.x < x0 || p.x > x1 || p.y < y0 || p.y > y1)
+        continue;
+      const double dz = p.z - run->groundAt(p.x, p.y);
+      // A sweep is cast when it ends, with the world then: the sweep from 1.9 s sees the rut.
+      if (t0 < kRutStamp - 0.15)
+      {
+        ++before;
+        before_flat += std::abs(dz) < 0.1 ? 1 : 0;
+      }
+      else
+      {
+        ++after;
+        after_deep += std::abs(dz + kRutDepth) < 0.1 ? 1 : 0;
+      }
+    }
+  }
+  std::printf("[sensors_node test] rut square: %zu points before (%zu on the course), %zu after (%zu 0.3 m deeper)\n",
+              before, before_flat, after, after_deep);
+  EXPECT_GT(before, 20u);
+  EXPECT_EQ(before_flat, before);
+  EXPECT_GT(after, 20u);
+  EXPECT_EQ(after_deep, after);
+}
+
+TEST_F(SensorsNode, FogFromTheEnvironmentShortensTheLidarsReachAtItsStamp)
+{
+  // Ego's lidar: fed_alpha's lidar link, 1 m ahead of and 1.4 m above base_link.
+  const Eigen::Vector3d sensor(kEgoX + 1.0, kEgoY, run->ego_z + 1.4);
+  std::size_t clear = 0, foggy = 0;
+  for (const auto& c : run->clouds["/ego/avt_341/points"].messages)
+  {
+    const double t0 = c.header.stamp.toSec();
+    double farthest = 0.0;
+    for (const Point& p : points(c))
+      farthest = std::max(farthest, (Eigen::Vector3d(p.x, p.y, p.z) - sensor).norm());
+    if (t0 < kFogStamp - 0.15)
+    {
+      EXPECT_GT(farthest, 30.0) << "sweep at " << t0 << " s, before the fog";
+      ++clear;
+    }
+    else
+    {
+      // V = 20 m: alpha = 3.912 / 20 per m; a 0.5-reflectivity surface at normal incidence
+      // falls below the VLP-16's threshold (0.8 at 100 m) beyond about 10.5 m.
+      EXPECT_LT(farthest, 11.0) << "sweep at " << t0 << " s, in the fog";
+      ++foggy;
+    }
+  }
+  EXPECT_GT(clear, 30u);
+  EXPECT_GT(foggy, 15u);
+}
+
+TEST_F(SensorsNode, GpsFixesAreThePositionThroughTheReferenceOrigin)
+{
+  const as::EnuFrame origin({ kLatitude, kLongitude, kAltitude });
+  // ego: noise-free; its antenna (fed_alpha's gps link) at (-0.5, 0, 1.25) in base_link.
+  const Eigen::Vector3d antenna(kEgoX - 0.5, kEgoY, run->ego_z + 1.25);
+  const as::Geodetic expected = origin.toGeodetic(antenna);
+  // Independent of the ellipsoid math to ~1e-6 deg: a metre north is 1/111,000 of a degree.
+  EXPECT_NEAR(expected.latitude_deg, kLatitude + antenna.y() / 111030.0, 2e-5);
+  EXPECT_NEAR(expected.longitude_deg, kLongitude + antenna.x() / (111320.0 * std::cos(kLatitude * M_PI / 180.0)),
+              2e-5);
+  const auto& fixes = run->fixes["/ego/gps/fix"].messages;
+  ASSERT_FALSE(fixes.empty());
+  for (const auto& f : fixes)
+  {
+    ASSERT_NEAR(f.latitude, expected.latitude_deg, 1e-9);
+    ASSERT_NEAR(f.longitude, expected.longitude_deg, 1e-9);
+    ASSERT_NEAR(f.altitude, expected.altitude, 1e-4);
+    EXPECT_EQ(f.status.status, sensor_msgs::NavSatStatus::STATUS_FIX);
+  }
+  // other: the default receiver (2.1 m per horizontal axis): within 15 m of its antenna.
+  for (const auto& f : run->fixes["/other/gps/fix"].messages)
+  {
+    const double t = f.header.stamp.toSec();
+    const Eigen::Vector3d enu = origin.toEnu({ f.latitude, f.longitude, f.altitude });
+    const Eigen::Vector3d antenna_other = run->other_frames.link("gps").translation() +
+                                          Eigen::Vector3d(run->otherX(t), kEgoY, run->other_z);
+    EXPECT_LT((enu - antenna_other).head<2>().norm(), 15.0) << t;
+    EXPECT_GT(f.position_covariance[0], 4.0);
+  }
+}
+
+TEST_F(SensorsNode, ImuAtRestAndAtConstantSpeedReadsPlusGAndNoRotation)
+{
+  for (const char* topic : { "/ego/imu/data", "/other/imu/data" })
+  {
+    const auto& samples = run->imus[topic].messages;
+    ASSERT_GT(samples.size(), 600u) << topic;
+    Eigen::Vector3d f = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+    for (const auto& s : samples)
+    {
+      f += Eigen::Vector3d(s.linear_acceleration.x, s.linear_acceleration.y, s.linear_acceleration.z);
+      w += Eigen::Vector3d(s.angular_velocity.x, s.angular_velocity.y, s.angular_velocity.z);
+    }
+    f /= static_cast<double>(samples.size());
+    w /= static_cast<double>(samples.size());
+    // ADIS16448 noise: 0.018 m/s^2 and 0.0019 rad/s per sample at 100 Hz; means of 651.
+    EXPECT_NEAR(f.z(), 9.81, 0.01) << topic;
+    EXPECT_NEAR(f.x(), 0.0, 0.01) << topic;
+    EXPECT_NEAR(f.y(), 0.0, 0.01) << topic;
+    EXPECT_LT(w.norm(), 0.001) << topic;
+    EXPECT_NEAR(samples.back().orientation.w, 1.0, 1e-3) << topic;  // facing east, level
+  }
+  // The magnetometer reads the IGRF dipole's intensity at the origin (noise 0.2 uT per axis).
+  const as::EarthField field = as::dipoleEarthField({ kLatitude, kLongitude, kAltitude });
+  for (const auto& m : run->mags["/ego/mag"].messages)
+    ASSERT_NEAR(std::sqrt(m.magnetic_field.x * m.magnetic_field.x + m.magnetic_field.y * m.magnetic_field.y +
+                          m.magnetic_field.z * m.magnetic_field.z),
+                field.intensity, 1.5e-6);
+}
+
+TEST_F(SensorsNode, RadarSeesTheOtherVehicleRecedingAndTheSonarTheGround)
+{
+  std::size_t scans = 0, seen = 0;
+  for (const auto& scan : run->targets["/ego/radar/targets"].messages)
+  {
+    const double t = scan.header.stamp.toSec();
+    if (t > 4.0)
+      break;  // other goes out of the pad's lane towards the staging area's edge
+    ++scans;
+    // ego's radar (fed_alpha) is 2.45 m ahead of base_link; other's box (mrzr) ends 1.8 m behind its base_link.
+    const double rear = run->otherX(t) - 1.8 - (kEgoX + 2.45);
+    for (const auto& target : scan.targets)
+      if (target.range_rate > 1.0)
+      {
+        ++seen;
+        EXPECT_NEAR(target.range_rate, kOtherSpeed, 0.1) << t;
+        EXPECT_NEAR(target.azimuth, 0.0, 0.05) << t;
+        EXPECT_NEAR(target.centroid.x, rear, 0.5) << t;
+        break;
+      }
+  }
+  EXPECT_GT(scans, 30u);
+  EXPECT_EQ(seen, scans) << "the receding vehicle is missing from some radar scans";
+
+  // The sonar 2 m ahead of base_link, 0.5 m up, looking down: the ground (noise 0.01 m).
+  const double expected = run->ego_z + 0.5 - run->groundAt(kEgoX + 2.0, kEgoY);
+  ASSERT_FALSE(run->sonar.messages.empty());
+  for (const auto& r : run->sonar.messages)
+  {
+    ASSERT_NEAR(r.range, expected, 0.05);
+    EXPECT_EQ(r.radiation_type, sensor_msgs::Range::ULTRASOUND);
+  }
+}
+
+TEST_F(SensorsNode, OccupancyGridMarksTheBuildingAndTheGroundAheadAndTheMapCanBeSaved)
+{
+  ASSERT_FALSE(run->grid.messages.empty());
+  const nav_msgs::OccupancyGrid& g = run->grid.messages.back();
+  auto at = [&g](double x, double y) {
+    const int i = static_cast<int>(std::floor((x - g.info.origin.position.x) / g.info.resolution));
+    const int j = static_cast<int>(std::floor((y - g.info.origin.position.y) / g.info.resolution));
+    if (i < 0 || j < 0 || i >= static_cast<int>(g.info.width) || j >= static_cast<int>(g.info.height))
+      return -2;
+    return static_cast<int>(g.data[static_cast<std::size_t>(j) * g.info.width + i]);
+  };
+  EXPECT_NEAR(g.info.width * g.info.resolution, 60.0, 0.5);
+  // Building 0's north wall (y = 127.5, x 41..55) faces ego across the lane: its voxels'
+  // centres lie on y = 127.5.
+  int wall = 0;
+  for (double x = 41.1; x < 55.0; x += 0.2)
+    wall += at(x, 127.5) == 100 ? 1 : 0;
+  EXPECT_GT(wall, 30) << "cells of building 0's north wall marked occupied";
+  EXPECT_EQ(at(38.0, 131.0), 0) << "the ground 7 m ahead of ego";
+
+  ros::NodeHandle nh;
+  const std::string path = "/tmp/avsp_sensors_node_test_" + std::to_string(getpid()) + ".bt";
+  avsp_msgs::SaveMap srv;
+  srv.request.path = path;
+  ASSERT_TRUE(ros::service::call("/sensors/ego/save_map", srv));
+  EXPECT_TRUE(srv.response.success) << srv.response.message;
+  struct stat st;
+  ASSERT_EQ(stat(path.c_str(), &st), 0);
+  EXPECT_GT(st.st_size, 1000);
+  std::remove(path.c_str());
+  srv.request.path = "relative.bt";
+  ASSERT_TRUE(ros::service::call("/sensors/ego/save_map", srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("absolute"), std::string::npos) << srv.response.message;
+}
+
+TEST_F(SensorsNode, BadMessagesAreIgnoredWithAWarningNamingTheTopic)
+{
+  auto warned = [](std::initializer_list<const char*> parts) {
+    for (const std::string& w : run->warnings)
+    {
+      bool all = true;
+      for (const char* p : parts)
+        all = all && w.find(p) != std::string::npos;
+      if (all)
+        return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(warned({ "/ego/avt_341/odometry ignored", "not finite" }));
+  EXPECT_TRUE(warned({ "/terrain/ruts from", "rejected", "resolution" }));
+  EXPECT_TRUE(warned({ "/terrain/toppled ignored", "999999" }));
+  EXPECT_TRUE(warned({ "/environment ignored", "fog_visibility" }));
+  // The node kept going: every IMU step was answered (the lockstep completed).
+}
+
+/// Runs sensors_node under a fresh name with private parameters set on the master first: it
+/// must exit 1 and say what is wrong.
+std::pair<int, std::string> runBadNode(const XmlRpc::XmlRpcValue& sensors, const XmlRpc::XmlRpcValue* own,
+                                       bool origin = true)
+{
+  static int count = 0;
+  const std::string name = "bad_sensors_" + std::to_string(getpid()) + "_" + std::to_string(count++);
+  ros::NodeHandle nh;
+  XmlRpc::XmlRpcValue vehicles, v;
+  v["name"] = std::string("ego");
+  v["model"] = std::string("fed_alpha");
+  vehicles[0] = v;
+  const std::string ns = "/" + name + "/";
+  nh.setParam(ns + "vehicles", vehicles);
+  nh.setParam(ns + "config_dir", run->config_dir);
+  nh.setParam(ns + "soils_file", run->soils_file);
+  nh.setParam(ns + "flat_soil", std::string("gravel"));
+  nh.setParam(ns + "flat_size", 20.0);
+  if (origin)
+  {
+    nh.setParam(ns + "latitude", kLatitude);
+    nh.setParam(ns + "longitude", kLongitude);
+  }
+  nh.setParam(ns + "sensors", sensors);
+  if (own != nullptr)
+  {
+    XmlRpc::XmlRpcValue per;
+    per["ego"] = *own;
+    nh.setParam(ns + "vehicle_sensors", per);
+  }
+  const std::string log = "/tmp/avsp_bad_sensors_node_" + std::to_string(getpid()) + ".log";
+  const std::string cmd = std::string(SENSORS_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::remove(log.c_str());
+  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+}
+
+XmlRpc::XmlRpcValue section(const std::string& sensor, const std::string& key, const XmlRpc::XmlRpcValue& value)
+{
+  XmlRpc::XmlRpcValue s, inner;
+  inner[key] = value;
+  s[sensor] = inner;
+  return s;
+}
+
+TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
+{
+  struct Case
+  {
+    XmlRpc::XmlRpcValue sensors;
+    bool own;
+    bool origin;
+    std::vector<std::string> said;
+  };
+  const std::vector<Case> cases{
+    { section("radar", "max_range", -5.0), false, true, { "~sensors/radar", "max_range" } },
+    { section("lidar", "preset", std::string("VLP-17")), false, true, { "~sensors/lidar/preset", "VLP-17" } },
+    { section("lidar", "rang", 3.0), false, true, { "~sensors/lidar/rang", "not a known key" } },
+    { section("imu", "rate", 0.0), true, true, { "~vehicle_sensors/ego/imu", "rate" } },
+    { section("lidar", "frame", std::string("periscope")), false, true, { "~sensors/lidar/frame", "periscope" } },
+    { section("gps", "rate", 10.0), false, false, { "~latitude" } },
+  };
+  for (const Case& c : cases)
+  {
+    XmlRpc::XmlRpcValue empty;
+    empty.begin();
+    const auto [code, out] = c.own ? runBadNode(empty, &c.sensors, c.origin) : runBadNode(c.sensors, nullptr, c.origin);
+    EXPECT_EQ(code, 1) << out;
+    for (const std::string& s : c.said)
+      EXPECT_NE(out.find(s), std::string::npos) << "'" << s << "' not in: " << out;
+  }
+}
+
+// ---- sensors_dynamics.test: behind the real dynamics_node ---------------------------------
+
+TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
+{
+  ros::NodeHandle nh, pnh("~");
+  std::string config_dir;
+  ASSERT_TRUE(pnh.getParam("config_dir", config_dir));
+  const as::node::VehicleFrames ego_frames = as::node::loadVehicleFrames(config_dir + "/fed_alpha.yaml");
+  Topic<sensor_msgs::Imu> imu, mule_imu;
+  Topic<sensor_msgs::PointCloud2> cloud;
+  Topic<avsp_msgs::RadarTargetArray> targets;
+  Topic<sensor_msgs::NavSatFix> fixes;
+  Topic<nav_msgs::Odometry> ego_odom, mule_odom;
+  imu.subscribe(nh, "/ego/imu/data");
+  mule_imu.subscribe(nh, "/mule/imu/data");
+  cloud.subscribe(nh, "/ego/avt_341/points");
+  targets.subscribe(nh, "/ego/radar/targets");
+  fixes.subscribe(nh, "/ego/gps/fix");
+  ego_odom.subscribe(nh, "/ego/avt_341/odometry");
+  mule_odom.subscribe(nh, "/mule/avt_341/odometry");
+  // Until 4 s of sim time have been sensed (the dynamics may run ahead: the sensors follow).
+  const double until = 4.0;
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        return !imu.messages.empty() && imu.messages.back().header.stamp.toSec() >= until &&
+               !mule_imu.messages.empty() && mule_imu.messages.back().header.stamp.toSec() >= until;
+      },
+      90.0))
+      << "IMU samples: ego " << imu.messages.size() << ", mule " << mule_imu.messages.size();
+  spinUntil([] { return false; }, 0.5);
+
+  // Rates per sim time over [1, 4): IMU 100 Hz, lidar, radar and GPS 10 Hz.
+  const double from = 1.0, span = until - from;
+  EXPECT_NEAR(static_cast<double>(imu.countIn(from, until)), 100.0 * span, 10.0 * span);
+  EXPECT_NEAR(static_cast<double>(mule_imu.countIn(from, until)), 100.0 * span, 10.0 * span);
+  EXPECT_NEAR(static_cast<double>(cloud.countIn(from, until)), 10.0 * span, 1.0 * span);
+  EXPECT_NEAR(static_cast<double>(targets.countIn(from, until)), 10.0 * span, 1.0 * span);
+  EXPECT_NEAR(static_cast<double>(fixes.countIn(from, until)), 10.0 * span, 1.0 * span);
+  std::printf("[sensors_node test] behind dynamics_node over %.0f s of sim time: %zu + %zu IMU samples, %zu sweeps, "
+              "%zu radar scans, %zu fixes\n",
+              span, imu.countIn(from, until), mule_imu.countIn(from, until), cloud.countIn(from, until),
+              targets.countIn(from, until), fixes.countIn(from, until));
+
+  // Braked and settled after the first second: +g and no rotation.
+  for (const Topic<sensor_msgs::Imu>* t : { &imu, &mule_imu })
+  {
+    Eigen::Vector3d f = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+    std::size_t n = 0;
+    for (const auto& s : t->messages)
+      if (s.header.stamp.toSec() >= 2.0)
+      {
+        f += Eigen::Vector3d(s.linear_acceleration.x, s.linear_acceleration.y, s.linear_acceleration.z);
+        w += Eigen::Vector3d(s.angular_velocity.x, s.angular_velocity.y, s.angular_velocity.z);
+        ++n;
+      }
+    ASSERT_GT(n, 100u);
+    f /= static_cast<double>(n);
+    w /= static_cast<double>(n);
+    EXPECT_NEAR(f.norm(), 9.81, 0.05) << t->name;
+    EXPECT_LT(w.norm(), 0.005) << t->name;
+  }
+
+  // ego's radar (2.45 m ahead of its base_link) sees mule's rear (1.8 m behind mule's base_link,
+  // 12 m ahead), standing still.
+  ASSERT_FALSE(mule_odom.messages.empty());
+  ASSERT_FALSE(ego_odom.messages.empty());
+  const auto& mp = mule_odom.messages.back().pose.pose.position;
+  const auto& ep = ego_odom.messages.back().pose.pose.position;
+  std::size_t scans = 0, seen = 0;
+  for (const auto& scan : targets.messages)
+  {
+    if (scan.header.stamp.toSec() < 2.0)
+      continue;
+    ++scans;
+    for (const auto& t : scan.targets)
+      if (std::abs(t.azimuth) < 0.1 && std::abs(t.centroid.x - (mp.x - 1.8 - (ep.x + 2.45))) < 0.5)
+      {
+        ++seen;
+        EXPECT_LT(std::abs(t.range_rate), 0.1);
+        break;
+      }
+  }
+  EXPECT_GT(scans, 15u);
+  EXPECT_EQ(seen, scans);
+
+  // The lidar: the flat ground (z = 0, ruts under the wheels aside), mule's body, not ego's.
+  std::size_t ground = 0, flat = 0, on_mule = 0, own = 0;
+  for (const auto& c : cloud.messages)
+  {
+    if (c.header.stamp.toSec() < 2.0)
+      continue;
+    EXPECT_EQ(c.header.frame_id, "odom");
+    for (const Point& p : points(c))
+    {
+      own += insideBoxes(ego_frames, ep.x, ep.y, ep.z, p, -0.05) ? 1 : 0;
+      if (std::abs(p.x - mp.x) < 3.0 && std::abs(p.y - mp.y) < 2.0)
+      {
+        on_mule += p.z > 0.3 ? 1 : 0;
+        continue;
+      }
+      if (std::abs(p.x - ep.x) < 3.5 && std::abs(p.y - ep.y) < 2.5)
+        continue;
+      ++ground;
+      flat += std::abs(p.z) < 0.1 ? 1 : 0;
+    }
+  }
+  EXPECT_GT(ground, 10000u);
+  EXPECT_EQ(flat, ground);
+  EXPECT_GT(on_mule, 100u);
+  EXPECT_EQ(own, 0u);
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_sensors_node");
+  ros::NodeHandle nh;
+  const int result = RUN_ALL_TESTS();
+  delete run;
+  return result;
+}

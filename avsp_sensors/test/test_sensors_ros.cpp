@@ -1,0 +1,363 @@
+// sensors_node's ROS layer without a master: the parameters (defaults, per-section precedence,
+// every malformed key named), the vehicle frames from the reference URDFs, and the message
+// conversions (PointCloud2 layout, stamps on the microsecond, odometry twist into the map,
+// weather checks).
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <avsp_msgs/node_params.hpp>
+
+#include "avsp_sensors/ros/conversions.hpp"
+#include "avsp_sensors/ros/sensor_params.hpp"
+#include "avsp_sensors/ros/vehicle_frames.hpp"
+
+using namespace avsp::sensors;
+using namespace avsp::sensors::node;
+using XmlRpc::XmlRpcValue;
+
+namespace
+{
+/// A YAML-like map built in code: {{"key", value}, ...}.
+XmlRpcValue map(std::vector<std::pair<std::string, XmlRpcValue>> entries)
+{
+  XmlRpcValue v;
+  v.begin();  // makes it a struct even when empty
+  for (auto& [k, x] : entries)
+    v[k] = x;
+  return v;
+}
+
+XmlRpcValue list(std::vector<XmlRpcValue> items)
+{
+  XmlRpcValue v;
+  v.setSize(static_cast<int>(items.size()));
+  for (std::size_t k = 0; k < items.size(); ++k)
+    v[static_cast<int>(k)] = items[k];
+  return v;
+}
+
+XmlRpcValue str(const char* s)
+{
+  return XmlRpcValue(std::string(s));
+}
+
+/// The StartupError message of parsing `common` as ~sensors (and `own` as the vehicle's).
+std::string error(const XmlRpcValue& common, const XmlRpcValue* own = nullptr)
+{
+  try
+  {
+    parseSensors(own, "~vehicle_sensors/ego", &common, "~sensors");
+  }
+  catch (const avsp::msgs::StartupError& e)
+  {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+bool mentions(const std::string& text, std::initializer_list<const char*> parts)
+{
+  for (const char* p : parts)
+    if (text.find(p) == std::string::npos)
+      return false;
+  return true;
+}
+}  // namespace
+
+/// The text contains every one of the strings that follow it.
+#define EXPECT_MENTIONS(text, ...)                              \
+  do                                                            \
+  {                                                             \
+    const std::string said_ = (text);                           \
+    EXPECT_TRUE(mentions(said_, { __VA_ARGS__ })) << said_;     \
+  } while (0)
+
+TEST(SensorParams, DefaultsGiveEverySensorButUltrasonicsOnTheStandardLinks)
+{
+  const SensorsSpec s = parseSensors(nullptr, "~vehicle_sensors/ego", nullptr, "~sensors");
+  ASSERT_TRUE(s.suite.lidar);
+  EXPECT_EQ(s.suite.lidar->config.name, "VLP-16");
+  EXPECT_TRUE(s.suite.lidar->registered);
+  ASSERT_TRUE(s.suite.radar);
+  EXPECT_EQ(s.suite.radar->rate, 10.0);
+  EXPECT_TRUE(s.suite.gps && s.suite.imu && s.suite.magnetometer && s.suite.occupancy);
+  EXPECT_TRUE(s.suite.ultrasonics.empty());
+  EXPECT_EQ(s.lidar_link, "lidar");
+  EXPECT_EQ(s.magnetometer_link, "imu");
+  EXPECT_EQ(s.keys.at("radar"), "~sensors/radar");
+  EXPECT_TRUE(needsOrigin({ s }));
+}
+
+TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
+{
+  const XmlRpcValue common = map({ { "lidar", map({ { "preset", str("HDL-32E") }, { "max_range", 80.0 } }) },
+                                   { "radar", map({ { "rate", 20 }, { "cluster_eps", 1.5 } }) },
+                                   { "gps", map({ { "enabled", false } }) } });
+  const XmlRpcValue own = map({ { "lidar", map({ { "registered", false }, { "sub_rays", 2 } }) },
+                                { "magnetometer", map({ { "intensity", 4.8e-5 }, { "inclination_deg", 65 } }) },
+                                { "ultrasonic", list({ map({ { "name", str("rear") }, { "x", -2.0 }, { "yaw", 3.14159 },
+                                                             { "max_range", 3.0 } }) }) } });
+  const SensorsSpec s = parseSensors(&own, "~vehicle_sensors/ego", &common, "~sensors");
+  ASSERT_TRUE(s.suite.lidar);
+  EXPECT_EQ(s.suite.lidar->config.name, "VLP-16");  // the vehicle's lidar section, not HDL-32E
+  EXPECT_FALSE(s.suite.lidar->registered);
+  EXPECT_EQ(s.suite.lidar->config.sub_rays, 2u);
+  EXPECT_EQ(s.keys.at("lidar"), "~vehicle_sensors/ego/lidar");
+  ASSERT_TRUE(s.suite.radar);
+  EXPECT_EQ(s.suite.radar->rate, 20.0);
+  EXPECT_EQ(s.suite.radar->config.cluster_eps, 1.5);
+  EXPECT_FALSE(s.suite.gps);
+  ASSERT_TRUE(s.suite.magnetometer);
+  EXPECT_EQ(s.suite.magnetometer->field.intensity, 4.8e-5);
+  EXPECT_FALSE(needsOrigin({ s }));  // no GPS, the magnetometer's field given
+  ASSERT_EQ(s.suite.ultrasonics.size(), 1u);
+  EXPECT_EQ(s.suite.ultrasonics[0].name, "rear");
+  EXPECT_EQ(s.suite.ultrasonics[0].config.max_range, 3.0);
+  ASSERT_TRUE(s.ultrasonic_mounts[0].pose);
+  EXPECT_NEAR(s.ultrasonic_mounts[0].pose->translation().x(), -2.0, 1e-12);
+  EXPECT_NEAR((s.ultrasonic_mounts[0].pose->linear() * Eigen::Vector3d::UnitX()).x(), -1.0, 1e-9);
+
+  // A custom lidar from its channels.
+  const XmlRpcValue custom = map({ { "lidar", map({ { "preset", str("custom") },
+                                                    { "channels", list({ map({ { "elevation", -0.1 } }),
+                                                                         map({ { "elevation", 0.1 },
+                                                                               { "time_offset", 1e-6 } }) }) },
+                                                    { "columns", 360 } }) } });
+  const SensorsSpec c = parseSensors(nullptr, "", &custom, "~sensors");
+  ASSERT_EQ(c.suite.lidar->config.channels.size(), 2u);
+  EXPECT_EQ(c.suite.lidar->config.columns, 360u);
+  // Without a lidar the occupancy map is off unless asked for.
+  const XmlRpcValue no_lidar = map({ { "lidar", map({ { "enabled", false } }) } });
+  EXPECT_FALSE(parseSensors(nullptr, "", &no_lidar, "~sensors").suite.occupancy);
+}
+
+TEST(SensorParams, EveryMalformedKeyIsNamed)
+{
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "presett", str("VLP-16") } }) } })), "~sensors/lidar/presett", "not a known key");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "preset", str("VLP-17") } }) } })), "~sensors/lidar/preset", "VLP-17");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "preset", str("custom") } }) } })), "~sensors/lidar/channels", "required");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "max_range", str("far") } }) } })), "~sensors/lidar/max_range", "must be a number");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "min_range", 200.0 } }) } })), "~sensors/lidar", "max_range");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "return_mode", str("first") } }) } })), "~sensors/lidar/return_mode", "'strongest' or 'last'");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "columns", -5 } }) } })), "~sensors/lidar/columns");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "registered", 1 } }) } })), "~sensors/lidar/registered", "true or false");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "frame", str("a/b") } }) } })), "~sensors/lidar/frame", "URDF link");
+  EXPECT_MENTIONS(error(map({ { "radar", map({ { "max_range", -5.0 } }) } })), "~sensors/radar", "max_range");
+  EXPECT_MENTIONS(error(map({ { "radar", map({ { "rate", 0 } }) } })), "~sensors/radar", "rate");
+  EXPECT_MENTIONS(error(map({ { "radar", map({ { "cluster_min_points", 0 } }) } })), "~sensors/radar/cluster_min_points");
+  EXPECT_MENTIONS(error(map({ { "gps", map({ { "rate", str("fast") } }) } })), "~sensors/gps/rate", "must be a number");
+  EXPECT_MENTIONS(error(map({ { "gps", map({ { "horizontal_noise", -1.0 } }) } })), "~sensors/gps", "horizontal_noise");
+  EXPECT_MENTIONS(error(map({ { "imu", map({ { "rate", 0.0 } }) } })), "~sensors/imu", "rate");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "inclination_deg", 95 } }) } })), "~sensors/magnetometer", "inclination_deg");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "x", 1.0 } }) }) } })), "~sensors/ultrasonic[0]/name", "required");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })), "~sensors/ultrasonic[1]/name", "used twice");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") }, { "max_range", 0.01 } }) }) } })), "~sensors/ultrasonic[0]", "max_range");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", map({ { "name", str("a") } }) } })), "~sensors/ultrasonic", "must be a list");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "enabled", false } }) }, { "occupancy", map({ { "enabled", true } }) } })), "~sensors/occupancy/enabled", "needs a lidar");
+  EXPECT_MENTIONS(error(map({ { "occupancy", map({ { "resolution", 0.0 } }) } })), "~sensors/occupancy", "resolution");
+  EXPECT_MENTIONS(error(map({ { "occupancy", map({ { "obstacle_height", 5.0 } }) } })), "~sensors/occupancy", "max_height");
+  EXPECT_MENTIONS(error(map({ { "sonar", map({}) } })), "~sensors/sonar", "not a known key");
+  EXPECT_MENTIONS(error(map({ { "lidar", 3 } })), "~sensors/lidar", "must be a map");
+  // The vehicle's own section is named as such.
+  const XmlRpcValue own = map({ { "imu", map({ { "gravity", -1.0 } }) } });
+  EXPECT_MENTIONS(error(map({}), &own), "~vehicle_sensors/ego/imu", "gravity");
+}
+
+TEST(SensorParams, VehicleListIsCheckedEntryByEntry)
+{
+  const auto fails = [](const XmlRpcValue& v) {
+    try
+    {
+      parseVehicles(v);
+    }
+    catch (const avsp::msgs::StartupError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  const std::vector<VehicleEntry> ok = parseVehicles(list({ map({ { "name", str("a") }, { "model", str("fed_alpha") },
+                                                                  { "x", 3.0 } }),
+                                                            map({ { "name", str("b") }, { "model", str("mrzr") } }) }));
+  ASSERT_EQ(ok.size(), 2u);
+  EXPECT_EQ(ok[1].model, "mrzr");
+  EXPECT_MENTIONS(fails(XmlRpcValue(3)), "~vehicles", "non-empty list");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") } }) })), "~vehicles[0]", "'model'");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") } }),
+                            map({ { "name", str("a") }, { "model", str("m") } }) })), "~vehicles[1]/name", "used twice");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a/b") }, { "model", str("m") } }) })), "~vehicles[0]/name", "without '/'");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") }, { "colour", str("red") } }) })), "~vehicles[0]/colour", "not a known key");
+}
+
+TEST(VehicleFrames, ReferenceVehiclesHaveTheSensorLinksAndCollisionBoxes)
+{
+  for (const char* model : { "fed_alpha", "m113", "mrzr", "tracer_x" })
+  {
+    const VehicleFrames f = loadVehicleFrames(std::string(AVSP_CONFIG_DIR) + "/vehicles/" + model + ".yaml");
+    EXPECT_EQ(f.root_link, "base_link") << model;
+    for (const char* link : { "lidar", "radar", "gps", "imu" })
+      EXPECT_TRUE(f.hasLink(link)) << model << " " << link;
+    EXPECT_FALSE(f.boxes.empty()) << model;
+  }
+  const VehicleFrames f = loadVehicleFrames(std::string(AVSP_CONFIG_DIR) + "/vehicles/fed_alpha.yaml");
+  // urdf/fed_alpha.urdf: lidar_mount xyz="1 0 1.4".
+  EXPECT_NEAR((f.link("lidar").translation() - Eigen::Vector3d(1.0, 0.0, 1.4)).norm(), 0.0, 1e-12);
+  EXPECT_THROW(f.link("sonar"), std::invalid_argument);
+}
+
+TEST(Conversions, LidarCloudHasTheContractLayout)
+{
+  LidarScan scan;
+  scan.points.push_back({ 1.5f, -2.0f, 0.25f, 42.0f, 7, 0.05f });
+  scan.points.push_back({ 3.0f, 4.0f, 5.0f, 1.0f, 15, 0.09f });
+  std_msgs::Header h;
+  h.frame_id = "odom";
+  const sensor_msgs::PointCloud2 c = toPointCloud2(scan, h);
+  ASSERT_EQ(c.fields.size(), 6u);
+  const char* names[] = { "x", "y", "z", "intensity", "ring", "time" };
+  const std::uint32_t offsets[] = { 0, 4, 8, 12, 16, 20 };
+  for (int k = 0; k < 6; ++k)
+  {
+    EXPECT_EQ(c.fields[k].name, names[k]);
+    EXPECT_EQ(c.fields[k].offset, offsets[k]);
+    EXPECT_EQ(c.fields[k].count, 1u);
+  }
+  EXPECT_EQ(c.fields[4].datatype, sensor_msgs::PointField::UINT16);
+  EXPECT_EQ(c.fields[5].datatype, sensor_msgs::PointField::FLOAT32);
+  EXPECT_EQ(c.point_step, 24u);
+  EXPECT_EQ(c.width, 2u);
+  EXPECT_EQ(c.row_step, 48u);
+  EXPECT_EQ(c.data.size(), 48u);
+  EXPECT_FALSE(c.is_bigendian);
+  float y, t;
+  std::uint16_t ring;
+  std::memcpy(&y, &c.data[24 + 4], 4);
+  std::memcpy(&ring, &c.data[24 + 16], 2);
+  std::memcpy(&t, &c.data[24 + 20], 4);
+  EXPECT_EQ(y, 4.0f);
+  EXPECT_EQ(ring, 15);
+  EXPECT_EQ(t, 0.09f);
+  EXPECT_EQ(c.data[18], 0);  // padding zeroed
+  EXPECT_EQ(c.data[19], 0);
+}
+
+TEST(Conversions, StampsLandOnTheMicrosecondAndOdometryTwistIsRotatedIntoTheMap)
+{
+  EXPECT_EQ(stampSeconds(ros::Time(0, 99999999)), 0.1);
+  EXPECT_EQ(stampSeconds(ros::Time(12, 300000400)), 12.3);
+  EXPECT_EQ(toStamp(12.3).nsec, 300000000u);
+  EXPECT_EQ(toStamp(12.3).sec, 12u);
+
+  nav_msgs::Odometry o;
+  o.header.frame_id = "odom";
+  o.header.stamp = ros::Time(2, 500000000);
+  o.child_frame_id = "ego/base_link";
+  o.pose.pose.position.x = 10.0;
+  o.pose.pose.orientation.w = std::cos(M_PI / 4);  // yaw 90 deg: facing north
+  o.pose.pose.orientation.z = std::sin(M_PI / 4);
+  o.twist.twist.linear.x = 3.0;  // forward, in base_link
+  o.twist.twist.angular.z = 0.2;
+  VehicleState s;
+  std::string why;
+  ASSERT_TRUE(stateFromOdometry(o, "odom", "ego/base_link", s, why)) << why;
+  EXPECT_EQ(s.time, 2.5);
+  EXPECT_NEAR((s.linear_velocity - Eigen::Vector3d(0.0, 3.0, 0.0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((s.angular_velocity - Eigen::Vector3d(0.0, 0.0, 0.2)).norm(), 0.0, 1e-12);
+  EXPECT_FALSE(stateFromOdometry(o, "map", "ego/base_link", s, why));
+  EXPECT_NE(why.find("frame_id"), std::string::npos);
+  EXPECT_FALSE(stateFromOdometry(o, "odom", "car/base_link", s, why));
+  EXPECT_NE(why.find("child_frame_id"), std::string::npos);
+  o.pose.pose.orientation.w = 0.5;
+  EXPECT_FALSE(stateFromOdometry(o, "odom", "ego/base_link", s, why));
+  EXPECT_NE(why.find("unit quaternion"), std::string::npos);
+  o.pose.pose.orientation.w = std::cos(M_PI / 4);
+  o.twist.twist.linear.y = std::nan("");
+  EXPECT_FALSE(stateFromOdometry(o, "odom", "ego/base_link", s, why));
+  EXPECT_NE(why.find("twist"), std::string::npos);
+
+  avsp_msgs::Environment env;
+  env.fog_visibility = std::numeric_limits<double>::infinity();
+  env.snow_rate_mm_h = 2.0;
+  env.air_temperature = 268.0;
+  Weather w;
+  ASSERT_TRUE(weatherFromEnvironment(env, w, why)) << why;
+  EXPECT_EQ(w.snow_rate, 2.0);
+  EXPECT_FALSE(w.wet_snow);
+  env.fog_visibility = -3.0;
+  EXPECT_FALSE(weatherFromEnvironment(env, w, why));
+  EXPECT_NE(why.find("fog_visibility"), std::string::npos);
+  EXPECT_EQ(w.snow_rate, 2.0);  // unchanged
+}
+
+TEST(Conversions, RadarOccupancyAndSampledSensorsFillTheirMessages)
+{
+  RadarScan scan;
+  RadarDetection d;
+  d.position = Eigen::Vector3d(10, 1, 0);
+  d.range_rate = -2.0;
+  scan.detections = { d, d };
+  scan.clusters.labels = { 0, -1 };
+  RadarTarget t;
+  t.centroid = Eigen::Vector3d(10, 1, 0);
+  t.range = std::hypot(10.0, 1.0);
+  t.range_rate = -2.0;
+  t.point_count = 1;
+  t.extent = Eigen::Vector3d(0.1, 0.0, 0.0);
+  scan.targets = { t };
+  std_msgs::Header h;
+  h.frame_id = "ego/radar";
+  const avsp_msgs::RadarTargetArray a = radarTargets(scan, h);
+  ASSERT_EQ(a.targets.size(), 1u);
+  EXPECT_EQ(a.header.frame_id, "ego/radar");
+  EXPECT_EQ(a.targets[0].range_rate, -2.0);
+  const sensor_msgs::PointCloud2 p = radarPoints(scan, h);
+  EXPECT_EQ(p.width, 2u);
+  EXPECT_EQ(p.point_step, 20u);
+  std::int32_t label;
+  std::memcpy(&label, &p.data[20 + 16], 4);
+  EXPECT_EQ(label, -1);
+  const visualization_msgs::MarkerArray m = radarMarkers(scan, h);
+  ASSERT_EQ(m.markers.size(), 3u);
+  EXPECT_EQ(m.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_EQ(m.markers[1].scale.x, 0.2);
+
+  const std::vector<OccupiedCell> cells{ { Eigen::Vector3d(1, 2, 3), 0.2, 0.9 }, { Eigen::Vector3d(0, 0, 0), 0.4, 0.8 },
+                                         { Eigen::Vector3d(1, 1, 1), 0.2, 0.7 } };
+  const visualization_msgs::MarkerArray cm = occupiedCellMarkers(cells, h, 0.0, 3.0);
+  ASSERT_EQ(cm.markers.size(), 3u);  // DELETEALL + one list per size
+  EXPECT_EQ(cm.markers[1].points.size(), 2u);
+  EXPECT_EQ(cm.markers[1].scale.x, 0.2);
+  EXPECT_EQ(cm.markers[2].points.size(), 1u);
+
+  OccupancyGrid2D g;
+  g.width = 2;
+  g.height = 1;
+  g.resolution = 0.2;
+  g.origin_x = -1.0;
+  g.data = { 100, -1 };
+  const nav_msgs::OccupancyGrid og = toOccupancyGrid(g, h);
+  EXPECT_EQ(og.info.width, 2u);
+  EXPECT_FLOAT_EQ(og.info.resolution, 0.2f);
+  EXPECT_EQ(og.data[0], 100);
+
+  UltrasonicReading r;
+  r.range = std::numeric_limits<double>::infinity();
+  r.max_range = 4.0;
+  const sensor_msgs::Range range = toRange(r, h);
+  EXPECT_EQ(range.radiation_type, sensor_msgs::Range::ULTRASOUND);
+  EXPECT_TRUE(std::isinf(range.range));
+
+  GpsFix fix;
+  fix.position = { 42.0, -83.0, 180.0 };
+  fix.covariance = Eigen::Vector3d(1, 2, 3).asDiagonal();
+  const sensor_msgs::NavSatFix nf = toNavSatFix(fix, h);
+  EXPECT_EQ(nf.latitude, 42.0);
+  EXPECT_EQ(nf.position_covariance[4], 2.0);
+  EXPECT_EQ(nf.position_covariance_type, sensor_msgs::NavSatFix::COVARIANCE_TYPE_DIAGONAL_KNOWN);
+}
