@@ -91,9 +91,9 @@ std::vector<ac::Waypoint> waypointsFromParams(const ros::NodeHandle& pnh)
   return waypoints;
 }
 
-ac::TrackingOptions trackingFromParams(const ros::NodeHandle& pnh)
+/// The pursuit and speed-loop parameters, defaults from the mode's options.
+ac::TrackingOptions trackingFromParams(const ros::NodeHandle& pnh, ac::TrackingOptions o)
 {
-  ac::TrackingOptions o;
   o.lookahead.min = boundedParam(pnh, "lookahead_min", o.lookahead.min, 0.1, 1000.0);
   o.lookahead.gain = boundedParam(pnh, "lookahead_gain", o.lookahead.gain, 0.0, 100.0);
   o.lookahead.max = boundedParam(pnh, "lookahead_max", o.lookahead.max, o.lookahead.min, 1000.0);
@@ -103,6 +103,7 @@ ac::TrackingOptions trackingFromParams(const ros::NodeHandle& pnh)
   o.pid.integral_limit = boundedParam(pnh, "speed_integral_limit", o.pid.integral_limit, 0.01, 1.0);
   o.coast_band = boundedParam(pnh, "coast_band", o.coast_band, 0.0, 0.99);
   o.brake_gain = boundedParam(pnh, "brake_gain", o.brake_gain, 0.01, 100.0);
+  o.max_accel = boundedParam(pnh, "max_accel", o.max_accel, 0.01, 100.0);
   return o;
 }
 
@@ -147,14 +148,12 @@ public:
     const double rate = boundedParam(pnh, "rate", 20.0, 1.0, 1000.0);
     period_ = 1.0 / rate;
     pnh.param<std::string>("frame_id", frame_id_, "map");
-    const ac::TrackingOptions tracking = trackingFromParams(pnh);
-
     try
     {
       if (mode == "waypoints")
       {
         ac::WaypointFollowerOptions o;
-        o.tracking = tracking;
+        o.tracking = trackingFromParams(pnh, o.tracking);
         o.decel = boundedParam(pnh, "decel", o.decel, 0.05, 20.0);
         o.approach_speed = boundedParam(pnh, "approach_speed", o.approach_speed, 0.05, 10.0);
         o.goal_tolerance = boundedParam(pnh, "goal_tolerance", o.goal_tolerance, 0.05, 100.0);
@@ -163,11 +162,12 @@ public:
       else
       {
         ac::LeaderFollowerOptions o;
-        o.tracking = tracking;
+        o.tracking = trackingFromParams(pnh, o.tracking);
         leader_ = requiredString(pnh, "leader", "the vehicle_id of the vehicle to follow");
         o.gap = boundedParam(pnh, "gap", o.gap, 0.0, 10000.0);
         o.offset = boundedParam(pnh, "offset", o.offset, -1000.0, 1000.0);
         o.gap_gain = boundedParam(pnh, "gap_gain", o.gap_gain, 0.001, 10.0);
+        o.accel_lead_time = boundedParam(pnh, "accel_lead_time", o.accel_lead_time, 0.0, 10.0);
         o.max_speed = boundedParam(pnh, "max_speed", std::min(o.max_speed, geometry.max_speed), 0.01, 1000.0);
         o.safety_distance = boundedParam(pnh, "safety_distance", o.safety_distance, 0.0, 1000.0);
         o.leader_timeout = boundedParam(pnh, "leader_timeout", o.leader_timeout, 0.01, 3600.0);
@@ -270,6 +270,7 @@ private:
     s.y = msg->position.y;
     s.heading = msg->heading;
     s.speed = msg->speed;
+    s.acceleration = msg->acceleration;
     if (!follower_->addLeaderState(s))
       ROS_WARN_THROTTLE(5.0, "controller_node: leader '%s' state with a non-finite field dropped", leader_.c_str());
   }

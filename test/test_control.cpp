@@ -518,6 +518,7 @@ struct Convoy
   ac::Path truth;
   double t = 0.0;
   int k = 0;
+  double broadcast_speed = 0.0;
 
   Convoy(const std::vector<ac::Waypoint>& route, const ac::LeaderFollowerOptions& o)
     : leader_ctl(route, ackermann(), {}), follower_ctl(ackermann(), o)
@@ -530,8 +531,12 @@ struct Convoy
   {
     for (; t < until; ++k, t = k * kPlantStep)
     {
-      if (k % 10 == 0)
-        follower_ctl.addLeaderState({t, leader.base().x, leader.base().y, leader.yaw, leader.v});
+      if (k % 10 == 0)  // 10 Hz broadcasts, acceleration over the broadcast period
+      {
+        follower_ctl.addLeaderState(
+            {t, leader.base().x, leader.base().y, leader.yaw, leader.v, (leader.v - broadcast_speed) / 0.1});
+        broadcast_speed = leader.v;
+      }
       if (k % kControlEvery == 0)
       {
         leader.command = leader_ctl.update(leader.base(), leader.v, t).command;

@@ -31,6 +31,8 @@ void validate(const LeaderFollowerOptions& o)
   require(std::isfinite(o.offset), "offset", o.offset, "finite (m)");
   require(std::isfinite(o.gap_gain) && o.gap_gain > 0.0 && o.gap_gain <= 10.0, "gap_gain", o.gap_gain,
           "finite and in (0, 10] (1/s)");
+  require(std::isfinite(o.accel_lead_time) && o.accel_lead_time >= 0.0 && o.accel_lead_time <= 10.0,
+          "accel_lead_time", o.accel_lead_time, "finite and in [0, 10] (s)");
   require(std::isfinite(o.max_speed) && o.max_speed > 0.0, "max_speed", o.max_speed, "finite and > 0 (m/s)");
   require(std::isfinite(o.safety_distance) && o.safety_distance >= 0.0, "safety_distance", o.safety_distance,
           "finite and >= 0 (m)");
@@ -50,7 +52,7 @@ LeaderFollower::LeaderFollower(const SteeringGeometry& geometry, const LeaderFol
 bool LeaderFollower::addLeaderState(const LeaderState& state)
 {
   if (!std::isfinite(state.stamp) || !std::isfinite(state.x) || !std::isfinite(state.y) ||
-      !std::isfinite(state.heading) || !std::isfinite(state.speed))
+      !std::isfinite(state.heading) || !std::isfinite(state.speed) || !std::isfinite(state.acceleration))
     return false;
   if (leader_known_ && state.stamp < leader_.stamp)
     return true;  // late: an older state adds nothing
@@ -108,7 +110,9 @@ FollowerStatus LeaderFollower::update(const Pose2& base, double speed, double t)
 
   double target = 0.0;
   if (fs.leader_fresh && !fs.too_close)
-    target = std::clamp(leader_.speed + options_.gap_gain * (fs.gap - options_.gap), 0.0, options_.max_speed);
+    target = std::clamp(leader_.speed + options_.accel_lead_time * leader_.acceleration +
+                            options_.gap_gain * (fs.gap - options_.gap),
+                        0.0, options_.max_speed);
   fs.tracking = tracker_.track(crumbs_, base, speed, target, options_.offset, t);
   if (!fs.leader_fresh || fs.too_close)
   {

@@ -14,11 +14,14 @@
  *    of its base_link's projection on the breadcrumbs, s_leader the tip's arc length plus
  *    the leader's speed times the age of its latest broadcast (V2V latency, at most
  *    `leader_timeout`);
- *  - commands the speed v = clamp(v_leader + gap_gain (g - gap), 0, max_speed): the leader's
- *    speed as feedforward plus a proportional gap correction. With the speed loop lagging
- *    by a time constant tau the gap error obeys tau e'' + e' + gap_gain e = 0, damping
- *    ratio 1 / (2 sqrt(gap_gain tau)): gap_gain = 0.3 1/s keeps it near 0.75 for tau
- *    around 1.5 s (a loaded 4x4's response), with a gap time constant of about 3 s;
+ *  - commands the speed v = clamp(v_leader + accel_lead_time a_leader + gap_gain (g - gap),
+ *    0, max_speed): the leader's speed, and its acceleration over the speed loop's lag, as
+ *    feedforward plus a proportional gap correction. With the speed loop lagging by a time
+ *    constant tau the gap error obeys tau e'' + e' + gap_gain e = 0, damping ratio
+ *    1 / (2 sqrt(gap_gain tau)): gap_gain = 0.3 1/s keeps it near 0.75 for tau around 1.5 s
+ *    (a loaded 4x4's response), with a gap time constant of about 3 s. Without the
+ *    acceleration term a leader speeding up by dv opens the gap by about dv tau before the
+ *    correction catches up;
  *  - brakes fully when the leader is closer than `safety_distance` in a straight line, or
  *    when no broadcast newer than `leader_timeout` has arrived.
  *
@@ -45,15 +48,19 @@ struct LeaderState
   double y = 0.0;        ///< m, map
   double heading = 0.0;  ///< rad, map, 0 = east, counter-clockwise +
   double speed = 0.0;    ///< m/s, along the leader's body x axis
+  double acceleration = 0.0;  ///< m/s^2, along the leader's body x axis
 };
 
 /// Options of the leader–follower controller.
 struct LeaderFollowerOptions
 {
-  TrackingOptions tracking;
+  /// Pursuit and speed loop; the speed ramp defaults to 2 m/s^2 (not 1): a follower must be
+  /// able to out-accelerate a leader ramping at 1 m/s^2 to close the gap it lost meanwhile.
+  TrackingOptions tracking = TrackingOptions{LookaheadOptions{}, PidGains{}, 0.05, 1.0, 2.0};
   double gap = 15.0;                ///< m, desired distance along the path behind the leader, >= 0
   double offset = 0.0;              ///< m, normal offset from the leader's path, + left
   double gap_gain = 0.3;            ///< 1/s, speed per metre of gap error, > 0
+  double accel_lead_time = 0.7;     ///< s, >= 0: the leader's acceleration times this is added to its speed
   double max_speed = 10.0;          ///< m/s, > 0: the follower never goes faster
   double safety_distance = 3.0;     ///< m, >= 0: full brake when the leader is closer (straight line)
   double leader_timeout = 1.0;      ///< s, > 0: full brake when the latest broadcast is older
