@@ -7,8 +7,6 @@
 #include <cmath>
 #include <map>
 #include <memory>
-#include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
