@@ -4,12 +4,15 @@
 // ~waypoints) or leader_follower (pursuit of ~leader's V2V breadcrumbs at ~gap and
 // ~offset, changeable at run time on formation/gap and formation/offset). The control is
 // avsp_control (include/avsp/control/); this file only converts parameters and messages.
+// With ~lockstep it answers every odometry on the grid of 1 / ~rate with a cmd_drive stamped
+// with that odometry's stamp: dynamics_node's barrier (~lockstep_vehicles) waits for it.
 #include <cmath>
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/VehicleState.h>
 #include <avsp_msgs/node_params.hpp>
 #include <geometry_msgs/PoseStamped.h>
@@ -146,6 +149,7 @@ public:
     const double rate = boundedParam(pnh, "rate", 20.0, 1.0, 1000.0);
     period_ = 1.0 / rate;
     pnh.param<std::string>("frame_id", frame_id_, "map");
+    pnh.param("lockstep", lockstep_, false);
     try
     {
       if (mode == "waypoints")
@@ -179,10 +183,14 @@ public:
       throw StartupError("parameter ~" + std::string(e.what()));
     }
 
-    cmd_pub_ = nh.advertise<geometry_msgs::Twist>("avt_341/cmd_vel", 10);
+    if (lockstep_)
+      drive_pub_ = nh.advertise<avsp_msgs::DriveCommand>("cmd_drive", 10);
+    else
+      cmd_pub_ = nh.advertise<geometry_msgs::Twist>("avt_341/cmd_vel", 10);
     path_pub_ = nh.advertise<nav_msgs::Path>("controller/path", 1, true);
     target_pub_ = nh.advertise<visualization_msgs::Marker>("controller/target", 1);
-    odom_sub_ = nh.subscribe("avt_341/odometry", 10, &ControllerNode::onOdometry, this);
+    odom_sub_ = nh.subscribe("avt_341/odometry", 10, &ControllerNode::onOdometry, this,
+                             ros::TransportHints().tcpNoDelay());  // lockstep round trip: no Nagle delay
     if (waypoints_)
     {
       goal_pub_ = nh.advertise<std_msgs::Bool>("controller/goal_reached", 1, true);
@@ -212,15 +220,22 @@ private:
     const auto& p = odom->pose.pose.position;
     const double speed = odom->twist.twist.linear.x;
     const double yaw = yawOf(odom->pose.pose.orientation);
+    if (lockstep_)
+    {
+      // Lockstep: exactly the odometry on the grid k / ~rate (the barrier instants).
+      // Once per instant: dynamics_node may send the odometry of time 0 again until answered.
+      if (std::fabs(t - std::round(t / period_) * period_) > 1e-6 || (has_step_ && t <= last_step_))
+        return;
+    }
+    else if (has_step_ && t < last_step_ + period_ - 1e-6)
+      return;  // control at ~rate on the odometry's own clock: the same sim instants at any speed
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(yaw) || !std::isfinite(speed))
     {
       ROS_WARN_THROTTLE(5.0, "controller_node: non-finite odometry on avt_341/odometry dropped");
+      if (lockstep_)
+        publishCommand(odom->header.stamp, ac::Command{ 0.0, 1.0, 0.0 });  // the barrier waits: brake
       return;
     }
-    // Control at ~rate on the odometry's own clock (stamps), so the steps are the same on
-    // sim time however fast the simulation runs.
-    if (has_step_ && t < last_step_ + period_ - 1e-6)
-      return;
     has_step_ = true;
     last_step_ = t;
     z_ = p.z;
@@ -249,13 +264,28 @@ private:
         ROS_WARN_THROTTLE(5.0, "controller_node: leader '%s' silent for more than %g s; braking", leader_.c_str(),
                           follower_->options().leader_timeout);
     }
-    geometry_msgs::Twist cmd;
-    cmd.linear.x = st.command.throttle;
-    cmd.linear.y = -st.command.brake;  // avt_341's convention: brake in [-1, 0]
-    cmd.angular.z = st.command.steering;
-    cmd_pub_.publish(cmd);
+    publishCommand(odom->header.stamp, st.command);
     if (target_pub_.getNumSubscribers() > 0)
       publishTarget(odom->header.stamp, st);
+  }
+
+  void publishCommand(const ros::Time& stamp, const ac::Command& c)
+  {
+    if (lockstep_)
+    {
+      avsp_msgs::DriveCommand cmd;
+      cmd.header.stamp = stamp;
+      cmd.throttle = c.throttle;
+      cmd.brake = c.brake;
+      cmd.steering = c.steering;
+      drive_pub_.publish(cmd);
+      return;
+    }
+    geometry_msgs::Twist cmd;
+    cmd.linear.x = c.throttle;
+    cmd.linear.y = -c.brake;  // avt_341's convention: brake in [-1, 0]
+    cmd.angular.z = c.steering;
+    cmd_pub_.publish(cmd);
   }
 
   void onV2v(const avsp_msgs::VehicleState::ConstPtr& msg)
@@ -355,9 +385,10 @@ private:
   std::string frame_id_;
   double period_ = 0.05;
   bool has_step_ = false;
+  bool lockstep_ = false;
   double last_step_ = 0.0;
   double z_ = 0.0;
-  ros::Publisher cmd_pub_, path_pub_, target_pub_, goal_pub_;
+  ros::Publisher cmd_pub_, drive_pub_, path_pub_, target_pub_, goal_pub_;
   ros::Subscriber odom_sub_, v2v_sub_, gap_sub_, offset_sub_;
   ros::Timer path_timer_;
 };

@@ -10,6 +10,13 @@
 // paced to the wall clock. Without it, the node follows /clock from elsewhere: it steps the
 // physics until its world time catches up with ros::Time::now(). Every time it uses (command
 // age, publication periods) is the world's time, so a run does not depend on the wall clock.
+//
+// Lockstep with controllers (~lockstep_vehicles): at every multiple t_k of ~lockstep_period
+// the node publishes the odometry of t_k and waits until each listed vehicle's cmd_drive
+// stamped t_k (or later) has arrived; that command acts from t_k on. So a controller in
+// another process closes its loop at the same sim instants however fast the physics runs,
+// and the run does not depend on how the processes are scheduled. A vehicle that does not
+// answer within ~lockstep_timeout (wall) stops the run with an error naming it.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -29,6 +36,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
 #include <ros/package.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
@@ -122,6 +130,9 @@ struct VehicleIo
   std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
+  bool lockstep = false;                    ///< in ~lockstep_vehicles
+  nav_msgs::Odometry last_odom;             ///< the last published (resent at the first barrier)
+  double answered = -std::numeric_limits<double>::infinity();  ///< latest cmd_drive stamp, s
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
   double rut_margin = 0.0;                  ///< m, a contact's reach beyond its centre
   ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
@@ -168,6 +179,7 @@ public:
     odom_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (odom_rate * options.step)));
     clock_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (clock_rate * options.step)));
     ruts_every_ = ruts_rate > 0.0 ? std::max<std::uint64_t>(1, std::llround(1.0 / (ruts_rate * options.step))) : 0;
+    const std::set<std::string> lockstep_names = lockstepVehicles(specs, options.step, odom_rate);
 
     loadTerrain();
     bool obstacles = true;
@@ -227,6 +239,7 @@ public:
       for (const ad::TrackSpec& t : v->model.tracks)
         for (const ad::RoadWheelSpec& w : t.road_wheels)
           v->rut_margin = std::max(v->rut_margin, w.radius + v->model.track.shoe_width);
+      v->lockstep = lockstep_names.count(s.name) > 0;
       v->joints.position.assign(v->joints.name.size(), 0.0);
       v->joints.velocity.assign(v->joints.name.size(), 0.0);
       ros::NodeHandle vnh(nh_, s.name);
@@ -236,7 +249,8 @@ public:
           "avt_341/cmd_vel", 10, [this, raw](const geometry_msgs::Twist::ConstPtr& msg) { onCmdVel(*raw, *msg); });
       v->drive_topic = vnh.resolveName("cmd_drive");
       v->drive_sub = vnh.subscribe<avsp_msgs::DriveCommand>(
-          "cmd_drive", 10, [this, raw](const avsp_msgs::DriveCommand::ConstPtr& msg) { onCmdDrive(*raw, *msg); });
+          "cmd_drive", 10, [this, raw](const avsp_msgs::DriveCommand::ConstPtr& msg) { onCmdDrive(*raw, *msg); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());  // the lockstep round trip: no Nagle delay
       v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", 50);
       v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", 50);
       v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
@@ -252,11 +266,20 @@ public:
              real_time_factor_);
   }
 
-  /// Runs until shutdown.
-  void run()
+  /// Runs until shutdown; false when a lockstep vehicle did not answer in time.
+  bool run()
   {
     if (publish_clock_)
       publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
+    if (lockstep_every_ > 0)
+    {
+      // The controllers' first step answers the odometry of time 0. A controller may connect
+      // after it went out, so until it answers, its vehicle's odometry of time 0 is sent again
+      // every 0.2 s (wall; only at time 0: later the connections stand).
+      publishStates();
+      if (!waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
+        return false;
+    }
     if (wait_for_command_)
     {
       // Physics starts once every vehicle has a command, so a command published before the
@@ -278,6 +301,8 @@ public:
         for (std::uint64_t k = 0; k < clock_every_ && ros::ok(); ++k)
           step();
         publishClock();
+        if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
+          return false;
         if (real_time_factor_ > 0.0)
         {
           const ros::WallTime due = wall_start + ros::WallDuration(world_->time() / real_time_factor_);
@@ -307,9 +332,96 @@ public:
           step();
       }
     }
+    return true;
   }
 
 private:
+  /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
+  std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
+  {
+    std::set<std::string> names;
+    if (!pnh_.hasParam("lockstep_vehicles"))
+      return names;
+    XmlRpc::XmlRpcValue list;
+    pnh_.getParam("lockstep_vehicles", list);
+    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+      throw StartupError("parameter ~lockstep_vehicles must be a list of vehicle names");
+    for (int k = 0; k < list.size(); ++k)
+    {
+      const std::string where = "parameter ~lockstep_vehicles[" + std::to_string(k) + "]";
+      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
+        throw StartupError(where + " must be a vehicle name (string)");
+      const std::string name = static_cast<std::string>(list[k]);
+      if (std::none_of(specs.begin(), specs.end(), [&](const VehicleSpec& s) { return s.name == name; }))
+        throw StartupError(where + " '" + name + "' is not in ~vehicles");
+      if (!names.insert(name).second)
+        throw StartupError(where + " '" + name + "' is listed twice");
+    }
+    const double period = boundedParam(pnh_, "lockstep_period", 0.05, step, 10.0);
+    lockstep_timeout_ = boundedParam(pnh_, "lockstep_timeout", 30.0, 0.01, 3600.0);
+    if (names.empty())
+      return names;
+    if (!publish_clock_)
+      throw StartupError("parameter ~lockstep_vehicles needs ~publish_clock true (the barrier holds the clock)");
+    // The barrier instants must be steps on which the odometry and the clock go out.
+    const double steps = period / step;
+    lockstep_every_ = static_cast<std::uint64_t>(std::llround(steps));
+    if (std::fabs(steps - static_cast<double>(lockstep_every_)) > 1e-6 * steps || lockstep_every_ % odom_every_ != 0 ||
+        lockstep_every_ % clock_every_ != 0)
+      throw StartupError("parameter ~lockstep_period " + std::to_string(period) +
+                         " s must be a whole multiple of the odometry period (" + std::to_string(1.0 / odom_rate) +
+                         " s) and of the clock period");
+    return names;
+  }
+
+  /// The lockstep barrier at the current world time: callbacks run until every lockstep
+  /// vehicle's cmd_drive for this instant is in. False (after an error naming the silent
+  /// vehicles) on timeout.
+  bool waitForCommands()
+  {
+    const double t = world_->time() - 0.5 * world_->options().step;
+    return waitForLockstep([t](const VehicleIo& v) { return v.answered >= t; }, "command");
+  }
+
+  /// Runs callbacks until `ready` holds for every lockstep vehicle or ~lockstep_timeout
+  /// (wall) passes; then the error names what was missing and on which topics.
+  /// With `resend_period` > 0 (wall s), the odometry last published is sent again that often
+  /// to the vehicles not ready.
+  template <typename Ready>
+  bool waitForLockstep(Ready ready, const char* missing, double resend_period = 0.0)
+  {
+    ros::WallTime resend = ros::WallTime::now() + ros::WallDuration(resend_period);
+    const auto all_ready = [&] {
+      return std::all_of(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return !v->lockstep || ready(*v); });
+    };
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && !all_ready())
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (resend_period > 0.0 && ros::WallTime::now() > resend)
+      {
+        for (const auto& v : vehicles_)
+          if (v->lockstep && !ready(*v))
+            v->odom_pub.publish(v->last_odom);
+        resend = ros::WallTime::now() + ros::WallDuration(resend_period);
+      }
+      if (ros::WallTime::now() > deadline && !all_ready())
+      {
+        std::string silent;
+        for (const auto& v : vehicles_)
+          if (v->lockstep && !ready(*v))
+            silent += (silent.empty() ? "" : ", ") + v->drive_topic;
+        ROS_FATAL("dynamics_node: lockstep: no %s for t = %.3f s on %s within ~lockstep_timeout %g s (wall); "
+                  "stopping the run",
+                  missing, world_->time(), silent.c_str(), lockstep_timeout_);
+        ros::shutdown();
+        return false;
+      }
+    }
+    return ros::ok();
+  }
+
   void loadTerrain()
   {
     at::LoadedSource loaded = at::loadTerrainFromParams(pnh_, *soils_);
@@ -332,6 +444,8 @@ private:
   {
     avsp_msgs::DriveCommand cmd = msg;
     std::string why;
+    // Even a rejected command answers the barrier: the last good one then stays in force.
+    v.answered = std::max(v.answered, msg.header.stamp.toSec());
     accept(v, v.drive_topic, avsp::msgs::sanitizeDriveCommand(cmd, why), cmd, why);
   }
 
@@ -456,6 +570,7 @@ private:
       odom.twist.twist.angular.y = w_body.y();
       odom.twist.twist.angular.z = w_body.z();
       v->odom_pub.publish(odom);
+      v->last_odom = odom;
 
       geometry_msgs::TransformStamped& tf = transforms_[k];
       tf.header = odom.header;
@@ -630,6 +745,8 @@ private:
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
   bool wait_for_command_ = false;
+  std::uint64_t lockstep_every_ = 0;  ///< steps between barriers (0: no lockstep)
+  double lockstep_timeout_ = 30.0;    ///< s, wall
   std::optional<ros::Time> follow_start_;  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
@@ -651,6 +768,5 @@ int main(int argc, char** argv)
     ROS_FATAL("dynamics_node: %s", e.what());
     return 1;
   }
-  node->run();
-  return 0;
+  return node->run() ? 0 : 1;
 }

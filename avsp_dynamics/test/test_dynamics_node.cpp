@@ -273,7 +273,8 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
 /// Runs dynamics_node under a fresh name with private parameters set on the master first
 /// (lists cannot be given on the command line): it must exit 1 and say what is wrong.
 std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
-                                       const std::string& args = "")
+                                       const std::string& args = "",
+                                       const std::function<void(ros::NodeHandle&, const std::string&)>& more = {})
 {
   static int run = 0;
   const std::string name = "bad_dynamics_" + std::to_string(getpid()) + "_" + std::to_string(run++);
@@ -294,6 +295,8 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
   nh.setParam("/" + name + "/flat_soil", std::string("gravel"));
   nh.setParam("/" + name + "/flat_size", 20.0);
   nh.setParam("/" + name + "/publish_clock", false);
+  if (more)
+    more(nh, "/" + name);
   const std::string log = "/tmp/avsp_bad_dynamics_node_" + std::to_string(getpid()) + ".log";
   const std::string cmd = std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " " + args + " > " + log + " 2>&1";
   const int status = std::system(cmd.c_str());
@@ -399,6 +402,42 @@ TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("'car'"), std::string::npos) << out;
   EXPECT_NE(out.find("off the terrain"), std::string::npos) << out;
+
+  // Lockstep names must be vehicles, and the barrier needs the node to be the clock.
+  const auto lockstep = [](const std::string& name) {
+    return [name](ros::NodeHandle& nh, const std::string& ns) {
+      XmlRpc::XmlRpcValue list;
+      list[0] = name;
+      nh.setParam(ns + "/lockstep_vehicles", list);
+    };
+  };
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "", lockstep("truck"));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~lockstep_vehicles[0] 'truck' is not in ~vehicles"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "", lockstep("car"));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~publish_clock"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_publish_clock:=true _lockstep_period:=0.015", lockstep("car"));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~lockstep_period"), std::string::npos) << out;
+}
+
+// A lockstep vehicle whose controller never answers stops the run after ~lockstep_timeout with
+// an error naming its command topic: no silent hang. (Its own /clock is remapped away from the
+// test's clock.)
+TEST(DynamicsNodeStartup, LockstepVehicleThatNeverAnswersStopsTheRunNamingIt)
+{
+  const auto lockstep = [](ros::NodeHandle& nh, const std::string& ns) {
+    XmlRpc::XmlRpcValue list;
+    list[0] = std::string("mute");
+    nh.setParam(ns + "/lockstep_vehicles", list);
+  };
+  const ros::WallTime start = ros::WallTime::now();
+  auto [code, out] = runBadNode("fed_alpha", "mute", "_publish_clock:=true _lockstep_timeout:=1.0 /clock:=/mute_clock",
+                                lockstep);
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("lockstep: no command for t = 0.000 s on /mute/cmd_drive"), std::string::npos) << out;
+  EXPECT_LT((ros::WallTime::now() - start).toSec(), 30.0) << "the run hung instead of stopping";
 }
 }  // namespace
 
