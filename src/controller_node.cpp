@@ -5,7 +5,10 @@
 // ~offset, changeable at run time on formation/gap and formation/offset). The control is
 // avsp_control (include/avsp/control/); this file only converts parameters and messages.
 // With ~lockstep it answers every odometry on the grid of 1 / ~rate with a cmd_drive stamped
-// with that odometry's stamp: dynamics_node's barrier (~lockstep_vehicles) waits for it.
+// with that odometry's stamp: dynamics_node's barrier (~lockstep_vehicles) waits for it. A
+// lockstep follower takes its radio's v2v/in_lockstep batches instead of v2v/in and steps at t
+// only once the batch of t is in, so it knows exactly what was delivered by t.
+#include <deque>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -14,6 +17,7 @@
 
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/VehicleState.h>
+#include <avsp_msgs/VehicleStateArray.h>
 #include <avsp_msgs/node_params.hpp>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/Twist.h>
@@ -199,7 +203,11 @@ public:
     }
     else
     {
-      v2v_sub_ = nh.subscribe("v2v/in", 100, &ControllerNode::onV2v, this);
+      if (lockstep_)
+        v2v_sub_ = nh.subscribe("v2v/in_lockstep", 100, &ControllerNode::onV2vBatch, this,
+                                ros::TransportHints().tcpNoDelay());
+      else
+        v2v_sub_ = nh.subscribe("v2v/in", 100, &ControllerNode::onV2v, this);
       gap_sub_ = nh.subscribe("formation/gap", 10, &ControllerNode::onGap, this);
       offset_sub_ = nh.subscribe("formation/offset", 10, &ControllerNode::onOffset, this);
       path_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { publishBreadcrumbs(); });
@@ -215,6 +223,36 @@ public:
 
 private:
   void onOdometry(const nav_msgs::Odometry::ConstPtr& odom)
+  {
+    if (lockstep_ && follower_ && !(odom->header.stamp.toSec() <= batch_through_ + 1e-9))
+    {
+      waiting_.push_back(odom);  // its radio batch is not in yet
+      return;
+    }
+    step(odom);
+  }
+
+  /// A lockstep follower's radio batch: the leader states due by its stamp; then the waiting
+  /// odometry up to that stamp is stepped.
+  void onV2vBatch(const avsp_msgs::VehicleStateArray::ConstPtr& batch)
+  {
+    const double t = batch->header.stamp.toSec();
+    if (!(t > batch_through_))
+    {
+      ROS_WARN_THROTTLE(5.0, "controller_node: v2v/in_lockstep batch at %.3f s not after the last; dropped", t);
+      return;
+    }
+    for (const avsp_msgs::VehicleState& s : batch->states)
+      addLeaderState(s);
+    batch_through_ = t;
+    while (!waiting_.empty() && waiting_.front()->header.stamp.toSec() <= batch_through_ + 1e-9)
+    {
+      step(waiting_.front());
+      waiting_.pop_front();
+    }
+  }
+
+  void step(const nav_msgs::Odometry::ConstPtr& odom)
   {
     const double t = odom->header.stamp.toSec();
     const auto& p = odom->pose.pose.position;
@@ -288,17 +326,19 @@ private:
     cmd_pub_.publish(cmd);
   }
 
-  void onV2v(const avsp_msgs::VehicleState::ConstPtr& msg)
+  void onV2v(const avsp_msgs::VehicleState::ConstPtr& msg) { addLeaderState(*msg); }
+
+  void addLeaderState(const avsp_msgs::VehicleState& msg)
   {
-    if (msg->vehicle_id != leader_)
+    if (msg.vehicle_id != leader_)
       return;
     ac::LeaderState s;
-    s.stamp = msg->header.stamp.toSec();
-    s.x = msg->position.x;
-    s.y = msg->position.y;
-    s.heading = msg->heading;
-    s.speed = msg->speed;
-    s.acceleration = msg->acceleration;
+    s.stamp = msg.header.stamp.toSec();
+    s.x = msg.position.x;
+    s.y = msg.position.y;
+    s.heading = msg.heading;
+    s.speed = msg.speed;
+    s.acceleration = msg.acceleration;
     if (!follower_->addLeaderState(s))
       ROS_WARN_THROTTLE(5.0, "controller_node: leader '%s' state with a non-finite field dropped", leader_.c_str());
   }
@@ -386,6 +426,8 @@ private:
   double period_ = 0.05;
   bool has_step_ = false;
   bool lockstep_ = false;
+  double batch_through_ = -1e300;                      ///< s, stamp of the last radio batch (lockstep)
+  std::deque<nav_msgs::Odometry::ConstPtr> waiting_;  ///< lockstep odometry waiting for its batch
   double last_step_ = 0.0;
   double z_ = 0.0;
   ros::Publisher cmd_pub_, drive_pub_, path_pub_, target_pub_, goal_pub_;

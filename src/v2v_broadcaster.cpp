@@ -32,7 +32,8 @@ public:
     period_ = 1.0 / boundedParam(pnh, "rate", 10.0, 0.1, 1000.0);
     pnh.param<std::string>("frame_id", frame_id_, "map");
     pub_ = nh.advertise<avsp_msgs::VehicleState>("v2v/out", 10);
-    sub_ = nh.subscribe("avt_341/odometry", 10, &V2vBroadcaster::onOdometry, this);
+    sub_ = nh.subscribe("avt_341/odometry", 10, &V2vBroadcaster::onOdometry, this,
+                        ros::TransportHints().tcpNoDelay());  // on the lockstep path to the radio
     ROS_INFO("v2v_broadcaster: '%s' broadcasts on %s at %g Hz", vehicle_id_.c_str(), pub_.getTopic().c_str(),
              1.0 / period_);
   }

@@ -3,7 +3,16 @@
 // (include/avsp/v2v/radio.hpp: range, latency, loss, terrain line of sight, seed) lets it;
 // v2v/fleet_markers shows the fleet and its links in RViz. This file only converts
 // parameters and messages.
+//
+// Lockstep (~lockstep_period > 0): the broadcasts are taken in (stamp, sender) order once
+// every sender's stream has reached a time (its broadcasts come in order, on a known grid of
+// 1 / ~broadcast_rate), and at every multiple t_k of the period each vehicle gets on
+// v2v/in_lockstep everything due in (t_{k-1}, t_k], empty or not. A lockstep controller waits
+// for that batch, so what it knows at t_k does not depend on how the processes ran.
+#include <algorithm>
+#include <deque>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -12,6 +21,7 @@
 #include <vector>
 
 #include <avsp_msgs/VehicleState.h>
+#include <avsp_msgs/VehicleStateArray.h>
 #include <avsp_msgs/node_params.hpp>
 #include <avsp_terrain/terrain_source_params.hpp>
 #include <ros/package.h>
@@ -95,6 +105,9 @@ public:
     const double marker_rate = boundedParam(pnh, "marker_rate", 2.0, 0.0, 100.0);
     const double update_rate = boundedParam(pnh, "update_rate", 100.0, 1.0, 10000.0);
     pnh.param<std::string>("frame_id", frame_id_, "map");
+    lockstep_period_ = boundedParam(pnh, "lockstep_period", 0.0, 0.0, 10.0);
+    broadcast_period_ = 1.0 / boundedParam(pnh, "broadcast_rate", 10.0, 0.1, 1000.0);
+    latency_ = options.latency;
 
     av::HeightFunction height;
     std::string terrain_description = "none (line_of_sight false)";
@@ -135,13 +148,20 @@ public:
       in_pubs_.push_back(nh.advertise<avsp_msgs::VehicleState>(vehicles[k] + "/v2v/in", 100));
       out_subs_.push_back(nh.subscribe<avsp_msgs::VehicleState>(
           vehicles[k] + "/v2v/out", 100,
-          [this, k](const avsp_msgs::VehicleState::ConstPtr& msg) { onBroadcast(k, msg); }));
+          [this, k](const avsp_msgs::VehicleState::ConstPtr& msg) { onBroadcast(k, msg); }, ros::VoidConstPtr(),
+          ros::TransportHints().tcpNoDelay()));
+      if (lockstep_period_ > 0.0)
+        batch_pubs_.push_back(nh.advertise<avsp_msgs::VehicleStateArray>(vehicles[k] + "/v2v/in_lockstep", 100));
     }
+    queued_.resize(vehicles.size());
+    last_stamp_.assign(vehicles.size(), -std::numeric_limits<double>::infinity());
+    if (lockstep_period_ > 0.0 && !ros::Time::isSimTime())
+      throw StartupError("parameter ~lockstep_period needs sim time (/use_sim_time true)");
     markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("v2v/fleet_markers", 1, true);
     // On sim time deliveries go out on the /clock tick that reaches their due time, so the
     // latency is exact to the clock step; on wall time a timer polls at ~update_rate.
     if (ros::Time::isSimTime())
-      clock_sub_ = nh.subscribe("/clock", 100, &V2vRadioNode::onClock, this);
+      clock_sub_ = nh.subscribe("/clock", 100, &V2vRadioNode::onClock, this, ros::TransportHints().tcpNoDelay());
     else
       poll_timer_ = nh.createTimer(ros::Duration(1.0 / update_rate), [this](const ros::TimerEvent&) {
         release(ros::Time::now().toSec());
@@ -185,17 +205,96 @@ private:
       ROS_WARN_THROTTLE(5.0, "v2v_radio_node: %s/v2v/out has no header.stamp; latency counted from reception",
                         name.c_str());
     }
+    if (lockstep_period_ > 0.0)
+    {
+      if (!(stamp > last_stamp_[sender]))
+      {
+        ROS_WARN_THROTTLE(5.0, "v2v_radio_node: %s/v2v/out stamp %.3f s not after the last (%.3f s); dropped",
+                          name.c_str(), stamp, last_stamp_[sender]);
+        return;
+      }
+      last_stamp_[sender] = stamp;
+      queued_[sender].push_back(msg);
+      advanceLockstep();
+      return;
+    }
+    transmit(sender, msg, stamp);
+    release(std::max(latest_clock_, ros::Time::now().toSec()));
+  }
+
+  void transmit(std::size_t sender, const avsp_msgs::VehicleState::ConstPtr& msg, double stamp)
+  {
     const std::uint64_t id = next_id_++;
+    const auto& p = msg->position;
     const std::vector<av::Delivery> scheduled = radio_->transmit(sender, {p.x, p.y, p.z}, msg->seq, stamp, id);
     if (!scheduled.empty())
       pending_[id] = Pending{msg, scheduled.size()};
-    release(std::max(latest_clock_, ros::Time::now().toSec()));
   }
 
   void onClock(const rosgraph_msgs::Clock::ConstPtr& clock)
   {
     latest_clock_ = clock->clock.toSec();
-    release(latest_clock_);
+    if (lockstep_period_ > 0.0)
+      advanceLockstep();
+    else
+      release(latest_clock_);
+  }
+
+  /// Emits every lockstep batch whose instant the clock has reached and whose broadcasts are
+  /// all in: for the batch at t_k, each sender must have broadcast at or after the last grid
+  /// time at or before t_k - latency (in-order streams: then all earlier ones are here too).
+  void advanceLockstep()
+  {
+    while (true)
+    {
+      const double t = static_cast<double>(next_batch_) * lockstep_period_;
+      if (t > latest_clock_ + 1e-9)
+        return;
+      const double sent_by = std::max(t - latency_, 0.0);
+      const double grid = std::floor(sent_by / broadcast_period_ + 1e-6) * broadcast_period_;
+      std::string waiting;
+      for (std::size_t k = 0; k < queued_.size(); ++k)
+        if (last_stamp_[k] < grid - 1e-9)
+          waiting += (waiting.empty() ? "" : ", ") + radio_->vehicles()[k] + "/v2v/out";
+      if (!waiting.empty())
+      {
+        ROS_WARN_THROTTLE(5.0, "v2v_radio_node: lockstep batch at %.3f s waits for broadcasts up to %.3f s from %s",
+                          t, grid, waiting.c_str());
+        return;
+      }
+      // Transmit in (stamp, sender) order: the range test uses the other antennas' positions.
+      while (true)
+      {
+        std::size_t best = queued_.size();
+        for (std::size_t k = 0; k < queued_.size(); ++k)
+          if (!queued_[k].empty() && queued_[k].front()->header.stamp.toSec() <= sent_by + 1e-9 &&
+              (best == queued_.size() ||
+               queued_[k].front()->header.stamp.toSec() < queued_[best].front()->header.stamp.toSec()))
+            best = k;
+        if (best == queued_.size())
+          break;
+        transmit(best, queued_[best].front(), queued_[best].front()->header.stamp.toSec());
+        queued_[best].pop_front();
+      }
+      std::vector<avsp_msgs::VehicleStateArray> batches(batch_pubs_.size());
+      for (const av::Delivery& d : radio_->due(t))
+      {
+        auto it = pending_.find(d.message);
+        if (it == pending_.end())
+          continue;
+        in_pubs_[d.receiver].publish(it->second.message);
+        batches[d.receiver].states.push_back(*it->second.message);
+        if (--it->second.remaining == 0)
+          pending_.erase(it);
+      }
+      for (std::size_t k = 0; k < batches.size(); ++k)
+      {
+        batches[k].header.stamp = ros::Time(t);
+        batches[k].header.frame_id = frame_id_;
+        batch_pubs_[k].publish(batches[k]);
+      }
+      ++next_batch_;
+    }
   }
 
   void release(double now)
@@ -288,6 +387,13 @@ private:
   std::unordered_map<std::uint64_t, Pending> pending_;
   std::uint64_t next_id_ = 0;
   double latest_clock_ = 0.0;
+  double lockstep_period_ = 0.0;   ///< s, 0: no lockstep batches
+  double broadcast_period_ = 0.1;  ///< s, the broadcasters' grid
+  double latency_ = 0.0;
+  std::uint64_t next_batch_ = 0;   ///< the next lockstep batch is at next_batch_ * period
+  std::vector<std::deque<avsp_msgs::VehicleState::ConstPtr>> queued_;  ///< lockstep: not yet transmitted
+  std::vector<double> last_stamp_;                                     ///< per sender, s
+  std::vector<ros::Publisher> batch_pubs_;
   std::string frame_id_;
   std::vector<ros::Publisher> in_pubs_;
   std::vector<ros::Subscriber> out_subs_;

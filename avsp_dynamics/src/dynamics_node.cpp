@@ -273,9 +273,10 @@ public:
       publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
     if (lockstep_every_ > 0)
     {
-      // The controllers' first step answers the odometry of time 0. A controller may connect
-      // after it went out, so until it answers, its vehicle's odometry of time 0 is sent again
-      // every 0.2 s (wall; only at time 0: later the connections stand).
+      // The controllers' first step answers the odometry of time 0. A controller (or a V2V
+      // broadcaster its radio waits for) may connect after it went out, so until all have
+      // answered, every vehicle's odometry of time 0 is sent again every 0.2 s (wall; only at
+      // time 0: later the connections stand).
       publishStates();
       if (!waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
         return false;
@@ -385,8 +386,8 @@ private:
 
   /// Runs callbacks until `ready` holds for every lockstep vehicle or ~lockstep_timeout
   /// (wall) passes; then the error names what was missing and on which topics.
-  /// With `resend_period` > 0 (wall s), the odometry last published is sent again that often
-  /// to the vehicles not ready.
+  /// With `resend_period` > 0 (wall s), every vehicle's last odometry is sent again that often
+  /// while waiting.
   template <typename Ready>
   bool waitForLockstep(Ready ready, const char* missing, double resend_period = 0.0)
   {
@@ -402,8 +403,7 @@ private:
       if (resend_period > 0.0 && ros::WallTime::now() > resend)
       {
         for (const auto& v : vehicles_)
-          if (v->lockstep && !ready(*v))
-            v->odom_pub.publish(v->last_odom);
+          v->odom_pub.publish(v->last_odom);
         resend = ros::WallTime::now() + ros::WallDuration(resend_period);
       }
       if (ros::WallTime::now() > deadline && !all_ready())
