@@ -17,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-#include <geometry_msgs/Twist.h>
+#include <avsp_msgs/DriveCommand.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
@@ -102,8 +102,15 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
       });
   ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>("/ego/controller/path", 1,
                                                           [&](const nav_msgs::Path::ConstPtr& m) { path = *m; });
-  ros::Subscriber cmd_sub = nh.subscribe<geometry_msgs::Twist>(
-      "/ego/avt_341/cmd_vel", 100, [&](const geometry_msgs::Twist::ConstPtr&) { ++commands; });
+  // In lockstep the controller answers each 50 ms instant on cmd_drive, stamped with it.
+  std::size_t off_grid = 0;
+  ros::Subscriber cmd_sub = nh.subscribe<avsp_msgs::DriveCommand>(
+      "/ego/cmd_drive", 100, [&](const avsp_msgs::DriveCommand::ConstPtr& m) {
+        ++commands;
+        const double t = m->header.stamp.toSec();
+        if (std::abs(t - 0.05 * std::round(t / 0.05)) > 1e-6)
+          ++off_grid;
+      });
 
   auto now = [&] { return samples.empty() ? 0.0 : samples.back().t; };
   // Arrived: the controller says so and the vehicle has stopped (or 150 s of sim time).
@@ -117,6 +124,7 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
   ASSERT_TRUE(spinUntil([&] { return now() > stopped.t + 3.0; }, 30.0));
   EXPECT_LT(std::hypot(samples.back().x - stopped.x, samples.back().y - stopped.y), 0.05);
   EXPECT_GT(commands, 100u);
+  EXPECT_EQ(off_grid, 0u) << "commands stamped off the 50 ms lockstep grid";
   ASSERT_EQ(path.poses.size(), waypoints.size()) << "controller/path does not show the waypoints";
   EXPECT_EQ(path.header.frame_id, "map");
 
