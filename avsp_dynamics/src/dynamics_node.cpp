@@ -271,16 +271,6 @@ public:
   {
     if (publish_clock_)
       publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
-    if (lockstep_every_ > 0)
-    {
-      // The controllers' first step answers the odometry of time 0. A controller (or a V2V
-      // broadcaster its radio waits for) may connect after it went out, so until all have
-      // answered, every vehicle's odometry of time 0 is sent again every 0.2 s (wall; only at
-      // time 0: later the connections stand).
-      publishStates();
-      if (!waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
-        return false;
-    }
     if (wait_for_command_)
     {
       // Physics starts once every vehicle has a command, so a command published before the
@@ -291,6 +281,16 @@ public:
         ros::spinOnce();
         idle.sleep();
       }
+    }
+    if (lockstep_every_ > 0)
+    {
+      // The controllers' first step answers the odometry of time 0. A controller (or a V2V
+      // broadcaster its radio waits for) may connect after it went out, so until all have
+      // answered, every vehicle's odometry of time 0 is sent again every 0.2 s (wall; only at
+      // time 0: later the connections stand).
+      publishStates();
+      if (!waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
+        return false;
     }
     const ros::WallTime wall_start = ros::WallTime::now();
     while (ros::ok())
