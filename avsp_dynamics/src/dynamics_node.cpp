@@ -17,6 +17,11 @@
 // another process closes its loop at the same sim instants however fast the physics runs,
 // and the run does not depend on how the processes are scheduled. A vehicle that does not
 // answer within ~lockstep_timeout (wall) stops the run with an error naming it.
+//
+// Partition (~partition): one of several dynamics processes of a run, each with its own
+// vehicles in its own world. lockstep_clock publishes /clock; on each tick the node steps its
+// world to that time (with its controllers' barriers on the way) and reports it on
+// /lockstep/done, and the clock moves on only when every partition has.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -30,6 +35,7 @@
 
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <avsp_msgs/drive_command_conversions.hpp>
@@ -175,6 +181,15 @@ public:
     real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
     pnh_.param("publish_clock", publish_clock_, true);
     pnh_.param("wait_for_command", wait_for_command_, false);
+    pnh_.param<std::string>("partition", partition_, "");
+    if (!partition_.empty())
+    {
+      std::string why;
+      if (!ros::names::validate(partition_, why) || partition_.find('/') != std::string::npos)
+        throw StartupError("parameter ~partition '" + partition_ + "' must be a plain name (no '/')");
+      if (publish_clock_)
+        throw StartupError("parameter ~partition needs ~publish_clock false: lockstep_clock is the clock");
+    }
     // Publication periods in whole steps, so they fall on the same steps in every run.
     odom_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (odom_rate * options.step)));
     clock_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (clock_rate * options.step)));
@@ -261,6 +276,11 @@ public:
     ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
     if (publish_clock_)
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    if (!partition_.empty())
+    {
+      done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
+      tick_sub_ = nh_.subscribe("/clock", 100, &DynamicsNode::onTick, this, ros::TransportHints().tcpNoDelay());
+    }
     ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
              source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
              real_time_factor_);
@@ -269,6 +289,8 @@ public:
   /// Runs until shutdown; false when a lockstep vehicle did not answer in time.
   bool run()
   {
+    if (!partition_.empty())
+      return runPartition();
     if (publish_clock_)
       publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
     if (wait_for_command_)
@@ -337,6 +359,64 @@ public:
   }
 
 private:
+  /// A partition's loop: each /clock tick T, step the world to T and report T done.
+  bool runPartition()
+  {
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && !tick_)
+      queue->callAvailable(ros::WallDuration(0.001));
+    if (!ros::ok())
+      return true;
+    // The world starts at the clock's 0 (lockstep_clock starts there).
+    if (wait_for_command_)
+      while (ros::ok() && !std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending; }))
+        queue->callAvailable(ros::WallDuration(0.001));
+    publishStates();
+    if (lockstep_every_ > 0 && !waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
+      return false;
+    double reported = 0.0;
+    reportDone(reported);
+    const double h = world_->options().step;
+    while (ros::ok())
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (!(*tick_ > reported + 0.5 * h))
+      {
+        if (tick_repeated_)
+          reportDone(reported);  // the clock asks again: our report may have been lost
+        tick_repeated_ = false;
+        continue;
+      }
+      const double target = *tick_;
+      while (ros::ok() && world_->time() + 0.5 * h < target)
+      {
+        step();
+        if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
+          return false;
+      }
+      reported = target;
+      reportDone(reported);
+    }
+    return true;
+  }
+
+  void onTick(const rosgraph_msgs::Clock::ConstPtr& c)
+  {
+    const double t = c->clock.toSec();
+    if (tick_ && t <= *tick_)
+      tick_repeated_ = true;
+    else
+      tick_ = t;
+  }
+
+  void reportDone(double t)
+  {
+    avsp_msgs::StepDone d;
+    d.header.stamp = ros::Time(t);
+    d.partition = partition_;
+    done_pub_.publish(d);
+  }
+
   /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
   std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
   {
@@ -362,13 +442,14 @@ private:
     lockstep_timeout_ = boundedParam(pnh_, "lockstep_timeout", 30.0, 0.01, 3600.0);
     if (names.empty())
       return names;
-    if (!publish_clock_)
-      throw StartupError("parameter ~lockstep_vehicles needs ~publish_clock true (the barrier holds the clock)");
+    if (!publish_clock_ && partition_.empty())
+      throw StartupError("parameter ~lockstep_vehicles needs ~publish_clock true or a ~partition (the barrier holds "
+                         "the clock)");
     // The barrier instants must be steps on which the odometry and the clock go out.
     const double steps = period / step;
     lockstep_every_ = static_cast<std::uint64_t>(std::llround(steps));
     if (std::fabs(steps - static_cast<double>(lockstep_every_)) > 1e-6 * steps || lockstep_every_ % odom_every_ != 0 ||
-        lockstep_every_ % clock_every_ != 0)
+        (publish_clock_ && lockstep_every_ % clock_every_ != 0))
       throw StartupError("parameter ~lockstep_period " + std::to_string(period) +
                          " s must be a whole multiple of the odometry period (" + std::to_string(1.0 / odom_rate) +
                          " s) and of the clock period");
@@ -746,6 +827,11 @@ private:
   bool publish_clock_ = true;
   bool wait_for_command_ = false;
   std::uint64_t lockstep_every_ = 0;  ///< steps between barriers (0: no lockstep)
+  std::string partition_;             ///< this process's partition name ("" = the only one)
+  std::optional<double> tick_;        ///< latest /clock tick (partition), s
+  bool tick_repeated_ = false;        ///< the clock re-sent a tick already reached
+  ros::Publisher done_pub_;
+  ros::Subscriber tick_sub_;
   double lockstep_timeout_ = 30.0;    ///< s, wall
   std::optional<ros::Time> follow_start_;  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;

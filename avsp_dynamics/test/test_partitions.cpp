@@ -1,0 +1,214 @@
+// Partitions (issue 7), behind lockstep_clock:
+// - Same answer, any layout: the same four vehicles in one dynamics_node (partition "one") and
+//   split over two (partitions "p1" and "p2"), all on one lockstep clock, driven by this node
+//   as their lockstep controller with the same open-loop commands: every odometry message of
+//   every vehicle is bit-identical between the layouts.
+// - A partition killed mid-run stops the clock within its timeout, naming the partition.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <avsp_msgs/DriveCommand.h>
+#include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/master.h>
+#include <ros/network.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <xmlrpcpp/XmlRpcClient.h>
+
+namespace
+{
+bool spinUntil(const std::function<bool()>& done, double timeout)
+{
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (ros::ok() && !done())
+  {
+    if (ros::WallTime::now() > deadline)
+      return false;
+    ros::spinOnce();
+    ros::WallDuration(0.0005).sleep();
+  }
+  return done();
+}
+
+/// Open-loop command of vehicle k at sim time t: throttle ramps, steering weaves, a brake pulse.
+avsp_msgs::DriveCommand command(std::size_t k, const ros::Time& stamp)
+{
+  const double t = stamp.toSec();
+  avsp_msgs::DriveCommand c;
+  c.header.stamp = stamp;
+  c.throttle = std::min(1.0, 0.2 + 0.1 * t) * (t > 6.0 && t < 7.0 ? 0.0 : 1.0);
+  c.brake = t > 6.0 && t < 7.0 ? 0.5 : 0.0;
+  c.steering = 0.3 * std::sin(0.7 * t + static_cast<double>(k));
+  return c;
+}
+
+TEST(Partitions, OneAndTwoPartitionsGiveIdenticalOdometry)
+{
+  ros::NodeHandle nh, pnh("~");
+  std::vector<std::string> vehicles;
+  ASSERT_TRUE(pnh.getParam("vehicles", vehicles));
+  double until = 10.0;
+  pnh.param("until", until, 10.0);
+  const std::vector<std::string> layouts{ "one", "two" };
+  std::map<std::string, std::vector<nav_msgs::Odometry>> streams;  // "<layout>/<vehicle>"
+  std::vector<ros::Subscriber> subs;
+  std::map<std::string, ros::Publisher> commands;
+  bool stop = false;  // past `until`: no more answers, the run halts at the barrier
+  for (const std::string& layout : layouts)
+    for (std::size_t k = 0; k < vehicles.size(); ++k)
+    {
+      const std::string key = layout + "/" + vehicles[k];
+      commands[key] = nh.advertise<avsp_msgs::DriveCommand>("/" + key + "/cmd_drive", 10);
+      subs.push_back(nh.subscribe<nav_msgs::Odometry>(
+          "/" + key + "/avt_341/odometry", 1000,
+          [&, key, k](const nav_msgs::Odometry::ConstPtr& m) {
+            std::vector<nav_msgs::Odometry>& s = streams[key];
+            const double t = m->header.stamp.toSec();
+            if (!s.empty() && m->header.stamp <= s.back().header.stamp)
+            {
+              // The t = 0 odometry re-sent until every controller answered: answer it again.
+              if (m->header.stamp.isZero())
+                commands[key].publish(command(k, m->header.stamp));
+              return;
+            }
+            s.push_back(*m);
+            if (!stop && std::abs(t - 0.05 * std::round(t / 0.05)) < 1e-6)
+              commands[key].publish(command(k, m->header.stamp));
+          },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+    }
+  auto reached = [&] {
+    for (const auto& layout : layouts)
+      for (const auto& v : vehicles)
+      {
+        const auto& s = streams[layout + "/" + v];
+        if (s.empty() || s.back().header.stamp.toSec() < until)
+          return false;
+      }
+    return true;
+  };
+  const ros::WallTime start = ros::WallTime::now();
+  ASSERT_TRUE(spinUntil(reached, 150.0)) << "the partitioned run did not reach t = " << until << " s";
+  stop = true;
+  std::printf("[ partitions ] %.1f s of sim time, 2 layouts x %zu vehicles, in %.1f s wall\n", until, vehicles.size(),
+              (ros::WallTime::now() - start).toSec());
+  for (const std::string& v : vehicles)
+  {
+    const auto& a = streams["one/" + v];
+    const auto& b = streams["two/" + v];
+    const std::size_t n = std::min(a.size(), b.size());
+    ASSERT_GE(n, static_cast<std::size_t>(100.0 * until)) << v;
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      ASSERT_EQ(a[i].header.stamp, b[i].header.stamp) << v << " message " << i;
+      const auto &p = a[i].pose.pose, &q = b[i].pose.pose;
+      const auto &u = a[i].twist.twist, &w = b[i].twist.twist;
+      if (p.position.x != q.position.x || p.position.y != q.position.y || p.position.z != q.position.z ||
+          p.orientation.x != q.orientation.x || p.orientation.y != q.orientation.y ||
+          p.orientation.z != q.orientation.z || p.orientation.w != q.orientation.w || u.linear.x != w.linear.x ||
+          u.linear.y != w.linear.y || u.angular.z != w.angular.z)
+        ++differ;
+    }
+    EXPECT_EQ(differ, 0u) << v << ": " << differ << " of " << n << " odometry messages differ between the layouts";
+    // Not trivially equal: it drove and turned.
+    const double dist = std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
+                                   a[n - 1].pose.pose.position.y - a[0].pose.pose.position.y);
+    EXPECT_GT(dist, 5.0) << v;
+    std::printf("[ partitions ] %s: %zu messages identical, %.1f m driven\n", v.c_str(), n, dist);
+  }
+}
+
+/// pid of a running node, from its own XML-RPC getPid.
+int nodePid(const std::string& node)
+{
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false))
+    return -1;
+  std::string host;
+  std::uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port))
+    return -1;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue pid_args, pid_result;
+  pid_args[0] = ros::this_node::getName();
+  if (!client.execute("getPid", pid_args, pid_result) || pid_result.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    return -1;
+  return static_cast<int>(pid_result[2]);
+}
+
+TEST(PartitionKill, AKilledPartitionStopsTheClockNamingIt)
+{
+  ros::NodeHandle nh, pnh("~");
+  const std::string clock_path = LOCKSTEP_CLOCK_PATH;
+  double last_clock = 0.0;
+  ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
+      "/clock", 100, [&](const rosgraph_msgs::Clock::ConstPtr& c) { last_clock = c->clock.toSec(); });
+  // The clock runs as a child of this test, so its exit status and message can be read.
+  XmlRpc::XmlRpcValue partitions;
+  partitions[0] = std::string("p1");
+  partitions[1] = std::string("p2");
+  nh.setParam("/kill_clock/partitions", partitions);
+  nh.setParam("/kill_clock/timeout", 2.0);
+  const std::string log = "/tmp/avsp_kill_clock_" + std::to_string(getpid()) + ".log";
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0)
+  {
+    const std::string cmd = clock_path + " __name:=kill_clock > " + log + " 2>&1";
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  const bool running = spinUntil([&] { return last_clock >= 1.0; }, 60.0);
+  const int victim = nodePid("/p2");
+  bool killed = false;
+  if (running && victim > 0)
+    killed = kill(victim, SIGKILL) == 0;
+  const ros::WallTime killed_at = ros::WallTime::now();
+  int status = 0;
+  pid_t done = 0;
+  while ((done = waitpid(child, &status, WNOHANG)) == 0 && (ros::WallTime::now() - killed_at).toSec() < 30.0)
+    ros::WallDuration(0.05).sleep();
+  if (done == 0)
+  {
+    kill(child, SIGKILL);
+    waitpid(child, &status, 0);
+  }
+  const double stopped_after = (ros::WallTime::now() - killed_at).toSec();
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::remove(log.c_str());
+  ASSERT_TRUE(running) << "the clock did not reach 1 s: " << text.str();
+  ASSERT_GT(victim, 0) << "no pid for /p2";
+  ASSERT_TRUE(killed);
+  ASSERT_NE(done, 0) << "the clock still ran 30 s after p2 was killed: " << text.str();
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << text.str();
+  EXPECT_NE(text.str().find("partition(s) p2 did not report"), std::string::npos) << text.str();
+  EXPECT_EQ(text.str().find("partition(s) p1"), std::string::npos) << text.str();
+  std::printf("[ partitions ] p2 killed at t = %.2f s; the clock stopped %.2f s (wall) later\n", last_clock,
+              stopped_after);
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_partitions");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}
