@@ -389,7 +389,8 @@ Camera::Camera(CameraConfig config) : config_(std::move(config))
       {
         // Undistort by fixed-point iteration (plumb_bob has no closed-form inverse).
         double x = xd, y = yd;
-        for (int it = 0; it < 30; ++it)
+        const bool distorted = d[0] != 0.0 || d[1] != 0.0 || d[2] != 0.0 || d[3] != 0.0 || d[4] != 0.0;
+        for (int it = 0; distorted && it < 30; ++it)
         {
           const double r2 = x * x + y * y;
           const double radial = 1.0 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
