@@ -4,11 +4,14 @@
 #include <set>
 #include <stdexcept>
 
+#include "avsp_sensors/random.hpp"
+
 namespace avsp
 {
 namespace sensors
 {
-CameraRig::CameraRig(const std::vector<CameraConfig>& cameras, std::uint32_t body_id) : body_id_(body_id)
+CameraRig::CameraRig(const std::vector<CameraConfig>& cameras, std::uint32_t body_id, std::uint64_t seed)
+  : body_id_(body_id), seed_(seed)
 {
   std::set<std::string> names;
   for (const CameraConfig& c : cameras)
@@ -43,7 +46,8 @@ std::vector<CameraOutput> CameraRig::update(const VehicleState& state, const Sce
     o.index = k;
     o.time = state.time;
     o.optical_pose = state.pose * opticalMount(k);
-    o.frame = cameras_[k].render(scene, materials, o.optical_pose, env, threads, body_id_);
+    o.frame = cameras_[k].render(scene, materials, o.optical_pose, env, threads, body_id_,
+                                 streamKey(seed_, k, clocks_[k].index(state.time)));
     o.cost = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out.push_back(std::move(o));
   }

@@ -318,7 +318,7 @@ private:
       if (pose)
         staticFrame(v->base_frame, v->range_frames.back(), *pose);
     }
-    setupCameras(*v, spec.cameras, where);
+    setupCameras(*v, spec.cameras, where, as::streamKey(seed, nameHash(entry.name), 1));
     if (suite.occupancy)
       suite.occupancy->config.threads = threads_;
     suite.seed = as::streamKey(seed, nameHash(entry.name), 0);
@@ -350,13 +350,14 @@ private:
   }
 
   /// The vehicle's cameras: the rig (validated) and each camera's static optical frame.
-  void setupCameras(VehicleIo& v, const std::vector<as::CameraConfig>& cameras, const std::string& where)
+  void setupCameras(VehicleIo& v, const std::vector<as::CameraConfig>& cameras, const std::string& where,
+                    std::uint64_t seed)
   {
     if (cameras.empty())
       return;
     try
     {
-      v.camera_rig = std::make_unique<as::CameraRig>(cameras, static_cast<std::uint32_t>(v.index));
+      v.camera_rig = std::make_unique<as::CameraRig>(cameras, static_cast<std::uint32_t>(v.index), seed);
     }
     catch (const std::invalid_argument& e)
     {

@@ -733,3 +733,45 @@ TEST(Camera, SrgbEncodingMatchesTheTransferFunction)
   EXPECT_EQ(encodeSrgb(-1.f), 0);
   EXPECT_EQ(encodeSrgb(7.f), 255);
 }
+
+TEST(Camera, RainStreaksAndSnowflakesAreSeededAndOnlyInRgb)
+{
+  Scene scene(plane(0.0, 0, 0));
+  CameraMaterials mat;
+  CameraConfig c;
+  c.width = 200;
+  c.height = 150;
+  const Camera cam(c);
+  const Eigen::Isometry3d pose = opticalPose(Vector3d(0, 0, 1.5), 0.0, 0.1);
+  const CameraEnvironment dry = noon();
+  CameraEnvironment rain = dry, heavy = dry, snow = dry;
+  rain.weather.rain_rate = 5.0;
+  heavy.weather.rain_rate = 50.0;
+  snow.weather.snow_rate = 5.0;
+  auto changed = [&](const CameraFrame& a, const CameraFrame& b) {
+    int n = 0;
+    for (std::size_t k = 0; k < a.rgb.size(); ++k)
+      n += a.rgb[k] != b.rgb[k];
+    return n;
+  };
+  const CameraFrame f_dry = cam.render(scene, mat, pose, dry, 2, PrimitiveBvh::kNoId, 7);
+  // Rain extinction alone (no streaks) would change the image too: compare streaked and unstreaked.
+  CameraConfig plain = c;
+  plain.precipitation = false;
+  const Camera cam_plain(plain);
+  const CameraFrame r_plain = cam_plain.render(scene, mat, pose, rain, 2, PrimitiveBvh::kNoId, 7);
+  const CameraFrame r1 = cam.render(scene, mat, pose, rain, 2, PrimitiveBvh::kNoId, 7);
+  const CameraFrame r1_again = cam.render(scene, mat, pose, rain, 1, PrimitiveBvh::kNoId, 7);
+  const CameraFrame r2 = cam.render(scene, mat, pose, rain, 2, PrimitiveBvh::kNoId, 8);
+  const CameraFrame h1 = cam.render(scene, mat, pose, heavy, 2, PrimitiveBvh::kNoId, 7);
+  const CameraFrame h_plain = cam_plain.render(scene, mat, pose, heavy, 2, PrimitiveBvh::kNoId, 7);
+  const CameraFrame s1 = cam.render(scene, mat, pose, snow, 2, PrimitiveBvh::kNoId, 7);
+  EXPECT_EQ(changed(f_dry, cam.render(scene, mat, pose, dry, 2, PrimitiveBvh::kNoId, 99)), 0);  // no weather: no key effect
+  EXPECT_GT(changed(r_plain, r1), 100);
+  EXPECT_EQ(r1.rgb, r1_again.rgb);              // same key, same streaks (any thread count)
+  EXPECT_GT(changed(r1, r2), 100);              // another frame, other streaks
+  EXPECT_GT(changed(h_plain, h1), 3 * changed(r_plain, r1));  // heavier rain, more streaks
+  EXPECT_GT(changed(f_dry, s1), 100);
+  EXPECT_EQ(r1.semantic, f_dry.semantic);       // streaks are in the RGB image only
+  EXPECT_EQ(std::memcmp(r1.depth.data(), f_dry.depth.data(), r1.depth.size() * sizeof(float)), 0);
+}

@@ -192,6 +192,7 @@ struct CameraConfig
   double sky_gain = 2.0;           ///< sky radiance / (horizontal sky illuminance / pi)
   double fog_contrast_threshold = 0.02;  ///< epsilon of the visibility definition: alpha = -ln(eps) / V
   double thermal_min = 253.15, thermal_max = 323.15;  ///< K, mono8 thermal image range
+  bool precipitation = true;       ///< draw seeded rain streaks and snowflakes on the RGB image
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();  ///< camera body (x fwd, y left, z up) in base_link
 };
 
@@ -248,17 +249,25 @@ public:
    * @brief Renders the scene from `optical_pose` (optical frame -> map).
    * @param ignore_body body id of the camera's own vehicle (not seen; still casts shadows)
    * @param threads 0 = all cores; output does not depend on it
+   * @param noise_key seed of this frame's rain streaks and snowflakes (same key, same image)
    * @throw std::invalid_argument for a non-finite pose or a bad environment
    */
   CameraFrame render(const Scene& scene, const CameraMaterials& materials, const Eigen::Isometry3d& optical_pose,
                      const CameraEnvironment& env, unsigned threads,
-                     std::uint32_t ignore_body = PrimitiveBvh::kNoId) const;
+                     std::uint32_t ignore_body = PrimitiveBvh::kNoId, std::uint64_t noise_key = 0) const;
 
 private:
   CameraConfig config_;
   CameraIntrinsics intrinsics_;
   std::vector<Eigen::Vector3f> rays_;
 };
+
+/**
+ * @brief Draws the frame's rain streaks and snowflakes on its linear radiance (README,
+ *        "Cameras"): counts from the rain and snow rates, positions from `key` only.
+ * @param light radiance of a white surface lit by the scene's horizontal light, [0, 1]
+ */
+void drawPrecipitation(CameraFrame& frame, const CameraEnvironment& env, float light, std::uint64_t key);
 
 /// sRGB transfer function of a linear value (clamped to [0, 1]) to 8 bits.
 std::uint8_t encodeSrgb(float linear);

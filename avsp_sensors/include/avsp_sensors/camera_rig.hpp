@@ -34,10 +34,11 @@ public:
   /**
    * @param cameras each with its mount (camera body frame in base_link)
    * @param body_id the vehicle's body id (its own cameras do not see it)
+   * @param seed rain streaks and snowflakes of camera k's frame n come from streamKey(seed, k, n)
    * @throw std::invalid_argument naming the camera: a bad config (validateCameraConfig) or a
    *        name used twice
    */
-  CameraRig(const std::vector<CameraConfig>& cameras, std::uint32_t body_id);
+  CameraRig(const std::vector<CameraConfig>& cameras, std::uint32_t body_id, std::uint64_t seed = 0);
 
   const std::vector<Camera>& cameras() const { return cameras_; }
   /// Optical frame of camera k in base_link: mount * opticalFromBody().
@@ -54,6 +55,7 @@ private:
   std::vector<Camera> cameras_;
   std::vector<GridClock> clocks_;
   std::uint32_t body_id_;
+  std::uint64_t seed_;
 };
 
 }  // namespace sensors

@@ -412,7 +412,8 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
     const Section s(&list[k], path + "[" + std::to_string(k) + "]");
     s.allowOnly({ "name", "projection", "width", "height", "hfov_deg", "rate", "x", "y", "z", "roll", "pitch", "yaw",
                   "outputs", "distortion", "stereo_baseline", "max_range", "shadows", "shadow_range",
-                  "min_exposure_lux", "sky_gain", "fog_contrast_threshold", "thermal_min", "thermal_max" });
+                  "min_exposure_lux", "sky_gain", "fog_contrast_threshold", "thermal_min", "thermal_max",
+                  "precipitation" });
     if (!s.has("name"))
       throw StartupError("parameter " + s.key("name") + " is required (topics <vehicle>/<name>/..., frame "
                          "<vehicle>/<name>_optical)");
@@ -438,6 +439,7 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
     c.fog_contrast_threshold = s.number("fog_contrast_threshold", c.fog_contrast_threshold);
     c.thermal_min = s.number("thermal_min", c.thermal_min);
     c.thermal_max = s.number("thermal_max", c.thermal_max);
+    c.precipitation = s.flag("precipitation", c.precipitation);
     if (s.has("outputs"))
     {
       XmlRpcValue outputs = s.get("outputs");
