@@ -474,6 +474,8 @@ private:
   /// class table semantic_classes.
   void advertiseCameras()
   {
+    // Seasons flip south of the equator; without ~latitude the north's are used.
+    camera_latitude_ = pnh_.param("latitude", 0.0);
     for (auto& vp : vehicles_)
     {
       VehicleIo& v = *vp;
@@ -593,7 +595,7 @@ private:
   {
     schedule(msg->header.stamp, [this, msg, weather] {
       std::string why;
-      if (!asn::cameraEnvironmentFromMessage(*msg, weather, pnh_.param("latitude", 0.0), camera_env_, why))
+      if (!asn::cameraEnvironmentFromMessage(*msg, weather, camera_latitude_, camera_env_, why))
         warnThrottled(5.0, "sensors_node: /environment ignored by the cameras: %s; they keep the last good sky",
                       why.c_str());
     });
@@ -774,6 +776,7 @@ private:
   as::Weather weather_;
   as::CameraMaterials camera_materials_;
   as::CameraEnvironment camera_env_;
+  double camera_latitude_ = 0.0;  ///< deg, ~latitude (seasons)
   std::vector<std::unique_ptr<VehicleIo>> vehicles_;
   std::unique_ptr<as::StateSynchronizer> sync_;
   std::multimap<double, std::function<void()>> events_;  ///< world changes by stamp, in arrival order per stamp
