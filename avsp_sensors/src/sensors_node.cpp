@@ -30,6 +30,7 @@
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <image_transport/image_transport.h>
 #include <ros/callback_queue.h>
 #include <ros/package.h>
 #include <ros/ros.h>
@@ -39,7 +40,9 @@
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source_params.hpp>
 
+#include "avsp_sensors/camera_rig.hpp"
 #include "avsp_sensors/random.hpp"
+#include "avsp_sensors/ros/camera_conversions.hpp"
 #include "avsp_sensors/ros/conversions.hpp"
 #include "avsp_sensors/ros/sensor_params.hpp"
 #include "avsp_sensors/ros/vehicle_frames.hpp"
@@ -124,6 +127,20 @@ struct VehicleIo
     std::size_t sweeps = 0, radar_scans = 0, states = 0, maps = 0;
     double lidar = 0.0, occupancy = 0.0, cloud = 0.0, radar = 0.0, other = 0.0, map_products = 0.0;
   } costs;
+
+  // Cameras (README, "Cameras"): the rig, and per camera its publishers and optical frame.
+  struct CameraIo
+  {
+    std::string frame;  ///< <vehicle>/<camera>_optical
+    image_transport::Publisher rgb, depth, semantic, thermal;
+    ros::Publisher info;
+  };
+  std::unique_ptr<as::CameraRig> camera_rig;
+  std::unique_ptr<image_transport::ImageTransport> image_transport;
+  std::vector<CameraIo> camera_io;
+  ros::Publisher classes_pub;
+  std::size_t camera_frames = 0;
+  double camera_cost = 0.0;  ///< wall s rendering + converting
 };
 
 class SensorsNode
@@ -179,6 +196,9 @@ public:
                   v->name.c_str(), per(c.lidar, c.sweeps), per(c.occupancy, c.sweeps), per(c.cloud, c.sweeps),
                   c.sweeps, per(c.radar, c.radar_scans), c.radar_scans, per(c.other, c.states), c.states,
                   per(c.map_products, c.maps), c.maps);
+      if (v->camera_rig)
+        std::printf("sensors_node: %s cameras (wall ms): %.1f per frame (%zu frames)\n", v->name.c_str(),
+                    per(v->camera_cost, v->camera_frames), v->camera_frames);
     }
     std::fflush(stdout);
   }
@@ -298,6 +318,7 @@ private:
       if (pose)
         staticFrame(v->base_frame, v->range_frames.back(), *pose);
     }
+    setupCameras(*v, spec.cameras, where, as::streamKey(seed, nameHash(entry.name), 1));
     if (suite.occupancy)
       suite.occupancy->config.threads = threads_;
     suite.seed = as::streamKey(seed, nameHash(entry.name), 0);
@@ -328,6 +349,52 @@ private:
     static_frames_.push_back(t);
   }
 
+  /// The vehicle's cameras: the rig (validated) and each camera's static optical frame.
+  void setupCameras(VehicleIo& v, const std::vector<as::CameraConfig>& cameras, const std::string& where,
+                    std::uint64_t seed)
+  {
+    if (cameras.empty())
+      return;
+    try
+    {
+      v.camera_rig = std::make_unique<as::CameraRig>(cameras, static_cast<std::uint32_t>(v.index), seed);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(where + ": " + e.what());
+    }
+    for (std::size_t k = 0; k < cameras.size(); ++k)
+    {
+      VehicleIo::CameraIo io;
+      io.frame = v.name + "/" + cameras[k].name + "_optical";
+      staticFrame(v.base_frame, io.frame, v.camera_rig->opticalMount(k));
+      v.camera_io.push_back(io);
+    }
+  }
+
+  /// What the cameras need beyond geometry: the soil of each grid point (the terrain's palette
+  /// and map, wetness at the soils' initial moisture) and the objects' types.
+  void loadCameraMaterials(const at::DeformableTerrain& terrain)
+  {
+    std::vector<as::SoilLook> palette;
+    for (const at::SoilParameters& soil : terrain.palette())
+    {
+      const double wet = soil.moisture.saturated > 0.0 ? soil.moisture.initial / soil.moisture.saturated : 0.0;
+      palette.push_back({ soil.name, as::soilAlbedo(soil.name), static_cast<float>(std::min(1.0, std::max(0.0, wet))) });
+    }
+    std::vector<std::uint8_t> soil_map;
+    if (palette.size() > 1)
+    {
+      const std::size_t nx = scene_->terrain().columns(), ny = scene_->terrain().rows();
+      soil_map.resize(nx * ny);
+      for (std::size_t j = 0; j < ny; ++j)
+        for (std::size_t i = 0; i < nx; ++i)
+          soil_map[j * nx + i] = terrain.soilIndex(i, j);
+    }
+    camera_materials_.setSoils(std::move(palette), std::move(soil_map));
+    camera_materials_.setObjects(objects_);
+  }
+
   void loadScene(const std::string& soils_file)
   {
     std::unique_ptr<at::SoilLibrary> soils;
@@ -347,6 +414,12 @@ private:
     objects_ = std::move(loaded.objects);
     // The sensors keep the heights only (ruts arrive as heights); the soil state is dropped.
     scene_ = std::make_unique<as::Scene>(as::HeightField::fromTerrain(*loaded.terrain));
+    for (const auto& v : vehicles_)
+      if (v->camera_rig)
+      {
+        loadCameraMaterials(*loaded.terrain);
+        break;
+      }
     loaded.terrain.reset();
     scene_->setObjects(objects_);
   }
@@ -391,8 +464,42 @@ private:
             });
       }
     }
+    advertiseCameras();
     if (!static_frames_.empty())
       static_broadcaster_.sendTransform(static_frames_);
+  }
+
+  /// Per camera: <camera>/image_raw (rgb8), depth/image_raw (32FC1), semantic/image_raw and
+  /// thermal/image_raw (mono8) through image_transport, camera_info; per vehicle the latched
+  /// class table semantic_classes.
+  void advertiseCameras()
+  {
+    // Seasons flip south of the equator; without ~latitude the north's are used.
+    camera_latitude_ = pnh_.param("latitude", 0.0);
+    for (auto& vp : vehicles_)
+    {
+      VehicleIo& v = *vp;
+      if (!v.camera_rig)
+        continue;
+      ros::NodeHandle vnh(nh_, v.name);
+      v.image_transport = std::make_unique<image_transport::ImageTransport>(vnh);
+      for (std::size_t k = 0; k < v.camera_io.size(); ++k)
+      {
+        const as::CameraConfig& c = v.camera_rig->cameras()[k].config();
+        VehicleIo::CameraIo& io = v.camera_io[k];
+        if (c.rgb)
+          io.rgb = v.image_transport->advertise(c.name + "/image_raw", 2);
+        if (c.depth)
+          io.depth = v.image_transport->advertise(c.name + "/depth/image_raw", 2);
+        if (c.semantic)
+          io.semantic = v.image_transport->advertise(c.name + "/semantic/image_raw", 2);
+        if (c.thermal)
+          io.thermal = v.image_transport->advertise(c.name + "/thermal/image_raw", 2);
+        io.info = vnh.advertise<sensor_msgs::CameraInfo>(c.name + "/camera_info", 10);
+      }
+      v.classes_pub = vnh.advertise<avsp_msgs::ClassTable>("semantic_classes", 1, true);
+      v.classes_pub.publish(asn::toClassTable(camera_materials_.classTable(), std_msgs::Header()));
+    }
   }
 
   // ---- inputs ----------------------------------------------------------------------------
@@ -480,6 +587,18 @@ private:
       return;
     }
     schedule(msg->header.stamp, [this, weather] { weather_ = weather; });
+    scheduleCameraEnvironment(msg, weather);
+  }
+
+  /// The cameras' sky (sun, moon, season, snow, wetness) from the same message, at its stamp.
+  void scheduleCameraEnvironment(const avsp_msgs::Environment::ConstPtr& msg, const as::Weather& weather)
+  {
+    schedule(msg->header.stamp, [this, msg, weather] {
+      std::string why;
+      if (!asn::cameraEnvironmentFromMessage(*msg, weather, camera_latitude_, camera_env_, why))
+        warnThrottled(5.0, "sensors_node: /environment ignored by the cameras: %s; they keep the last good sky",
+                      why.c_str());
+    });
   }
 
   bool onSaveMap(VehicleIo& v, avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res)
@@ -606,6 +725,44 @@ private:
       ++costs.maps;
       costs.map_products += (ros::WallTime::now() - start).toSec();
     }
+    senseCameras(v, state);
+  }
+
+  /// Renders and publishes the cameras due at this state (stamped with its time).
+  void senseCameras(VehicleIo& v, const as::VehicleState& state)
+  {
+    if (!v.camera_rig)
+      return;
+    std::vector<as::CameraOutput> frames;
+    try
+    {
+      frames = v.camera_rig->update(state, *scene_, camera_materials_, camera_env_, threads_);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      warnThrottled(2.0, "sensors_node: %s cameras at %.6f s: %s", v.name.c_str(), state.time, e.what());
+      return;
+    }
+    for (const as::CameraOutput& o : frames)
+    {
+      const ros::WallTime start = ros::WallTime::now();
+      const as::Camera& camera = v.camera_rig->cameras()[o.index];
+      VehicleIo::CameraIo& io = v.camera_io[o.index];
+      std_msgs::Header h;
+      h.stamp = asn::toStamp(o.time);
+      h.frame_id = io.frame;
+      if (camera.config().rgb)
+        io.rgb.publish(asn::toImage(o.frame, asn::ImageKind::kRgb, h));
+      if (camera.config().depth)
+        io.depth.publish(asn::toImage(o.frame, asn::ImageKind::kDepth, h));
+      if (camera.config().semantic)
+        io.semantic.publish(asn::toImage(o.frame, asn::ImageKind::kSemantic, h));
+      if (camera.config().thermal)
+        io.thermal.publish(asn::toImage(o.frame, asn::ImageKind::kThermal, h));
+      io.info.publish(asn::toCameraInfo(camera.intrinsics(), h));
+      ++v.camera_frames;
+      v.camera_cost += o.cost + (ros::WallTime::now() - start).toSec();
+    }
   }
 
   ros::NodeHandle& nh_;
@@ -617,6 +774,9 @@ private:
   at::ObjectSet objects_;
   std::unique_ptr<as::Scene> scene_;
   as::Weather weather_;
+  as::CameraMaterials camera_materials_;
+  as::CameraEnvironment camera_env_;
+  double camera_latitude_ = 0.0;  ///< deg, ~latitude (seasons)
   std::vector<std::unique_ptr<VehicleIo>> vehicles_;
   std::unique_ptr<as::StateSynchronizer> sync_;
   std::multimap<double, std::function<void()>> events_;  ///< world changes by stamp, in arrival order per stamp

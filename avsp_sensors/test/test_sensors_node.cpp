@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include <avsp_msgs/ClassTable.h>
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/RadarTargetArray.h>
@@ -32,6 +33,8 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <sensor_msgs/MagneticField.h>
 #include <sensor_msgs/NavSatFix.h>
@@ -151,6 +154,9 @@ struct Scenario
   Topic<sensor_msgs::Range> sonar;
   Topic<nav_msgs::OccupancyGrid> grid;
   Topic<tf2_msgs::TFMessage> tf_static;
+  std::map<std::string, Topic<sensor_msgs::Image>> images;  // ego's front camera, by topic
+  Topic<sensor_msgs::CameraInfo> camera_info;
+  Topic<avsp_msgs::ClassTable> classes;
   std::vector<std::string> warnings;
   ros::Subscriber log_sub;
   bool completed = false;
@@ -218,6 +224,11 @@ void runScenario(Scenario& r)
   r.sonar.subscribe(nh, "/ego/ultrasonic/sonar_down");
   r.grid.subscribe(nh, "/ego/avt_341/occupancy_grid");
   r.tf_static.subscribe(nh, "/tf_static");
+  for (const char* t : { "/ego/front/image_raw", "/ego/front/depth/image_raw", "/ego/front/semantic/image_raw" })
+    r.images[t].subscribe(nh, t);
+  r.camera_info.subscribe(nh, "/ego/front/camera_info");
+  r.classes.sub = nh.subscribe<avsp_msgs::ClassTable>(
+      "/ego/semantic_classes", 1, [&r](const avsp_msgs::ClassTable::ConstPtr& m) { r.classes.messages.push_back(*m); });
 
   ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
   ros::Publisher ego_pub = nh.advertise<nav_msgs::Odometry>("/ego/avt_341/odometry", 100);
@@ -239,7 +250,8 @@ void runScenario(Scenario& r)
           return true;
         };
         return all(r.clouds) && all(r.targets) && all(r.markers) && all(r.fixes) && all(r.imus) && all(r.mags) &&
-               r.sonar.sub.getNumPublishers() > 0 && r.grid.sub.getNumPublishers() > 0;
+               all(r.images) && r.camera_info.sub.getNumPublishers() > 0 && r.sonar.sub.getNumPublishers() > 0 &&
+               r.grid.sub.getNumPublishers() > 0;
       },
       60.0);
   if (!connected)
@@ -719,6 +731,89 @@ TEST_F(SensorsNode, BadMessagesAreIgnoredWithAWarningNamingTheTopic)
   // The node kept going: every IMU step was answered (the lockstep completed).
 }
 
+TEST_F(SensorsNode, CameraImagesAndInfoAtTheirRateInTheOpticalFrame)
+{
+  // sensors_node.test: ego's front camera, 160 x 120, 90 deg, 5 Hz, at (1.0, 0, 1.8) in base_link.
+  const double span = kTo - kFrom;
+  for (auto& [topic, t] : run->images)
+  {
+    EXPECT_NEAR(static_cast<double>(t.countIn(kFrom, kTo)), 5.0 * span, 0.1 * 5.0 * span) << topic;
+    ASSERT_FALSE(t.messages.empty()) << topic;
+    for (const auto& m : t.messages)
+    {
+      EXPECT_EQ(m.header.frame_id, "ego/front_optical") << topic;
+      EXPECT_NEAR(std::remainder(m.header.stamp.toSec(), 0.2), 0.0, 1e-6) << topic;  // on the 5 Hz grid
+      EXPECT_EQ(m.width, 160u);
+      EXPECT_EQ(m.height, 120u);
+    }
+  }
+  EXPECT_NEAR(static_cast<double>(run->camera_info.countIn(kFrom, kTo)), 5.0 * span, 0.1 * 5.0 * span);
+  EXPECT_EQ(run->images["/ego/front/image_raw"].messages[0].encoding, "rgb8");
+  EXPECT_EQ(run->images["/ego/front/depth/image_raw"].messages[0].encoding, "32FC1");
+  EXPECT_EQ(run->images["/ego/front/semantic/image_raw"].messages[0].encoding, "mono8");
+  const sensor_msgs::CameraInfo& ci = run->camera_info.messages.at(0);
+  EXPECT_EQ(ci.header.frame_id, "ego/front_optical");
+  EXPECT_EQ(ci.distortion_model, "plumb_bob");
+  EXPECT_NEAR(ci.K[0], 80.0, 1e-9);  // (160 / 2) / tan(45 deg)
+  EXPECT_NEAR(ci.K[2], 79.5, 1e-9);
+  EXPECT_NEAR(ci.K[5], 59.5, 1e-9);
+  // The optical frame on /tf_static: from base_link at the mount, z forward (base x), y down.
+  bool found = false;
+  for (const auto& m : run->tf_static.messages)
+    for (const auto& t : m.transforms)
+      if (t.child_frame_id == "ego/front_optical")
+      {
+        found = true;
+        EXPECT_EQ(t.header.frame_id, "ego/base_link");
+        EXPECT_NEAR(t.transform.translation.x, 1.0, 1e-9);
+        EXPECT_NEAR(t.transform.translation.z, 1.8, 1e-9);
+        const Eigen::Quaterniond q(t.transform.rotation.w, t.transform.rotation.x, t.transform.rotation.y,
+                                   t.transform.rotation.z);
+        EXPECT_TRUE((q * Eigen::Vector3d::UnitZ()).isApprox(Eigen::Vector3d::UnitX(), 1e-9));
+        EXPECT_TRUE((q * Eigen::Vector3d::UnitY()).isApprox(-Eigen::Vector3d::UnitZ(), 1e-9));
+      }
+  EXPECT_TRUE(found) << "no static transform ego/base_link -> ego/front_optical";
+  // The class table, latched; every class id in the semantic images is in it.
+  ASSERT_FALSE(run->classes.messages.empty());
+  const avsp_msgs::ClassTable& table = run->classes.messages.front();
+  ASSERT_EQ(table.ids.size(), table.names.size());
+  std::uint8_t vehicle = 0;
+  for (std::size_t k = 0; k < table.ids.size(); ++k)
+    if (table.names[k] == "vehicle")
+      vehicle = table.ids[k];
+  ASSERT_NE(vehicle, 0);
+  // The other vehicle drives away straight ahead: in the depth image its rear face lies at the
+  // distance from the camera to the rear of its boxes (the nearest vehicle pixel).
+  const auto& sem = run->images["/ego/front/semantic/image_raw"].messages;
+  const auto& depth = run->images["/ego/front/depth/image_raw"].messages;
+  ASSERT_EQ(sem.size(), depth.size());
+  double rear = 1e9;
+  for (const as::BodyBox& b : run->other_frames.boxes)
+    rear = std::min(rear, b.pose.translation().x() - 0.5 * b.size.x());
+  std::size_t checked = 0;
+  for (std::size_t f = 0; f < sem.size(); ++f)
+  {
+    ASSERT_EQ(sem[f].header.stamp, depth[f].header.stamp);
+    const double t = sem[f].header.stamp.toSec();
+    double nearest = 1e9;
+    for (std::size_t k = 0; k < sem[f].data.size(); ++k)
+    {
+      EXPECT_NE(std::find(table.ids.begin(), table.ids.end(), sem[f].data[k]), table.ids.end());
+      if (sem[f].data[k] == vehicle)
+      {
+        float d;
+        std::memcpy(&d, &depth[f].data[4 * k], 4);
+        nearest = std::min(nearest, static_cast<double>(d));
+      }
+    }
+    ASSERT_LT(nearest, 1e9) << "no vehicle pixel at t = " << t;
+    // The camera is 1.0 m ahead of ego's base_link; the frame is rendered at its stamp.
+    EXPECT_NEAR(nearest, run->otherX(t) + rear - (kEgoX + 1.0), 0.02) << "t = " << t;
+    ++checked;
+  }
+  EXPECT_GT(checked, 25u);
+}
+
 /// Runs sensors_node under a fresh name with private parameters set on the master first: it
 /// must exit 1 and say what is wrong.
 std::pair<int, std::string> runBadNode(const XmlRpc::XmlRpcValue& sensors, const XmlRpc::XmlRpcValue* own,
@@ -767,6 +862,33 @@ XmlRpc::XmlRpcValue section(const std::string& sensor, const std::string& key, c
   return s;
 }
 
+/// {cameras: [entry]}.
+XmlRpc::XmlRpcValue cameras(const XmlRpc::XmlRpcValue& entry)
+{
+  XmlRpc::XmlRpcValue s, list;
+  list[0] = entry;
+  s["cameras"] = list;
+  return s;
+}
+
+/// A camera entry named `name` (none if empty) with one more key.
+XmlRpc::XmlRpcValue cameraEntry(const std::string& name, const std::string& key, const XmlRpc::XmlRpcValue& value)
+{
+  XmlRpc::XmlRpcValue e;
+  if (!name.empty())
+    e["name"] = name;
+  e[key] = value;
+  return e;
+}
+
+XmlRpc::XmlRpcValue outputsList(const std::string& extra)
+{
+  XmlRpc::XmlRpcValue l;
+  l[0] = std::string("rgb");
+  l[1] = extra;
+  return l;
+}
+
 TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
 {
   struct Case
@@ -783,6 +905,10 @@ TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
     { section("imu", "rate", 0.0), true, true, { "~vehicle_sensors/ego/imu", "rate" } },
     { section("lidar", "frame", std::string("periscope")), false, true, { "~sensors/lidar/frame", "periscope" } },
     { section("gps", "rate", 10.0), false, false, { "~latitude" } },
+    { cameras(cameraEntry("front", "hfov_deg", 200.0)), false, true, { "~sensors/cameras[0]", "hfov" } },
+    { cameras(cameraEntry("front", "outputs", outputsList("infrared"))), false, true, { "~sensors/cameras[0]/outputs" } },
+    { cameras(cameraEntry("", "width", 64)), true, true, { "~vehicle_sensors/ego/cameras[0]/name", "required" } },
+    { cameras(cameraEntry("front", "lens", 1.0)), false, true, { "~sensors/cameras[0]/lens", "not a known key" } },
   };
   for (const Case& c : cases)
   {

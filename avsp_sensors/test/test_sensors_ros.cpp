@@ -13,6 +13,7 @@
 
 #include <avsp_msgs/node_params.hpp>
 
+#include "avsp_sensors/ros/camera_conversions.hpp"
 #include "avsp_sensors/ros/conversions.hpp"
 #include "avsp_sensors/ros/sensor_params.hpp"
 #include "avsp_sensors/ros/vehicle_frames.hpp"
@@ -167,6 +168,116 @@ TEST(SensorParams, EveryMalformedKeyIsNamed)
   // The vehicle's own section is named as such.
   const XmlRpcValue own = map({ { "imu", map({ { "gravity", -1.0 } }) } });
   EXPECT_MENTIONS(error(map({}), &own), "~vehicle_sensors/ego/imu", "gravity");
+}
+
+TEST(SensorParams, CamerasParseWithTheirMountOutputsAndStereoPairs)
+{
+  const XmlRpcValue common = map({ { "cameras",
+                                     list({ map({ { "name", str("front") },
+                                                  { "width", 320 },
+                                                  { "height", 200 },
+                                                  { "hfov_deg", 60.0 },
+                                                  { "rate", 3 },
+                                                  { "x", 1.5 },
+                                                  { "z", 1.2 },
+                                                  { "yaw", 0.5 },
+                                                  { "outputs", list({ str("depth"), str("thermal") }) } }),
+                                            map({ { "name", str("stereo") }, { "stereo_baseline", 0.4 }, { "y", 0.2 } }),
+                                            map({ { "name", str("fish") }, { "projection", str("fisheye") }, { "hfov_deg", 190 } }) }) } });
+  const SensorsSpec s = parseSensors(nullptr, "~vehicle_sensors/ego", &common, "~sensors");
+  ASSERT_EQ(s.cameras.size(), 4u);
+  const CameraConfig& f = s.cameras[0];
+  EXPECT_EQ(f.name, "front");
+  EXPECT_EQ(f.width, 320);
+  EXPECT_EQ(f.height, 200);
+  EXPECT_NEAR(f.hfov, M_PI / 3, 1e-12);
+  EXPECT_DOUBLE_EQ(f.rate, 3.0);
+  EXPECT_TRUE(f.mount.translation().isApprox(Eigen::Vector3d(1.5, 0, 1.2)));
+  EXPECT_TRUE((f.mount.linear() * Eigen::Vector3d::UnitX()).isApprox(Eigen::Vector3d(std::cos(0.5), std::sin(0.5), 0)));
+  EXPECT_FALSE(f.rgb || f.semantic);
+  EXPECT_TRUE(f.depth && f.thermal);
+  // The pair: left at the mount, right 0.4 m to its right, P's Tx = -B.
+  EXPECT_EQ(s.cameras[1].name, "stereo_left");
+  EXPECT_EQ(s.cameras[2].name, "stereo_right");
+  EXPECT_TRUE(s.cameras[1].mount.translation().isApprox(Eigen::Vector3d(0, 0.2, 0)));
+  EXPECT_TRUE(s.cameras[2].mount.translation().isApprox(Eigen::Vector3d(0, -0.2, 0)));
+  EXPECT_DOUBLE_EQ(s.cameras[1].stereo_tx, 0.0);
+  EXPECT_DOUBLE_EQ(s.cameras[2].stereo_tx, -0.4);
+  EXPECT_EQ(s.cameras[3].projection, CameraProjection::kFisheye);
+  // Defaults: rgb, depth, semantic; no cameras without the section.
+  EXPECT_TRUE(s.cameras[1].rgb && s.cameras[1].depth && s.cameras[1].semantic && !s.cameras[1].thermal);
+  EXPECT_TRUE(parseSensors(nullptr, "", nullptr, "~sensors").cameras.empty());
+  // Malformed cameras, each named.
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "width", 64 } }) }) } })), "~sensors/cameras[0]/name", "required");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "width", 0 } }) }) } })), "~sensors/cameras[0]/width");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "rate", -1.0 } }) }) } })), "~sensors/cameras[0]", "rate");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "projection", str("orthographic") } }) }) } })), "~sensors/cameras[0]/projection");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "outputs", list({ str("lidar") }) } }) }) } })), "~sensors/cameras[0]/outputs");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "distortion", list({ 0.1, 0.2 }) } }) }) } })), "~sensors/cameras[0]/distortion", "5 numbers");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })), "~sensors/cameras[1]/name", "used twice");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "stereo_baseline", -0.1 } }) }) } })), "~sensors/cameras[0]/stereo_baseline");
+  EXPECT_MENTIONS(error(map({ { "cameras", map({ { "name", str("a") } }) } })), "~sensors/cameras", "must be a list");
+}
+
+TEST(Conversions, CameraImagesInfoAndEnvironment)
+{
+  CameraConfig c;
+  c.width = 4;
+  c.height = 3;
+  c.thermal = true;
+  const Camera cam(c);
+  CameraFrame f;
+  f.width = 4;
+  f.height = 3;
+  f.rgb.assign(36, 7);
+  f.depth.assign(12, 2.5f);
+  f.semantic.assign(12, 9);
+  f.thermal.assign(12, 200);
+  std_msgs::Header h;
+  h.frame_id = "ego/front_optical";
+  const sensor_msgs::Image rgb = toImage(f, ImageKind::kRgb, h), depth = toImage(f, ImageKind::kDepth, h);
+  EXPECT_EQ(rgb.encoding, "rgb8");
+  EXPECT_EQ(rgb.step, 12u);
+  EXPECT_EQ(rgb.data.size(), 36u);
+  EXPECT_EQ(depth.encoding, "32FC1");
+  EXPECT_EQ(depth.step, 16u);
+  float d;
+  std::memcpy(&d, &depth.data[4 * 5], 4);
+  EXPECT_EQ(d, 2.5f);
+  EXPECT_EQ(toImage(f, ImageKind::kSemantic, h).data[3], 9);
+  EXPECT_EQ(toImage(f, ImageKind::kThermal, h).encoding, "mono8");
+  const sensor_msgs::CameraInfo ci = toCameraInfo(cam.intrinsics(), h);
+  EXPECT_EQ(ci.width, 4u);
+  EXPECT_DOUBLE_EQ(ci.K[0], cam.intrinsics().fx);
+  EXPECT_DOUBLE_EQ(ci.P[0], cam.intrinsics().fx);
+  EXPECT_EQ(ci.D.size(), 5u);
+  EXPECT_EQ(ci.header.frame_id, "ego/front_optical");
+  // Environment: zero directions keep the last sky; season from the UTC month and latitude.
+  CameraEnvironment env;
+  const Eigen::Vector3d sun_before = env.sun_direction;
+  avsp_msgs::Environment m;
+  m.fog_visibility = 200.0;
+  m.air_temperature = 265.0;
+  m.utc = ros::Time(1700000000);  // 2023-11-14: fall in the north
+  Weather w;
+  w.fog_visibility = 200.0;
+  w.snow_rate = 1.0;
+  std::string why;
+  ASSERT_TRUE(cameraEnvironmentFromMessage(m, w, 40.0, env, why)) << why;
+  EXPECT_TRUE(env.sun_direction.isApprox(sun_before));
+  EXPECT_EQ(env.season, Season::kFall);
+  EXPECT_DOUBLE_EQ(env.air_temperature, 265.0);
+  EXPECT_DOUBLE_EQ(env.snow_cover, 1.0);  // snowing below 0 deg C
+  EXPECT_DOUBLE_EQ(env.weather.fog_visibility, 200.0);
+  m.sun_direction.z = 1.0;
+  m.sun_elevation = M_PI / 2;
+  ASSERT_TRUE(cameraEnvironmentFromMessage(m, w, -40.0, env, why)) << why;
+  EXPECT_TRUE(env.sun_direction.isApprox(Eigen::Vector3d::UnitZ()));
+  EXPECT_EQ(env.season, Season::kSpring);
+  m.sun_direction.z = 2.0;  // not a unit vector: refused, env unchanged
+  EXPECT_FALSE(cameraEnvironmentFromMessage(m, w, 40.0, env, why));
+  EXPECT_NE(why.find("sun_direction"), std::string::npos);
+  EXPECT_TRUE(env.sun_direction.isApprox(Eigen::Vector3d::UnitZ()));
 }
 
 TEST(SensorParams, VehicleListIsCheckedEntryByEntry)

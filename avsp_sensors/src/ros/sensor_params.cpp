@@ -397,6 +397,125 @@ void parseUltrasonics(const Section& parent, const std::string& name, SensorsSpe
   }
 }
 
+/// The `cameras` list: one CameraConfig per entry (two for a stereo pair).
+void parseCameras(const Section& parent, const std::string& name, SensorsSpec& spec)
+{
+  if (!parent.has(name))
+    return;
+  XmlRpcValue list = parent.get(name);
+  const std::string path = parent.key(name);
+  if (list.getType() != XmlRpcValue::TypeArray)
+    throw StartupError("parameter " + path + " must be a list of {name, ...} (got " + typeName(list) + ")");
+  std::set<std::string> names;
+  for (int k = 0; k < list.size(); ++k)
+  {
+    const Section s(&list[k], path + "[" + std::to_string(k) + "]");
+    s.allowOnly({ "name", "projection", "width", "height", "hfov_deg", "rate", "x", "y", "z", "roll", "pitch", "yaw",
+                  "outputs", "distortion", "stereo_baseline", "max_range", "shadows", "shadow_range",
+                  "min_exposure_lux", "sky_gain", "fog_contrast_threshold", "thermal_min", "thermal_max",
+                  "precipitation" });
+    if (!s.has("name"))
+      throw StartupError("parameter " + s.key("name") + " is required (topics <vehicle>/<name>/..., frame "
+                         "<vehicle>/<name>_optical)");
+    CameraConfig c;
+    c.name = s.link("name", "");
+    const std::string projection = s.text("projection", "pinhole");
+    if (projection == "pinhole")
+      c.projection = CameraProjection::kPinhole;
+    else if (projection == "fisheye")
+      c.projection = CameraProjection::kFisheye;
+    else
+      throw StartupError("parameter " + s.key("projection") + " = '" + projection +
+                         "' must be 'pinhole' or 'fisheye' (equidistant)");
+    c.width = static_cast<int>(s.count("width", static_cast<std::size_t>(c.width), 1, 8192));
+    c.height = static_cast<int>(s.count("height", static_cast<std::size_t>(c.height), 1, 8192));
+    c.hfov = s.number("hfov_deg", c.hfov * 180.0 / M_PI) * M_PI / 180.0;
+    c.rate = s.number("rate", c.rate);
+    c.max_range = s.number("max_range", c.max_range);
+    c.shadows = s.flag("shadows", c.shadows);
+    c.shadow_range = s.number("shadow_range", c.shadow_range);
+    c.min_exposure_lux = s.number("min_exposure_lux", c.min_exposure_lux);
+    c.sky_gain = s.number("sky_gain", c.sky_gain);
+    c.fog_contrast_threshold = s.number("fog_contrast_threshold", c.fog_contrast_threshold);
+    c.thermal_min = s.number("thermal_min", c.thermal_min);
+    c.thermal_max = s.number("thermal_max", c.thermal_max);
+    c.precipitation = s.flag("precipitation", c.precipitation);
+    if (s.has("outputs"))
+    {
+      XmlRpcValue outputs = s.get("outputs");
+      if (outputs.getType() != XmlRpcValue::TypeArray || outputs.size() == 0)
+        throw StartupError("parameter " + s.key("outputs") + " must be a non-empty list of rgb, depth, semantic, thermal");
+      c.rgb = c.depth = c.semantic = c.thermal = false;
+      for (int o = 0; o < outputs.size(); ++o)
+      {
+        const std::string out = outputs[o].getType() == XmlRpcValue::TypeString ? static_cast<std::string>(outputs[o]) : "";
+        if (out == "rgb")
+          c.rgb = true;
+        else if (out == "depth")
+          c.depth = true;
+        else if (out == "semantic")
+          c.semantic = true;
+        else if (out == "thermal")
+          c.thermal = true;
+        else
+          throw StartupError("parameter " + s.key("outputs") + "[" + std::to_string(o) + "] must be one of rgb, depth, "
+                             "semantic, thermal");
+      }
+    }
+    if (s.has("distortion"))
+    {
+      XmlRpcValue d = s.get("distortion");
+      if (d.getType() != XmlRpcValue::TypeArray || d.size() != 5)
+        throw StartupError("parameter " + s.key("distortion") + " must be a list of 5 numbers (plumb_bob k1, k2, p1, "
+                           "p2, k3)");
+      for (int i = 0; i < 5; ++i)
+      {
+        if (d[i].getType() == XmlRpcValue::TypeInt)
+          c.distortion[i] = static_cast<int>(d[i]);
+        else if (d[i].getType() == XmlRpcValue::TypeDouble)
+          c.distortion[i] = static_cast<double>(d[i]);
+        else
+          throw StartupError("parameter " + s.key("distortion") + "[" + std::to_string(i) + "] must be a number");
+      }
+    }
+    const Eigen::Vector3d xyz(s.number("x", 0.0), s.number("y", 0.0), s.number("z", 0.0));
+    const double roll = s.number("roll", 0.0), pitch = s.number("pitch", 0.0), yaw = s.number("yaw", 0.0);
+    for (double value : { xyz.x(), xyz.y(), xyz.z(), roll, pitch, yaw })
+      if (!std::isfinite(value))
+        throw StartupError("parameter " + s.path() + ": x, y, z, roll, pitch, yaw must be finite");
+    // URDF's rpy: fixed-axis roll about x, then pitch about y, then yaw about z.
+    c.mount = Eigen::Isometry3d::Identity();
+    c.mount.translation() = xyz;
+    c.mount.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                        Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                        Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                           .toRotationMatrix();
+    const double baseline = s.number("stereo_baseline", 0.0);
+    if (!(baseline >= 0.0 && std::isfinite(baseline)))
+      throw StartupError("parameter " + s.key("stereo_baseline") + " must be finite and >= 0 m (0: monocular)");
+    std::vector<CameraConfig> made;
+    if (baseline > 0.0)
+    {
+      // A pair: <name>_left at the mount, <name>_right baseline to its right (camera -y).
+      CameraConfig left = c, right = c;
+      left.name = c.name + "_left";
+      right.name = c.name + "_right";
+      right.mount.translation() = c.mount * Eigen::Vector3d(0.0, -baseline, 0.0);
+      right.stereo_tx = -baseline;
+      made = { left, right };
+    }
+    else
+      made = { c };
+    for (const CameraConfig& m : made)
+    {
+      if (!names.insert(m.name).second)
+        throw StartupError("parameter " + s.key("name") + " = '" + m.name + "' is used twice");
+      checked(s, [&] { validateCameraConfig(m); });
+      spec.cameras.push_back(m);
+    }
+  }
+}
+
 std::optional<OccupancySetup> parseOccupancy(const Section& s, bool has_lidar)
 {
   s.allowOnly({ "enabled", "resolution", "max_range", "prob_hit", "prob_miss", "clamping_min", "clamping_max",
@@ -471,7 +590,8 @@ SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& 
                          const XmlRpc::XmlRpcValue* common, const std::string& common_path)
 {
   const Section v(vehicle, vehicle_path), c(common, common_path);
-  const std::vector<std::string> sections{ "lidar", "radar", "gps", "imu", "magnetometer", "ultrasonic", "occupancy" };
+  const std::vector<std::string> sections{ "lidar", "radar",      "gps",       "imu",
+                                           "magnetometer", "ultrasonic", "occupancy", "cameras" };
   v.allowOnly(sections);
   c.allowOnly(sections);
 
@@ -494,6 +614,7 @@ SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& 
   spec.suite.magnetometer = parseMagnetometer(mag, spec);
   spec.magnetometer_link = mag.link("frame", spec.magnetometer_link);
   parseUltrasonics(v.has("ultrasonic") ? v : c, "ultrasonic", spec);
+  parseCameras(v.has("cameras") ? v : c, "cameras", spec);
   spec.suite.occupancy = parseOccupancy(pick(v, c, "occupancy"), spec.suite.lidar.has_value());
   return spec;
 }

@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include "avsp_sensors/camera.hpp"
 #include "avsp_sensors/sensor_suite.hpp"
 
 namespace avsp
@@ -54,6 +55,8 @@ struct SensorsSpec
   std::string lidar_link = "lidar", radar_link = "radar", gps_link = "gps", imu_link = "imu";
   std::string magnetometer_link = "imu";
   std::vector<UltrasonicMount> ultrasonic_mounts;  ///< per suite.ultrasonics entry
+  /// Cameras (section `cameras`), mounts in base_link from x..yaw; a stereo entry gives two.
+  std::vector<CameraConfig> cameras;
   /// Magnetometer field values given in the configuration (else the IGRF dipole at the origin).
   std::optional<double> magnetometer_intensity, magnetometer_inclination_deg;
   /// Parameter name of each section as read (e.g. "lidar" -> "~vehicle_sensors/ego/lidar").
@@ -62,7 +65,7 @@ struct SensorsSpec
 
 /**
  * @brief One vehicle's sensor configuration. Each section (lidar, radar, gps, imu,
- *        magnetometer, ultrasonic, occupancy) is taken from `vehicle` if it has it, else from
+ *        magnetometer, ultrasonic, occupancy, cameras) is taken from `vehicle` if it has it, else from
  *        `common`, else the defaults; `enabled: false` removes a sensor.
  * @param vehicle the vehicle's own map (~vehicle_sensors/<name>), or nullptr
  * @param vehicle_path its parameter name for messages, e.g. "~vehicle_sensors/ego"
