@@ -50,6 +50,7 @@
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/agent_params.hpp>
 #include <avsp_terrain/terrain_source_params.hpp>
 #include <avsp_terrain/height_patch.hpp>
 #include <avsp_terrain/soil.hpp>
@@ -213,6 +214,7 @@ public:
       for (const at::TerrainObject& o : objects_.all())
         if (std::isfinite(o.strength) && !o.toppled)
           standing_.push_back(o.id);
+    loadAgents();
 
     for (const VehicleSpec& s : specs)
     {
@@ -501,6 +503,13 @@ private:
       }
     }
     return ros::ok();
+  /// ~agents: kinematic bodies the vehicles collide with, on the terrain's base heights (as
+  /// agents_node and sensors_node place them).
+  void loadAgents()
+  {
+    world_->setAgents(at::agentsFromParams(pnh_, terrain_->base()));
+    if (world_->agentCount() > 0)
+      ROS_INFO("dynamics_node: %zu dynamic agent(s) collide with the vehicles", world_->agentCount());
   }
 
   void loadTerrain()

@@ -25,10 +25,14 @@ constexpr double kQuadtreeLeaf = 10.0;
 /// Weight used to scale the contact regularization (not the world's gravity, which may be 0).
 constexpr double kNominalGravity = 9.81;
 
-// Geom user data: an index tagged with its kind (bit 0: 1 = obstacle, 0 = vehicle geom).
+// Geom user data: an index tagged with its kind (bits 0-1: 01 obstacle, 11 agent, x0 vehicle geom).
 void* obstacleTag(std::size_t index)
 {
-  return reinterpret_cast<void*>((static_cast<std::uintptr_t>(index) << 1) | 1u);
+  return reinterpret_cast<void*>((static_cast<std::uintptr_t>(index) << 2) | 1u);
+}
+void* agentTag(std::size_t index)
+{
+  return reinterpret_cast<void*>((static_cast<std::uintptr_t>(index) << 2) | 3u);
 }
 void* vehicleTag(std::size_t vehicle, std::size_t geom)
 {
@@ -36,15 +40,16 @@ void* vehicleTag(std::size_t vehicle, std::size_t geom)
 }
 struct Tag
 {
-  bool obstacle;
-  std::uint32_t index;    ///< obstacle index, or vehicle index
+  bool obstacle;          ///< not a vehicle's: a terrain object or an agent
+  std::uint32_t index;    ///< obstacle or agent geom index, or vehicle index
   std::uint32_t geom = 0; ///< geom index within the vehicle
+  bool agent = false;
 };
 Tag decode(dGeomID g)
 {
   const auto v = reinterpret_cast<std::uintptr_t>(dGeomGetData(g));
   if (v & 1u)
-    return Tag{ true, static_cast<std::uint32_t>(v >> 1) };
+    return Tag{ true, static_cast<std::uint32_t>(v >> 2), 0, (v & 2u) != 0 };
   return Tag{ false, static_cast<std::uint32_t>(v >> 17), static_cast<std::uint32_t>((v >> 1) & 0xFFFFu) };
 }
 
@@ -80,8 +85,39 @@ ObstacleCollision::ObstacleCollision(double step) : step_(step)
 ObstacleCollision::~ObstacleCollision()
 {
   clearObstacles();
+  clearAgents();
   for (VehicleGeoms& v : vehicles_)
     destroyVehicle(v);
+}
+
+void ObstacleCollision::clearAgents()
+{
+  for (dGeomID g : agent_geoms_)
+    dGeomDestroy(g);
+  agent_geoms_.clear();
+  agent_geom_bodies_.clear();
+  if (agent_space_)
+    dSpaceDestroy(agent_space_);
+  agent_space_ = nullptr;
+}
+
+void ObstacleCollision::setAgents(const std::vector<AgentCollisionBody>& agents)
+{
+  clearAgents();
+  if (agents.empty())
+    return;
+  agent_space_ = dSimpleSpaceCreate(nullptr);
+  for (const AgentCollisionBody& a : agents)
+    for (const CollisionBox& b : a.boxes)
+    {
+      const dGeomID g = dCreateBox(agent_space_, b.size.x(), b.size.y(), b.size.z());
+      dGeomSetBody(g, a.body);
+      dGeomSetOffsetPosition(g, b.pose.translation().x(), b.pose.translation().y(), b.pose.translation().z());
+      setRotation(g, b.pose.linear(), true);
+      dGeomSetData(g, agentTag(agent_geoms_.size()));
+      agent_geoms_.push_back(g);
+      agent_geom_bodies_.push_back(a.body);
+    }
 }
 
 void ObstacleCollision::clearObstacles()
@@ -257,7 +293,7 @@ void ObstacleCollision::collect(dGeomID g1, dGeomID g2)
   }
   if (!t2.obstacle && t2.index == t1.index)
     return;  // never self-collision
-  if (t2.obstacle)
+  if (t2.obstacle && !t2.agent)
   {
     const ObstacleGeom& o = obstacles_[t2.index];
     if (o.toppleable && objects_->get(o.object).toppled)
@@ -273,7 +309,7 @@ void ObstacleCollision::collect(dGeomID g1, dGeomID g2)
     Hit h;
     h.vehicle_a = t1.index;
     h.geom_a = t1.geom;
-    h.vehicle_b = t2.obstacle ? -1 : static_cast<std::int32_t>(t2.index);
+    h.vehicle_b = t2.obstacle ? (t2.agent ? kAgent : kObstacle) : static_cast<std::int32_t>(t2.index);
     h.geom_b = t2.obstacle ? t2.index : t2.geom;
     h.order = k;
     h.contact = out[k];
@@ -292,6 +328,9 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     if (obstacle_space_)
       dSpaceCollide2(reinterpret_cast<dGeomID>(vehicles_[i].space), reinterpret_cast<dGeomID>(obstacle_space_),
                      this, &ObstacleCollision::nearCallback);
+    if (agent_space_)
+      dSpaceCollide2(reinterpret_cast<dGeomID>(vehicles_[i].space), reinterpret_cast<dGeomID>(agent_space_), this,
+                     &ObstacleCollision::nearCallback);
     for (std::size_t j = i + 1; j < vehicles_.size(); ++j)
       dSpaceCollide2(reinterpret_cast<dGeomID>(vehicles_[i].space), reinterpret_cast<dGeomID>(vehicles_[j].space),
                      this, &ObstacleCollision::nearCallback);
@@ -311,7 +350,7 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
       return x.geom_b < y.geom_b;
     return x.order < y.order;
   });
-  auto toppleable = [&](const Hit& h) { return h.vehicle_b < 0 && obstacles_[h.geom_b].toppleable; };
+  auto toppleable = [&](const Hit& h) { return h.vehicle_b == kObstacle && obstacles_[h.geom_b].toppleable; };
 
   // Toppleable objects: the elastic resistance of the deepest penetration, shared among the
   // contact points by depth; pushed over when it reaches the strength.
@@ -339,7 +378,7 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     Eigen::Vector2d push = Eigen::Vector2d::Zero();  // horizontal force on the object (direction only)
     for (const Hit& h : hits_)
     {
-      if (h.vehicle_b >= 0 || h.geom_b != p.obstacle)
+      if (h.vehicle_b != kObstacle || h.geom_b != p.obstacle)
         continue;
       stiffness = std::min(stiffness, kExplicitStability * vehicles_[h.vehicle_a].masses[h.geom_a] / (step_ * step_));
       push -= h.contact.depth * Eigen::Vector2d(h.contact.normal[0], h.contact.normal[1]);
@@ -348,7 +387,7 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     const double force = std::min(elastic, strength);
     for (const Hit& h : hits_)
     {
-      if (h.vehicle_b >= 0 || h.geom_b != p.obstacle)
+      if (h.vehicle_b != kObstacle || h.geom_b != p.obstacle)
         continue;
       VehicleGeoms& v = vehicles_[h.vehicle_a];
       const double f = force * h.contact.depth / p.depth_sum;
@@ -392,7 +431,14 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     ct.surface.soft_erp = kObstacleErp;
     ct.surface.soft_cfm = kContactCreep / (mass * kNominalGravity);
     const dJointID joint = dJointCreateContact(world, group, &ct);
-    dJointAttach(joint, va.bodies[h.geom_a], vb ? vb->bodies[h.geom_b] : nullptr);
+    // The second body: the other vehicle's, an agent's kinematic body (immovable, moving at its
+    // own velocity), or none (the static world).
+    dBodyID other = nullptr;
+    if (vb)
+      other = vb->bodies[h.geom_b];
+    else if (h.vehicle_b == kAgent)
+      other = agent_geom_bodies_[h.geom_b];
+    dJointAttach(joint, va.bodies[h.geom_a], other);
     feedback_[j] = dJointFeedback{};
     dJointSetFeedback(joint, &feedback_[j]);
     joints_.push_back(RigidJoint{ h.vehicle_a, h.vehicle_b, vb != nullptr });

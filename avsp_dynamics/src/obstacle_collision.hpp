@@ -72,6 +72,13 @@ struct VehicleBodies
   double mass = 0.0;  ///< kg, the whole vehicle (regularization of its contacts)
 };
 
+/// A dynamic agent's kinematic body (World::setAgents) and the boxes it collides with.
+struct AgentCollisionBody
+{
+  dBodyID body = nullptr;  ///< kinematic (dBodySetKinematic): moved by the world, never by contacts
+  std::vector<CollisionBox> boxes;  ///< in the body's frame (its origin on the ground, x forward)
+};
+
 /// What obstacles and other vehicles did to one vehicle over the last step.
 struct CollisionReport
 {
@@ -95,6 +102,16 @@ public:
    *        and positive or which is off the terrain; the previous obstacles stay then
    */
   void setObstacles(terrain::ObjectSet& objects, const terrain::DeformableTerrain& terrain);
+
+  /**
+   * @brief Replaces the agents' geoms by boxes riding on the given kinematic bodies. Vehicles
+   *        meet them as rigid contacts (as other vehicles), the agent's side immovable: a
+   *        moving agent pushes a vehicle at its own velocity. Agents pass through obstacles and
+   *        each other.
+   */
+  void setAgents(const std::vector<AgentCollisionBody>& agents);
+  /// Removes the agents' geoms (before their bodies are destroyed).
+  void clearAgents();
 
   /// Adds the geoms of a vehicle (boxes in base_link, chassis and wheels from `bodies`).
   void addVehicle(const std::vector<CollisionBox>& boxes, const VehicleBodies& bodies);
@@ -128,12 +145,14 @@ private:
     double mass = 0.0;            ///< kg, whole vehicle
     CollisionReport report;
   };
-  /// One contact point found this step: `a` is a vehicle geom, `b` a vehicle or obstacle geom.
+  /// Hit::vehicle_b of a contact with an obstacle, with an agent.
+  static constexpr std::int32_t kObstacle = -1, kAgent = -2;
+  /// One contact point found this step: `a` is a vehicle geom, `b` a vehicle, obstacle or agent geom.
   struct Hit
   {
     std::uint32_t vehicle_a = 0, geom_a = 0;  ///< vehicle index, geom index within it
-    std::int32_t vehicle_b = -1;              ///< -1: obstacle
-    std::uint32_t geom_b = 0;                 ///< geom index within vehicle_b, or obstacle index
+    std::int32_t vehicle_b = kObstacle;       ///< vehicle index, kObstacle or kAgent
+    std::uint32_t geom_b = 0;                 ///< geom index within vehicle_b, obstacle or agent geom index
     int order = 0;                            ///< index in dCollide's output
     dContactGeom contact;
   };
@@ -159,6 +178,9 @@ private:
   dSpaceID obstacle_space_ = nullptr;
   std::vector<ObstacleGeom> obstacles_;
   std::vector<VehicleGeoms> vehicles_;
+  dSpaceID agent_space_ = nullptr;
+  std::vector<dGeomID> agent_geoms_;
+  std::vector<dBodyID> agent_geom_bodies_;  ///< body of each agent geom
   // Per-step scratch, kept between steps so their capacity is reused (no allocation per step
   // once warmed up).
   std::vector<Hit> hits_;

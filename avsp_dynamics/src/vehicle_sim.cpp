@@ -31,6 +31,7 @@ struct World::Ode
 {
   dWorldID world = nullptr;
   dJointGroupID contacts = nullptr;
+  std::vector<dBodyID> agent_bodies;  ///< kinematic, one per World::agents_ entry
   ~Ode()
   {
     if (contacts)
@@ -689,6 +690,61 @@ void World::setObstacles(terrain::ObjectSet& objects)
   collision_->setObstacles(objects, terrain_);
 }
 
+void World::setAgents(std::vector<terrain::Agent> agents)
+{
+  collision_->clearAgents();  // geoms before the bodies they ride on
+  for (dBodyID b : ode_->agent_bodies)
+    dBodyDestroy(b);
+  ode_->agent_bodies.clear();
+  agents_ = std::move(agents);
+  std::vector<AgentCollisionBody> bodies;
+  for (const terrain::Agent& a : agents_)
+  {
+    AgentCollisionBody c;
+    c.body = dBodyCreate(ode_->world);
+    dBodySetKinematic(c.body);
+    for (const terrain::AgentBox& box : terrain::agentBoxes(a.spec().type))
+    {
+      CollisionBox cb;
+      cb.link = a.spec().name;
+      cb.pose = Eigen::Isometry3d(Eigen::Translation3d(box.centre));
+      cb.size = box.size;
+      c.boxes.push_back(cb);
+    }
+    ode_->agent_bodies.push_back(c.body);
+    bodies.push_back(std::move(c));
+  }
+  collision_->setAgents(bodies);
+  driveAgents();
+}
+
+terrain::AgentState World::agentState(std::size_t agent) const
+{
+  if (agent >= agents_.size())
+    throw std::out_of_range("World::agentState: no agent " + std::to_string(agent) + " (have " +
+                            std::to_string(agents_.size()) + ")");
+  return agents_[agent].state(time());
+}
+
+void World::driveAgents()
+{
+  // At the step's start the body is exactly at the agent's pose now, moving with the velocity
+  // that brings it to the pose one step later: what a vehicle meets during the step is the
+  // agent's own motion, and no error accumulates from step to step.
+  const double t0 = time(), h = options_.step;
+  for (std::size_t k = 0; k < agents_.size(); ++k)
+  {
+    const terrain::AgentState a = agents_[k].state(t0), b = agents_[k].state(t0 + h);
+    const dBodyID body = ode_->agent_bodies[k];
+    dBodySetPosition(body, a.position.x(), a.position.y(), a.position.z());
+    dQuaternion q = { std::cos(0.5 * a.yaw), 0.0, 0.0, std::sin(0.5 * a.yaw) };
+    dBodySetQuaternion(body, q);
+    const Eigen::Vector3d v = (b.position - a.position) / h;
+    dBodySetLinearVel(body, v.x(), v.y(), v.z());
+    dBodySetAngularVel(body, 0.0, 0.0, std::remainder(b.yaw - a.yaw, 2.0 * M_PI) / h);
+  }
+}
+
 std::size_t World::obstacleGeomCount() const
 {
   return collision_->obstacleGeomCount();
@@ -714,6 +770,7 @@ void World::step()
   const auto t0 = times ? Clock::now() : Clock::time_point();
   for (auto& v : vehicles_)
     v->beforeStep(terrain_, ode_->contacts, times);
+  driveAgents();
   const auto tc = times ? Clock::now() : Clock::time_point();
   collision_->collide(ode_->world, ode_->contacts);
   const auto t1 = times ? Clock::now() : Clock::time_point();

@@ -37,10 +37,12 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/agent_params.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source_params.hpp>
 
 #include "avsp_sensors/camera_rig.hpp"
+#include "avsp_sensors/agent_bodies.hpp"
 #include "avsp_sensors/random.hpp"
 #include "avsp_sensors/ros/camera_conversions.hpp"
 #include "avsp_sensors/ros/conversions.hpp"
@@ -178,8 +180,9 @@ public:
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &SensorsNode::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &SensorsNode::onToppled, this);
     environment_sub_ = nh_.subscribe("/environment", 10, &SensorsNode::onEnvironment, this);
-    ROS_INFO("sensors_node: %zu vehicle(s) on %s (%zu objects), world frame '%s', %u ray-casting thread(s)%s",
-             vehicles_.size(), source_.c_str(), objects_.size(), world_frame_.c_str(), threads_,
+    ROS_INFO("sensors_node: %zu vehicle(s) and %zu agent(s) on %s (%zu objects), world frame '%s', %u ray-casting "
+             "thread(s)%s",
+             vehicles_.size(), agents_.size(), source_.c_str(), objects_.size(), world_frame_.c_str(), threads_,
              threads_ == 0 ? " (0 = all cores)" : "");
   }
 
@@ -393,6 +396,15 @@ private:
     }
     camera_materials_.setSoils(std::move(palette), std::move(soil_map));
     camera_materials_.setObjects(objects_);
+    // Agents' bodies follow the vehicles' ids (appendAgentBodies): label and warm them by type.
+    for (std::size_t k = 0; k < agents_.size(); ++k)
+    {
+      const at::AgentType type = agents_[k].spec().type;
+      camera_materials_.setBody(static_cast<std::uint32_t>(vehicles_.size() + k),
+                                type == at::AgentType::kDeer       ? as::kClassAnimal :
+                                type == at::AgentType::kPedestrian ? as::kClassPerson :
+                                                                     as::kClassVehicle);
+    }
   }
 
   void loadScene(const std::string& soils_file)
@@ -412,6 +424,7 @@ private:
                loaded.description.c_str(), loaded.filled_no_data);
     source_ = loaded.description;
     objects_ = std::move(loaded.objects);
+    loadAgents(loaded.terrain->base());
     // The sensors keep the heights only (ruts arrive as heights); the soil state is dropped.
     scene_ = std::make_unique<as::Scene>(as::HeightField::fromTerrain(*loaded.terrain));
     for (const auto& v : vehicles_)
@@ -422,6 +435,29 @@ private:
       }
     loaded.terrain.reset();
     scene_->setObjects(objects_);
+  }
+
+  /// ~agents (heights from the terrain's base grid, as agents_node and dynamics_node take them)
+  /// and their reflectivities.
+  void loadAgents(const at::ElevationGrid& ground)
+  {
+    agents_ = at::agentsFromParams(pnh_, ground);
+    for (at::AgentType t : { at::AgentType::kDeer, at::AgentType::kPedestrian, at::AgentType::kTruck })
+    {
+      float& r = agent_reflectivities_.types[static_cast<std::size_t>(t)];
+      r = static_cast<float>(boundedParam(pnh_, std::string("agent_reflectivity/") + at::toString(t), r, 0.0, 1.0));
+    }
+  }
+
+  /// The agents' boxes at sim time t, after the vehicles' bodies (their ids follow the vehicles').
+  void appendAgentBodies(std::vector<as::Body>& bodies, double t) const
+  {
+    for (std::size_t k = 0; k < agents_.size(); ++k)
+    {
+      const std::vector<as::Body> b =
+          as::agentBodies(agents_[k], t, static_cast<std::uint32_t>(vehicles_.size() + k), agent_reflectivities_);
+      bodies.insert(bodies.end(), b.begin(), b.end());
+    }
   }
 
   void advertise()
@@ -652,6 +688,7 @@ public:
                                                             body_reflectivity_);
           bodies.insert(bodies.end(), b.begin(), b.end());
         }
+      appendAgentBodies(bodies, batch->time);
       scene_->setBodies(std::move(bodies));
       for (std::size_t k = 0; k < batch->vehicles.size(); ++k)
         sense(*vehicles_[batch->vehicles[k]], batch->states[k]);
@@ -772,6 +809,8 @@ private:
   float body_reflectivity_ = 0.5f;
   std::string source_;
   at::ObjectSet objects_;
+  std::vector<at::Agent> agents_;  ///< ~agents: boxes in the scene at every sensor time
+  as::AgentReflectivities agent_reflectivities_;
   std::unique_ptr<as::Scene> scene_;
   as::Weather weather_;
   as::CameraMaterials camera_materials_;

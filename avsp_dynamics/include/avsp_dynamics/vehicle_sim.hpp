@@ -65,6 +65,7 @@
 
 #include <Eigen/Geometry>
 
+#include <avsp_terrain/agents.hpp>
 #include <avsp_terrain/deformable_terrain.hpp>
 
 #include "avsp_dynamics/drivetrain.hpp"
@@ -280,6 +281,21 @@ public:
   /// Objects that became geoms in the last setObstacles() (0 without).
   std::size_t obstacleGeomCount() const;
 
+  /**
+   * @brief Dynamic agents (deer, pedestrians, trucks; avsp_terrain agents.hpp) in the world from
+   *        the next step on, replacing any earlier ones. Each is a kinematic ODE body
+   *        (dBodySetKinematic) carrying its type's boxes (terrain::agentBoxes), driven along
+   *        its path: at the start of every step it is put at Agent::state(time()) with the
+   *        velocity that takes it to state(time() + step) over the step, so its motion is the
+   *        agent's pure function of time whatever the vehicles do. Vehicles meet it as a rigid
+   *        obstacle that moves (contacts as with other vehicles, friction included): it pushes
+   *        or stops them and is never pushed itself; obstacle_contacts/obstacle_impulse count it.
+   */
+  void setAgents(std::vector<terrain::Agent> agents);
+  std::size_t agentCount() const { return agents_.size(); }
+  /// Agent k's state at the world's time (where its body is now). @throw std::out_of_range
+  terrain::AgentState agentState(std::size_t agent) const;
+
   /// One physics step of options().step seconds.
   void step();
   /// Steps until `seconds` more have elapsed (rounded to whole steps).
@@ -307,12 +323,14 @@ public:
   terrain::DeformableTerrain& terrain() { return terrain_; }
 
 private:
+  void driveAgents();
   struct Ode;  // ODE handles
   terrain::DeformableTerrain& terrain_;
   WorldOptions options_;
   std::unique_ptr<Ode> ode_;
   std::vector<std::unique_ptr<SimVehicleBase>> vehicles_;
   std::unique_ptr<ObstacleCollision> collision_;
+  std::vector<terrain::Agent> agents_;  ///< their bodies are in Ode (same order)
   std::uint64_t steps_ = 0;
   unsigned long rng_state_ = 0;  ///< ODE's dRand state between this world's steps
   StepTimes times_;
