@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs the demo headless: launch/demo.launch on a private ROS master, then team_check, which
-# validates every vehicle and its TF frames. Exits with team_check's status.
+# The team check (the demo before the scenarios; now a test, test/CMakeLists: team_check):
+# launch/demo.launch on a private ROS master, then team_check, which validates every vehicle
+# and its TF frames. Exits with team_check's status.
 # Environment: AVSP_GUI=1 also starts RViz; AVSP_DEMO_TIMEOUT (s, default 30).
 set -euo pipefail
 export PATH="/usr/bin:/bin:${PATH}"
@@ -9,7 +10,7 @@ export ROS_MASTER_URI="http://127.0.0.1:${port}"
 export ROS_IP=127.0.0.1
 gui=false; [ "${AVSP_GUI:-0}" = 1 ] && gui=true
 timeout_s="${AVSP_DEMO_TIMEOUT:-30}"
-share="$(rospack find avsp)" || { echo "run_demo: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
+share="$(rospack find avsp)" || { echo "run_team_check: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
 
 roslaunch -p "$port" avsp demo.launch gui:=$gui &
 launch_pid=$!
@@ -20,15 +21,15 @@ trap cleanup EXIT
 master_up=0
 for _ in $(seq 1 100); do
   rostopic list >/dev/null 2>&1 && { master_up=1; break; }
-  kill -0 "$launch_pid" 2>/dev/null || { echo "run_demo: roslaunch exited early" >&2; exit 1; }
+  kill -0 "$launch_pid" 2>/dev/null || { echo "run_team_check: roslaunch exited early" >&2; exit 1; }
   sleep 0.1
 done
-[ $master_up = 1 ] || { echo "run_demo: no ROS master on port $port after 10 s" >&2; exit 1; }
+[ $master_up = 1 ] || { echo "run_team_check: no ROS master on port $port after 10 s" >&2; exit 1; }
 rosparam load "$share/config/reference_team.yaml" /team_check
 rc=0
 rosrun avsp team_check __name:=team_check _config_dir:="$share/config/vehicles" _timeout:="$timeout_s" || rc=$?
 if [ "$gui" = true ] && [ $rc -eq 0 ]; then
-  echo "run_demo: RViz is running; close it or press Ctrl-C to stop."
+  echo "run_team_check: RViz is running; close it or press Ctrl-C to stop."
   wait "$launch_pid" || true
 fi
 exit $rc
