@@ -19,6 +19,9 @@ export ROS_IP=127.0.0.1
 gui=false; rtf=0
 [ "${AVSP_GUI:-0}" = 1 ] && { gui=true; rtf=1; }
 
+# Without run_recorder (built by the recorder's part of the project) the run would never end.
+/usr/bin/python3 -c "import roslib.packages as p, sys; sys.exit(0 if p.find_node('avsp', 'run_recorder') else 1)" \
+  || { echo "run_demo: run_recorder is not built: the reference traverse cannot write its results" >&2; exit 1; }
 mkdir -p "$out"
 stamp="$out/.run_started"
 touch "$stamp"

@@ -27,7 +27,10 @@ done
 [ $master_up = 1 ] || { echo "run_team_check: no ROS master on port $port after 10 s" >&2; exit 1; }
 rosparam load "$share/config/reference_team.yaml" /team_check
 rc=0
-rosrun avsp team_check __name:=team_check _config_dir:="$share/config/vehicles" _timeout:="$timeout_s" || rc=$?
+# The executable through roslib (rosrun stops at same-named build folders under the source tree).
+exe="$(/usr/bin/python3 -c "import roslib.packages as p; print((p.find_node('avsp', 'team_check') or [''])[0])")"
+[ -n "$exe" ] || { echo "run_team_check: team_check is not built" >&2; exit 1; }
+"$exe" __name:=team_check _config_dir:="$share/config/vehicles" _timeout:="$timeout_s" || rc=$?
 if [ "$gui" = true ] && [ $rc -eq 0 ]; then
   echo "run_team_check: RViz is running; close it or press Ctrl-C to stop."
   wait "$launch_pid" || true
