@@ -1,10 +1,12 @@
 // start_gate: holds a scenario's physics until every node of the run is up. dynamics_node runs
 // with ~wait_for_command (physics starts when every vehicle has a command); this node waits
 // until each node in ~nodes has advertised or subscribed a topic other than /rosout and /clock
-// (they do so after loading their parameters and terrain), then sends each vehicle in
+// (they do so after loading their parameters and terrain; a node that only ever uses /clock gets
+// ~grace s once registered), then sends each vehicle in
 // ~vehicles one full-brake command on <v>/avt_341/cmd_vel (latched), waits for /clock to move
 // and exits. So sensors, controllers and the recorder all see the run from sim time 0, however
 // long their start-up took.
+#include <algorithm>
 #include <set>
 #include <string>
 #include <vector>
@@ -32,8 +34,9 @@ std::vector<std::string> stringList(const ros::NodeHandle& pnh, const std::strin
   return out;
 }
 
-/// Nodes that have a publication or subscription other than /rosout and /clock.
-bool activeNodes(std::set<std::string>& out)
+/// Nodes that have a publication or subscription other than /rosout and /clock (`out`), and
+/// all nodes with any (`registered`).
+bool activeNodes(std::set<std::string>& out, std::set<std::string>& registered)
 {
   XmlRpc::XmlRpcValue args, result, payload;
   args[0] = ros::this_node::getName();
@@ -43,10 +46,13 @@ bool activeNodes(std::set<std::string>& out)
     for (int t = 0; t < payload[kind].size(); ++t)
     {
       const std::string topic = payload[kind][t][0];
-      if (topic == "/rosout" || topic == "/clock")
-        continue;
+      const bool plain = topic == "/rosout" || topic == "/clock";
       for (int n = 0; n < payload[kind][t][1].size(); ++n)
-        out.insert(static_cast<std::string>(payload[kind][t][1][n]));
+      {
+        registered.insert(static_cast<std::string>(payload[kind][t][1][n]));
+        if (!plain)
+          out.insert(static_cast<std::string>(payload[kind][t][1][n]));
+      }
     }
   return true;
 }
@@ -57,12 +63,13 @@ int main(int argc, char** argv)
   ros::init(argc, argv, "start_gate");
   ros::NodeHandle nh, pnh("~");
   std::vector<std::string> vehicles, nodes;
-  double timeout = 300.0;
+  double timeout = 300.0, grace = 10.0;
   try
   {
     vehicles = stringList(pnh, "vehicles");
     nodes = stringList(pnh, "nodes");
     pnh.param("timeout", timeout, 300.0);
+    pnh.param("grace", grace, 10.0);
     if (!(timeout > 0.0))
       throw std::runtime_error("parameter ~timeout: must be > 0 (wall s)");
   }
@@ -73,14 +80,31 @@ int main(int argc, char** argv)
   }
   const ros::WallTime start = ros::WallTime::now();
   std::set<std::string> missing(nodes.begin(), nodes.end());
+  ros::WallTime only_registered;  // since when every missing node has registered (zero: not yet)
   while (ros::ok() && !missing.empty())
   {
-    std::set<std::string> active;
-    if (activeNodes(active))
+    std::set<std::string> active, registered;
+    if (activeNodes(active, registered))
       for (const std::string& n : active)
         missing.erase(n);
     if (missing.empty())
       break;
+    // A node that needs only /clock never shows more: once every missing node has registered,
+    // it gets ~grace s of wall time to show more, then the physics starts anyway.
+    const bool all_registered = std::all_of(missing.begin(), missing.end(),
+                                            [&registered](const std::string& n) { return registered.count(n) > 0; });
+    if (!all_registered)
+      only_registered = ros::WallTime();
+    else if (only_registered.isZero())
+      only_registered = ros::WallTime::now();
+    else if ((ros::WallTime::now() - only_registered).toSec() > grace)
+    {
+      std::string list;
+      for (const std::string& n : missing)
+        list += " " + n;
+      ROS_WARN("start_gate: going on after %.0f s (wall) with nodes that use only /clock:%s", grace, list.c_str());
+      break;
+    }
     if ((ros::WallTime::now() - start).toSec() > timeout)
     {
       std::string list;
