@@ -1,34 +1,41 @@
 #!/usr/bin/env bash
-# Runs the demo headless: launch/demo.launch on a private ROS master, then team_check, which
-# validates every vehicle and its TF frames. Exits with team_check's status.
-# Environment: AVSP_GUI=1 also starts RViz; AVSP_DEMO_TIMEOUT (s, default 30).
+# The main job (`make demo`): the reference traverse headless, as fast as possible in lockstep
+# (launch/reference_traverse.launch, real_time_factor 0) on a private ROS master. run_recorder
+# prints a progress line per second and writes results/reference_traverse/ (summary.json,
+# trajectories.png, ruts.png, gaps.png); the run ends at the scenario's duration. Exits 0 only
+# if every result file was written by this run.
+# Environment: AVSP_GUI=1 also starts RViz (and paces the run at wall-clock speed);
+# AVSP_DEMO_DURATION (s of sim time, default the scenario's 600); AVSP_DEMO_TIMEOUT (wall s,
+# default 3600); AVSP_SCENARIO (default config/scenarios/reference_traverse.yaml).
 set -euo pipefail
 export PATH="/usr/bin:/bin:${PATH}"
+share="$(rospack find avsp)" || { echo "run_demo: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
+scenario="${AVSP_SCENARIO:-$share/config/scenarios/reference_traverse.yaml}"
+name="$(basename "${scenario%.*}")"
+out="$PWD/results/$name"
 port=$(( 20000 + RANDOM % 20000 ))
 export ROS_MASTER_URI="http://127.0.0.1:${port}"
 export ROS_IP=127.0.0.1
-gui=false; [ "${AVSP_GUI:-0}" = 1 ] && gui=true
-timeout_s="${AVSP_DEMO_TIMEOUT:-30}"
-share="$(rospack find avsp)" || { echo "run_demo: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
+gui=false; rtf=0
+[ "${AVSP_GUI:-0}" = 1 ] && { gui=true; rtf=1; }
 
-roslaunch -p "$port" avsp demo.launch gui:=$gui &
-launch_pid=$!
-cleanup() { kill -INT "$launch_pid" 2>/dev/null || true; wait "$launch_pid" 2>/dev/null || true; }
-trap cleanup EXIT
-
-# team_check needs the master: wait for it (bounded), then let team_check wait for TF.
-master_up=0
-for _ in $(seq 1 100); do
-  rostopic list >/dev/null 2>&1 && { master_up=1; break; }
-  kill -0 "$launch_pid" 2>/dev/null || { echo "run_demo: roslaunch exited early" >&2; exit 1; }
-  sleep 0.1
-done
-[ $master_up = 1 ] || { echo "run_demo: no ROS master on port $port after 10 s" >&2; exit 1; }
-rosparam load "$share/config/reference_team.yaml" /team_check
+# Without run_recorder (built by the recorder's part of the project) the run would never end.
+/usr/bin/python3 -c "import roslib.packages as p, sys; sys.exit(0 if p.find_node('avsp', 'run_recorder') else 1)" \
+  || { echo "run_demo: run_recorder is not built: the reference traverse cannot write its results" >&2; exit 1; }
+mkdir -p "$out"
+stamp="$out/.run_started"
+touch "$stamp"
 rc=0
-rosrun avsp team_check __name:=team_check _config_dir:="$share/config/vehicles" _timeout:="$timeout_s" || rc=$?
-if [ "$gui" = true ] && [ $rc -eq 0 ]; then
-  echo "run_demo: RViz is running; close it or press Ctrl-C to stop."
-  wait "$launch_pid" || true
-fi
-exit $rc
+timeout --signal=INT --kill-after=30 "${AVSP_DEMO_TIMEOUT:-3600}" \
+  roslaunch -p "$port" avsp reference_traverse.launch scenario:="$scenario" output_dir:="$out" \
+    real_time_factor:=$rtf rviz:=$gui duration:="${AVSP_DEMO_DURATION:-0}" || rc=$?
+[ $rc -eq 124 ] && { echo "run_demo: the run did not end within ${AVSP_DEMO_TIMEOUT:-3600} s (wall)" >&2; exit 1; }
+missing=0
+for f in summary.json trajectories.png ruts.png gaps.png; do
+  if [ ! -s "$out/$f" ] || [ ! "$out/$f" -nt "$stamp" ]; then
+    echo "run_demo: $out/$f was not written by this run" >&2; missing=1
+  fi
+done
+rm -f "$stamp"
+[ $missing = 0 ] || exit 1
+echo "run_demo: results in $out (roslaunch exit $rc)"

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # AVSP command line behind the Makefile: set up, build, run the demo, run the tests.
 #
-#   bash tools/avsp.sh demo [--gui]  install what is missing, build, run the reference job headless
+#   bash tools/avsp.sh demo [--gui]  install what is missing, build, run the reference traverse headless
+#                                    (results/reference_traverse/; --gui: with RViz at wall-clock pace)
 #   bash tools/avsp.sh test          install what is missing, build, run every test, print "N passed, N failed"
 #   bash tools/avsp.sh build         install what is missing and build only
 #   bash tools/avsp.sh screenshot    build, then RViz under Xvfb -> results/rviz_team.png
@@ -17,7 +18,7 @@ export PATH="/usr/bin:/bin:/usr/sbin:/sbin:${PATH}"
 step() { printf '\n== avsp: %s\n' "$*"; }
 fail() { printf '\n!! avsp: step failed: %s\n' "$*" >&2; exit 1; }
 
-usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
 
 do_setup() {
   step "install Debian packages (skips what is installed)"
@@ -48,7 +49,7 @@ case "$cmd" in
     done
     if [ $gui = 1 ]; then do_setup tools/debian-packages.txt tools/debian-packages-gui.txt; else do_setup tools/debian-packages.txt; fi
     do_build
-    step "run the demo (scripts/run_demo.sh)"
+    step "run the reference traverse (scripts/run_demo.sh -> results/reference_traverse/)"
     set +u; . install/setup.sh; set -u
     AVSP_GUI=$gui bash scripts/run_demo.sh || fail "demo run (exit code $?)"
     step "demo finished successfully" ;;

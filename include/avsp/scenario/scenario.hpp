@@ -1,0 +1,180 @@
+#pragma once
+/**
+ * @file scenario.hpp
+ * @brief The scenario file (README.md, "Scenario files"): terrain, geodetic reference, world
+ *        time, weather, vehicles with their sensors and controllers, waypoint paths, formation,
+ *        V2V radio, dynamic agents, seed and duration. No ROS: loadScenario() reads and
+ *        validates a file; launch_generator.hpp turns the result into the component nodes'
+ *        parameters.
+ *
+ * Every error is a ScenarioError whose message starts with the file's path and names the key
+ * path, e.g. `reference_traverse.yaml: vehicles[2].controller.type: unknown 'foo' (waypoints,
+ * leader_follower, external)`.
+ */
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include <avsp/control/leader_follower.hpp>
+#include <avsp_terrain/terrain_objects.hpp>
+
+namespace avsp
+{
+namespace scenario
+{
+/// A bad scenario: "<file>: <key path>: <reason>".
+struct ScenarioError : std::runtime_error
+{
+  using std::runtime_error::runtime_error;
+};
+
+/// One private parameter of a node as roslaunch writes it: `type` is str, double, int or bool;
+/// numbers are printed so that they read back bit for bit.
+struct NodeParam
+{
+  std::string name, value, type;
+};
+
+/// Where the ground comes from: exactly one of the default course, a file, a flat square.
+struct TerrainSpec
+{
+  enum class Kind
+  {
+    kDefaultCourse,
+    kFile,
+    kFlat
+  };
+  Kind kind = Kind::kDefaultCourse;
+  // default course
+  std::uint64_t course_seed = 1;
+  double course_cell_size = 0.1;  ///< m
+  double course_length_x = 600.0, course_length_y = 400.0;  ///< m
+  // file: a saved .avspterrain or a DEM (.asc, .tif/.tiff, .png)
+  std::string file;             ///< absolute (relative paths are resolved against the scenario's folder)
+  std::string soil = "sandy_loam";  ///< DEM soil everywhere
+  bool has_png = false;         ///< a .png DEM's georeference given
+  double png_cell_size = 0.0, png_z_scale = 0.0, png_origin_x = 0.0, png_origin_y = 0.0, png_z_offset = 0.0;
+  // flat
+  std::string flat_soil;
+  double flat_size = 100.0, flat_cell_size = 0.1;  ///< m
+  bool transport = true;        ///< T5 soil transport
+  std::string soils_file;       ///< absolute; empty = LoadOptions::soils_file
+
+  /// The terrain-source parameters of the component nodes (avsp_terrain README, "Terrain
+  /// source parameters") and soils_file, in a fixed order.
+  std::vector<struct NodeParam> nodeParams() const;
+};
+
+/// A waypoint of a path: position (map, m) and the speed (m/s) held from it to the next.
+struct Waypoint
+{
+  double x = 0.0, y = 0.0, speed = 0.0;
+};
+
+enum class ControllerType
+{
+  kWaypoints,
+  kLeaderFollower,
+  kExternal
+};
+const char* toString(ControllerType type);
+
+struct ControllerSpec
+{
+  ControllerType type = ControllerType::kExternal;
+  std::string path;                ///< waypoints: name of the path in Scenario::paths
+  std::string leader;              ///< leader_follower: vehicle followed
+  double gap = 15.0, offset = 0.0; ///< leader_follower: m, m (+ left)
+  bool from_formation = false;     ///< leader/gap/offset come from the formation
+  YAML::Node params;               ///< further controller_node parameters (a map; may be null)
+};
+
+struct VehicleSpec
+{
+  std::string name, model;
+  double x = 0.0, y = 0.0, yaw = 0.0;  ///< start pose in map: m, m, rad
+  YAML::Node sensors;                  ///< sections replacing Scenario::sensors' (may be null)
+  ControllerSpec controller;
+};
+
+struct FormationSpec
+{
+  bool present = false;
+  std::string type_name;                 ///< column | line | diamond
+  control::FormationType type = control::FormationType::kColumn;
+  double spacing = 15.0, width = 5.0;    ///< m
+  std::vector<std::string> vehicles;     ///< in slot order; the first leads
+};
+
+struct V2VSpec
+{
+  double range = 300.0, latency = 0.0, loss_probability = 0.0, antenna_height = 1.5, los_step = 1.0;
+  bool line_of_sight = false;
+};
+
+struct Scenario
+{
+  std::string file;   ///< as given to loadScenario()
+  std::string name;   ///< the file's name without folder and extension
+  TerrainSpec terrain;
+  double latitude = 0.0, longitude = 0.0, altitude = 0.0;  ///< deg, deg, m
+  std::string start_utc;            ///< ISO 8601 ending in Z
+  double time_acceleration = 1.0;   ///< world s per sim s
+  YAML::Node weather;               ///< environment_node's ~weather list (validated); may be null
+  YAML::Node sensors;               ///< sensors_node's ~sensors sections for every vehicle; may be null
+  std::vector<VehicleSpec> vehicles;
+  std::map<std::string, std::vector<Waypoint>> paths;
+  FormationSpec formation;
+  V2VSpec v2v;
+  YAML::Node agents;                ///< agents_node's ~agents list (validated); may be null
+  std::uint64_t seed = 0;
+  double duration = 0.0;            ///< s of sim time
+
+  /// Index of the vehicle called `name`, or -1.
+  int vehicleIndex(const std::string& name) const;
+};
+
+/// What the start-pose check needs of the terrain: its extent and objects.
+struct TerrainFootprint
+{
+  double min_x = 0.0, min_y = 0.0, max_x = 0.0, max_y = 0.0;  ///< m, map: the grid's extent
+  terrain::ObjectSet objects;
+};
+
+/// Loads the terrain a spec describes (throws std::exception with the reason on failure).
+using TerrainLoader = std::function<std::shared_ptr<const TerrainFootprint>(const TerrainSpec&)>;
+
+/// The footprint through avsp_terrain's loadTerrainSource() with the spec's soils file.
+std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& spec);
+
+struct LoadOptions
+{
+  std::string vehicles_dir;   ///< folder of <model>.yaml (required)
+  std::string soils_file;     ///< soil library when the scenario names none (required)
+  /// Used for the start-pose check; empty = loadTerrainFootprint. Tests give a cheap one.
+  TerrainLoader terrain_loader;
+  bool check_terrain = true;  ///< false: skip loading the terrain (no start-pose check)
+  /// Clearance (m) a vehicle's start point must keep from every object but grass.
+  double start_clearance = 1.0;
+};
+
+/**
+ * @brief Reads and validates a scenario file.
+ * @throw ScenarioError "<path>: <key path>: <reason>" for any problem: unreadable file, YAML
+ *        syntax (with line and column), missing or unknown key, wrong type, value out of range,
+ *        unknown model, empty path, negative speed, unknown or cyclic leader, duplicate name,
+ *        a vehicle starting off the terrain or within start_clearance of an object
+ */
+Scenario loadScenario(const std::string& path, const LoadOptions& options);
+
+/// As loadScenario() from text; `path` names the file in messages and anchors relative paths.
+Scenario parseScenario(const std::string& text, const std::string& path, const LoadOptions& options);
+
+}  // namespace scenario
+}  // namespace avsp

@@ -1,0 +1,513 @@
+#include "avsp/scenario/launch_generator.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <stdexcept>
+
+namespace avsp
+{
+namespace scenario
+{
+namespace
+{
+std::string xmlEscape(const std::string& s)
+{
+  std::string out;
+  for (char c : s)
+    switch (c)
+    {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  return out;
+}
+
+std::string quoted(const std::string& s)
+{
+  std::string out = "\"";
+  for (char c : s)
+  {
+    if (c == '"' || c == '\\')
+      out += '\\';
+    if (c == '\n')
+    {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+bool scalarAsDouble(const YAML::Node& n, double& v)
+{
+  if (n.Tag() == "!")  // quoted in the source: a string
+    return false;
+  try
+  {
+    v = n.as<double>();
+    return true;
+  }
+  catch (const YAML::Exception&)
+  {
+    return false;
+  }
+}
+
+bool scalarIsBool(const YAML::Node& n)
+{
+  if (n.Tag() == "!")
+    return false;
+  try
+  {
+    n.as<bool>();
+    return true;
+  }
+  catch (const YAML::Exception&)
+  {
+    return false;
+  }
+}
+
+void emitFlow(std::ostream& out, const YAML::Node& n, bool force_double)
+{
+  switch (n.Type())
+  {
+    case YAML::NodeType::Map:
+    {
+      out << "{";
+      bool first = true;
+      for (const auto& kv : n)
+      {
+        out << (first ? "" : ", ") << quoted(kv.first.Scalar()) << ": ";
+        emitFlow(out, kv.second, force_double);
+        first = false;
+      }
+      out << "}";
+      break;
+    }
+    case YAML::NodeType::Sequence:
+    {
+      out << "[";
+      for (std::size_t i = 0; i < n.size(); ++i)
+      {
+        out << (i ? ", " : "");
+        emitFlow(out, n[i], force_double);
+      }
+      out << "]";
+      break;
+    }
+    case YAML::NodeType::Scalar:
+    {
+      double v = 0.0;
+      if (scalarIsBool(n))
+        out << (n.as<bool>() ? "true" : "false");
+      else if (scalarAsDouble(n, v))
+        out << (force_double ? yamlDouble(v) : n.Scalar());
+      else
+        out << quoted(n.Scalar());
+      break;
+    }
+    default:
+      out << "null";
+  }
+}
+
+/// A node's opening tag and its private parameters, written line by line.
+class NodeWriter
+{
+public:
+  NodeWriter(std::ostream& out, std::string indent) : out_(out), indent_(std::move(indent)) {}
+
+  void open(const std::string& pkg, const std::string& type, const std::string& name, bool required = false,
+            const std::string& extra = "")
+  {
+    out_ << indent_ << "<node pkg=\"" << pkg << "\" type=\"" << type << "\" name=\"" << name << "\""
+         << (required ? " required=\"true\"" : "") << extra << ">\n";
+  }
+  void close() { out_ << indent_ << "</node>\n"; }
+
+  void param(const std::string& name, const std::string& value, const std::string& type = "str")
+  {
+    out_ << indent_ << "  <param name=\"" << name << "\" type=\"" << type << "\" value=\"" << xmlEscape(value)
+         << "\"/>\n";
+  }
+  void param(const std::string& name, double value) { param(name, yamlDouble(value), "double"); }
+  void paramInt(const std::string& name, long long value) { param(name, std::to_string(value), "int"); }
+  void paramBool(const std::string& name, bool value) { param(name, value ? "true" : "false", "bool"); }
+  void params(const std::vector<NodeParam>& ps)
+  {
+    for (const NodeParam& p : ps)
+      param(p.name, p.value, p.type);
+  }
+  void rosparam(const std::string& name, const std::string& flow_yaml)
+  {
+    out_ << indent_ << "  <rosparam param=\"" << name << "\">" << xmlEscape(flow_yaml) << "</rosparam>\n";
+  }
+
+private:
+  std::ostream& out_;
+  std::string indent_;
+};
+
+std::string vehicleListYaml(const Scenario& s)
+{
+  std::ostringstream o;
+  o << "[";
+  for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+  {
+    const VehicleSpec& v = s.vehicles[i];
+    o << (i ? ", " : "") << "{name: " << quoted(v.name) << ", model: " << quoted(v.model) << ", x: " << yamlDouble(v.x)
+      << ", y: " << yamlDouble(v.y) << ", yaw: " << yamlDouble(v.yaw) << "}";
+  }
+  return o.str() + "]";
+}
+
+std::string leader(const VehicleSpec& v)
+{
+  return v.controller.type == ControllerType::kLeaderFollower ? v.controller.leader : std::string();
+}
+
+}  // namespace
+
+std::string yamlDouble(double v)
+{
+  if (std::isnan(v))
+    return ".nan";
+  if (std::isinf(v))
+    return v > 0 ? ".inf" : "-.inf";
+  char buf[64];
+  for (int precision = 15; precision <= 17; ++precision)
+  {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v)
+      break;
+  }
+  std::string s = buf;
+  if (s.find_first_of(".eE") == std::string::npos)
+    s += ".0";
+  return s;
+}
+
+std::string flowYaml(const YAML::Node& node, bool force_double)
+{
+  std::ostringstream o;
+  emitFlow(o, node, force_double);
+  return o.str();
+}
+
+std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
+{
+  if (options.output_dir.empty())
+    throw std::invalid_argument("output_dir: required");
+  if (options.vehicles_dir.empty())
+    throw std::invalid_argument("vehicles_dir: required");
+  if (!std::isfinite(options.real_time_factor) || options.real_time_factor < 0.0)
+    throw std::invalid_argument("real_time_factor: must be finite and >= 0");
+  const double duration = options.duration > 0.0 ? options.duration : s.duration;
+  if (!std::isfinite(duration))
+    throw std::invalid_argument("duration: must be finite");
+  const std::vector<NodeParam> terrain = s.terrain.nodeParams();
+  const std::string vehicles = vehicleListYaml(s);
+  const bool has_agents = s.agents.IsDefined() && !s.agents.IsNull() && s.agents.size() > 0;
+  const std::string agents = has_agents ? flowYaml(s.agents, true) : "";
+  bool any_external = false;
+  for (const VehicleSpec& v : s.vehicles)
+    any_external |= v.controller.type == ControllerType::kExternal;
+
+  std::ostringstream o;
+  o << "<?xml version=\"1.0\"?>\n"
+    << "<!-- Generated by avsp's scenario_launch from " << xmlEscape(s.file) << " (scenario '" << xmlEscape(s.name)
+    << "', " << yamlDouble(duration) << " s, real-time factor " << yamlDouble(options.real_time_factor)
+    << "). Do not edit: edit the scenario. -->\n"
+    << "<launch>\n"
+    << "  <param name=\"/use_sim_time\" value=\"true\"/>\n"
+    << "  <include file=\"$(find avsp)/launch/world_frames.launch\"/>\n\n";
+
+  NodeWriter w(o, "  ");
+  // Terrain: mesh, objects, ruts, soil moisture.
+  w.open("avsp_terrain", "terrain_node", "terrain");
+  w.params(terrain);
+  w.close();
+
+  // One dynamics_node for every vehicle: the clock.
+  w.open("avsp_dynamics", "dynamics_node", "dynamics", true);
+  w.rosparam("vehicles", vehicles);
+  w.param("config_dir", options.vehicles_dir);
+  w.params(terrain);
+  w.paramInt("seed", static_cast<long long>(s.seed));
+  w.param("real_time_factor", options.real_time_factor);
+  w.param("clock_rate", options.clock_rate);
+  // The start gate sends every vehicle a brake command once all nodes are up: the physics
+  // starts then, so every node sees the run from sim time 0.
+  w.paramBool("wait_for_command", options.start_gate);
+  if (has_agents)
+    w.rosparam("agents", agents);
+  w.close();
+
+  // One sensors_node for every vehicle.
+  w.open("avsp_sensors", "sensors_node", "sensors");
+  w.rosparam("vehicles", vehicles);
+  w.param("config_dir", options.vehicles_dir);
+  w.params(terrain);
+  w.param("latitude", s.latitude);
+  w.param("longitude", s.longitude);
+  w.param("altitude", s.altitude);
+  w.paramInt("seed", static_cast<long long>(s.seed));
+  if (s.sensors.IsDefined() && !s.sensors.IsNull())
+    w.rosparam("sensors", flowYaml(s.sensors, false));
+  for (const VehicleSpec& v : s.vehicles)
+    if (v.sensors.IsDefined() && !v.sensors.IsNull())
+      w.rosparam("vehicle_sensors/" + v.name, flowYaml(v.sensors, false));
+  if (has_agents)
+    w.rosparam("agents", agents);
+  w.close();
+
+  // Sky and weather.
+  w.open("avsp", "environment_node", "environment");
+  w.param("latitude", s.latitude);
+  w.param("longitude", s.longitude);
+  w.param("altitude", s.altitude);
+  w.param("start_utc", s.start_utc);
+  w.param("time_acceleration", s.time_acceleration);
+  if (s.weather.IsDefined() && !s.weather.IsNull() && s.weather.size() > 0)
+    w.rosparam("weather", flowYaml(s.weather, true));
+  w.close();
+
+  // V2V radio between all vehicles.
+  w.open("avsp", "v2v_radio_node", "v2v_radio");
+  {
+    std::string names = "[";
+    for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+      names += (i ? ", " : "") + quoted(s.vehicles[i].name);
+    w.rosparam("vehicles", names + "]");
+  }
+  w.param("range", s.v2v.range);
+  w.param("latency", s.v2v.latency);
+  w.param("loss_probability", s.v2v.loss_probability);
+  w.param("antenna_height", s.v2v.antenna_height);
+  w.paramInt("seed", static_cast<long long>(s.seed));
+  w.paramBool("line_of_sight", s.v2v.line_of_sight);
+  if (s.v2v.line_of_sight)
+  {
+    w.param("los_step", s.v2v.los_step);
+    w.params(terrain);
+  }
+  w.close();
+
+  if (has_agents && options.have_agents_node)
+  {
+    w.open("avsp", "agents_node", "agents");
+    w.rosparam("agents", agents);
+    w.params(terrain);
+    w.close();
+  }
+  o << "\n";
+
+  // Per vehicle: description, V2V transmitter, controller.
+  for (const VehicleSpec& v : s.vehicles)
+  {
+    o << "  <!-- " << xmlEscape(v.name) << " (" << xmlEscape(v.model) << "): " << toString(v.controller.type)
+      << " -->\n"
+      << "  <include file=\"$(find avsp)/launch/vehicle_description.launch\">\n"
+      << "    <arg name=\"vehicle\" value=\"" << xmlEscape(v.name) << "\"/>\n"
+      << "    <arg name=\"model\" value=\"" << xmlEscape(v.model) << "\"/>\n"
+      << "    <arg name=\"parked\" value=\"false\"/>\n"
+      << "  </include>\n"
+      << "  <group ns=\"" << xmlEscape(v.name) << "\">\n";
+    NodeWriter g(o, "    ");
+    g.open("avsp", "v2v_broadcaster", "v2v_broadcaster");
+    g.close();
+    if (v.controller.type != ControllerType::kExternal)
+    {
+      g.open("avsp", "controller_node", "controller");
+      g.param("mode", toString(v.controller.type));
+      g.param("model", v.model);
+      g.param("config_dir", options.vehicles_dir);
+      if (v.controller.type == ControllerType::kWaypoints)
+      {
+        std::string wps = "[";
+        const std::vector<Waypoint>& path = s.paths.at(v.controller.path);
+        for (std::size_t k = 0; k < path.size(); ++k)
+          wps += std::string(k ? ", " : "") + "{x: " + yamlDouble(path[k].x) + ", y: " + yamlDouble(path[k].y) +
+                 ", speed: " + yamlDouble(path[k].speed) + "}";
+        g.rosparam("waypoints", wps + "]");
+      }
+      else
+      {
+        g.param("leader", v.controller.leader);
+        g.param("gap", v.controller.gap);
+        g.param("offset", v.controller.offset);
+      }
+      if (v.controller.params.IsDefined() && v.controller.params.IsMap())
+        for (const auto& kv : v.controller.params)
+        {
+          double value = 0.0;
+          if (scalarAsDouble(kv.second, value))
+            g.param(kv.first.Scalar(), value);
+        }
+      g.close();
+    }
+    o << "  </group>\n";
+  }
+  o << "\n";
+
+  // The recorder ends the run: results/<scenario>/ when /clock reaches the duration.
+  if (options.have_run_recorder)
+  {
+    w.open("avsp", "run_recorder", "run_recorder", true, " output=\"screen\"");
+    {
+      std::string list = "[";
+      for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+        list += std::string(i ? ", " : "") + "{name: " + quoted(s.vehicles[i].name) +
+                ", leader: " + quoted(leader(s.vehicles[i])) + "}";
+      w.rosparam("vehicles", list + "]");
+    }
+    w.param("output_dir", options.output_dir);
+    w.param("scenario_name", s.name);
+    w.param("duration", duration);
+    w.param("progress_period", options.progress_period);
+    w.params(terrain);
+    w.close();
+  }
+  else
+    o << "  <!-- run_recorder is not built: no results, and the run does not end by itself -->\n";
+
+  if (options.start_gate)
+  {
+    // Releases the physics once every other node has advertised or subscribed something
+    // (they do so after loading their terrain and parameters).
+    std::string nodes = "[\"/terrain\", \"/sensors\", \"/environment\", \"/v2v_radio\"";
+    if (options.have_run_recorder)
+      nodes += ", \"/run_recorder\"";
+    if (has_agents && options.have_agents_node)
+      nodes += ", \"/agents\"";
+    for (const VehicleSpec& v : s.vehicles)
+    {
+      nodes += ", " + quoted("/" + v.name + "/v2v_broadcaster");
+      nodes += ", " + quoted("/" + v.name + "/robot_state_publisher");
+      if (v.controller.type != ControllerType::kExternal)
+        nodes += ", " + quoted("/" + v.name + "/controller");
+    }
+    std::string names = "[";
+    for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+      names += (i ? ", " : "") + quoted(s.vehicles[i].name);
+    w.open("avsp", "start_gate", "start_gate");
+    w.rosparam("vehicles", names + "]");
+    w.rosparam("nodes", nodes + "]");
+    w.close();
+  }
+  (void)any_external;
+
+  if (options.rviz)
+    o << "  <node pkg=\"rviz\" type=\"rviz\" name=\"rviz\" args=\"-d $(find avsp)/rviz/avsp.rviz\"/>\n";
+  o << "</launch>\n";
+  return o.str();
+}
+
+namespace
+{
+double parseNumber(const std::string& option, const std::string& text)
+{
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument(option + ": '" + text + "' is not a number");
+  return v;
+}
+}  // namespace
+
+LaunchCommand parseLaunchCommand(const std::vector<std::string>& args)
+{
+  LaunchCommand c;
+  for (std::size_t i = 0; i < args.size(); ++i)
+  {
+    const std::string& a = args[i];
+    if (a.find(":=") != std::string::npos)
+      continue;  // roslaunch's remappings (__name:=, __log:=)
+    const auto value = [&](void) -> std::string {
+      if (i + 1 >= args.size())
+        throw std::invalid_argument(a + ": needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h")
+      c.help = true;
+    else if (a == "--duration")
+    {
+      c.options.duration = parseNumber(a, value());
+      if (c.options.duration < 0.0)
+        throw std::invalid_argument("--duration: must be >= 0 (0 = the scenario's)");
+    }
+    else if (a == "--real-time-factor")
+    {
+      c.options.real_time_factor = parseNumber(a, value());
+      if (c.options.real_time_factor < 0.0)
+        throw std::invalid_argument("--real-time-factor: must be >= 0 (0 = as fast as possible)");
+    }
+    else if (a == "--rviz")
+    {
+      c.options.rviz = true;
+      if (i + 1 < args.size() && (args[i + 1] == "true" || args[i + 1] == "false"))
+        c.options.rviz = args[++i] == "true";
+    }
+    else if (a == "--output-dir")
+      c.options.output_dir = value();
+    else if (a == "--out")
+      c.out = value();
+    else if (a == "--config-dir")
+      c.config_dir = value();
+    else if (a == "--progress-period")
+    {
+      c.options.progress_period = parseNumber(a, value());
+      if (c.options.progress_period <= 0.0)
+        throw std::invalid_argument("--progress-period: must be > 0 (s)");
+    }
+    else if (a == "--check")
+      c.check_only = true;
+    else if (a == "--no-start-gate")
+      c.options.start_gate = false;
+    else if (!a.empty() && a[0] == '-')
+      throw std::invalid_argument(a + ": unknown option");
+    else if (c.scenario.empty())
+      c.scenario = a;
+    else
+      throw std::invalid_argument(a + ": only one scenario file");
+  }
+  if (c.scenario.empty() && !c.help)
+    throw std::invalid_argument("a scenario file is required");
+  return c;
+}
+
+std::string launchCommandUsage(const std::string& program)
+{
+  return "usage: " + program +
+         " SCENARIO.yaml [--duration S] [--real-time-factor R] [--rviz [true|false]]\n"
+         "       [--output-dir DIR] [--out FILE|-] [--config-dir DIR] [--progress-period S] [--check]\n"
+         "Validates the scenario and writes a roslaunch file with every node of the run.\n"
+         "  --duration S          s of sim time (0: the scenario's duration)\n"
+         "  --real-time-factor R  0 = as fast as possible in lockstep (default), 1 = wall-clock pace\n"
+         "  --rviz                add RViz (rviz/avsp.rviz)\n"
+         "  --output-dir DIR      results folder (default results/<scenario> under $PWD)\n"
+         "  --out FILE            the launch file (default <output-dir>/<scenario>.launch; - = stdout)\n"
+         "  --config-dir DIR      folder with vehicles/ and soils.yaml (default the avsp package's config)\n"
+         "  --progress-period S   wall s between run_recorder's progress lines (default 1)\n"
+         "  --check               validate only\n"
+         "  --no-start-gate       start the physics at once instead of when every node is up\n";
+}
+
+}  // namespace scenario
+}  // namespace avsp

@@ -1,0 +1,16 @@
+// scenario_launch: validates a scenario file and writes the roslaunch file of its run
+// (README.md, "Scenarios"). Exit 0 and the file's path on stdout, or 1 and the file + key
+// of the first problem on stderr (2: bad command line, 3: cannot write).
+#include <iostream>
+
+#include "scenario_cli.hpp"
+
+int main(int argc, char** argv)
+{
+  avsp::scenario::Generated g;
+  const int rc = avsp::scenario::generateFromCommandLine("scenario_launch", std::vector<std::string>(argv + 1, argv + argc),
+                                                         g, false);
+  if (rc == 0 && g.launch_file != "-")
+    std::cout << g.launch_file << "\n";
+  return rc;
+}

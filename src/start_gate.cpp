@@ -1,0 +1,143 @@
+// start_gate: holds a scenario's physics until every node of the run is up. dynamics_node runs
+// with ~wait_for_command (physics starts when every vehicle has a command); this node waits
+// until each node in ~nodes has advertised or subscribed a topic other than /rosout and /clock
+// (they do so after loading their parameters and terrain; a node that only ever uses /clock gets
+// ~grace s once registered), then sends each vehicle in
+// ~vehicles one full-brake command on <v>/avt_341/cmd_vel (latched), waits for /clock to move
+// and exits. So sensors, controllers and the recorder all see the run from sim time 0, however
+// long their start-up took.
+#include <algorithm>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <geometry_msgs/Twist.h>
+#include <ros/master.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <xmlrpcpp/XmlRpcValue.h>
+
+namespace
+{
+std::vector<std::string> stringList(const ros::NodeHandle& pnh, const std::string& name)
+{
+  XmlRpc::XmlRpcValue v;
+  std::vector<std::string> out;
+  if (!pnh.getParam(name, v) || v.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    throw std::runtime_error("parameter ~" + name + ": required, a list of names");
+  for (int i = 0; i < v.size(); ++i)
+  {
+    if (v[i].getType() != XmlRpc::XmlRpcValue::TypeString)
+      throw std::runtime_error("parameter ~" + name + "[" + std::to_string(i) + "]: must be a string");
+    out.push_back(static_cast<std::string>(v[i]));
+  }
+  return out;
+}
+
+/// Nodes that have a publication or subscription other than /rosout and /clock (`out`), and
+/// all nodes with any (`registered`).
+bool activeNodes(std::set<std::string>& out, std::set<std::string>& registered)
+{
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", args, result, payload, false))
+    return false;
+  for (int kind = 0; kind < 2 && kind < payload.size(); ++kind)  // publishers, subscribers
+    for (int t = 0; t < payload[kind].size(); ++t)
+    {
+      const std::string topic = payload[kind][t][0];
+      const bool plain = topic == "/rosout" || topic == "/clock";
+      for (int n = 0; n < payload[kind][t][1].size(); ++n)
+      {
+        registered.insert(static_cast<std::string>(payload[kind][t][1][n]));
+        if (!plain)
+          out.insert(static_cast<std::string>(payload[kind][t][1][n]));
+      }
+    }
+  return true;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  ros::init(argc, argv, "start_gate");
+  ros::NodeHandle nh, pnh("~");
+  std::vector<std::string> vehicles, nodes;
+  double timeout = 300.0, grace = 10.0;
+  try
+  {
+    vehicles = stringList(pnh, "vehicles");
+    nodes = stringList(pnh, "nodes");
+    pnh.param("timeout", timeout, 300.0);
+    pnh.param("grace", grace, 10.0);
+    if (!(timeout > 0.0))
+      throw std::runtime_error("parameter ~timeout: must be > 0 (wall s)");
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("start_gate: %s", e.what());
+    return 1;
+  }
+  const ros::WallTime start = ros::WallTime::now();
+  std::set<std::string> missing(nodes.begin(), nodes.end());
+  ros::WallTime only_registered;  // since when every missing node has registered (zero: not yet)
+  while (ros::ok() && !missing.empty())
+  {
+    std::set<std::string> active, registered;
+    if (activeNodes(active, registered))
+      for (const std::string& n : active)
+        missing.erase(n);
+    if (missing.empty())
+      break;
+    // A node that needs only /clock never shows more: once every missing node has registered,
+    // it gets ~grace s of wall time to show more, then the physics starts anyway.
+    const bool all_registered = std::all_of(missing.begin(), missing.end(),
+                                            [&registered](const std::string& n) { return registered.count(n) > 0; });
+    if (!all_registered)
+      only_registered = ros::WallTime();
+    else if (only_registered.isZero())
+      only_registered = ros::WallTime::now();
+    else if ((ros::WallTime::now() - only_registered).toSec() > grace)
+    {
+      std::string list;
+      for (const std::string& n : missing)
+        list += " " + n;
+      ROS_WARN("start_gate: going on after %.0f s (wall) with nodes that use only /clock:%s", grace, list.c_str());
+      break;
+    }
+    if ((ros::WallTime::now() - start).toSec() > timeout)
+    {
+      std::string list;
+      for (const std::string& n : missing)
+        list += " " + n;
+      ROS_FATAL("start_gate: after %.0f s (wall) still not up:%s", timeout, list.c_str());
+      return 1;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  if (!ros::ok())
+    return 0;
+  ROS_INFO("start_gate: all %zu nodes up after %.1f s (wall); starting the physics", nodes.size(),
+           (ros::WallTime::now() - start).toSec());
+  std::vector<ros::Publisher> pubs;
+  geometry_msgs::Twist brake;
+  brake.linear.y = -1.0;  // the contract's brake (avt_341: linear.y = -brake)
+  for (const std::string& v : vehicles)
+  {
+    pubs.push_back(nh.advertise<geometry_msgs::Twist>("/" + v + "/avt_341/cmd_vel", 1, true));
+    pubs.back().publish(brake);
+  }
+  // Stay (latched) until the clock moves: then dynamics_node has taken the commands.
+  bool moved = false;
+  ros::Subscriber clock = nh.subscribe<rosgraph_msgs::Clock>(
+      "/clock", 10, [&moved](const rosgraph_msgs::Clock::ConstPtr& c) { moved |= !c->clock.isZero(); });
+  const ros::WallTime released = ros::WallTime::now();
+  while (ros::ok() && !moved && (ros::WallTime::now() - released).toSec() < timeout)
+  {
+    ros::spinOnce();
+    ros::WallDuration(0.05).sleep();
+  }
+  if (!moved)
+    ROS_WARN("start_gate: /clock did not move after the commands");
+  return 0;
+}

@@ -1,0 +1,190 @@
+#!/usr/bin/python3
+"""The main job end to end on the shortened reference scenario, and scenario_launch's refusal
+of bad scenario files. Writes a JUnit XML result with one test case per check:
+
+- bad_scenario_*: scenario_launch on a bad file (unknown controller type, missing key, unknown
+  model, a vehicle inside a building) exits 1 and its message names the file and the key path;
+- generated_launch: reference_traverse.launch (scenario_node) wrote the run's launch file into the
+  results folder;
+- run_ends: the run ends by itself (run_recorder, required, exits at `duration` s of sim time)
+  within the wall-clock limit;
+- results: summary.json, trajectories.png, ruts.png and gaps.png exist, written by this run,
+  and summary.json has every vehicle of the scenario.
+
+When run_recorder is not built (a tree without it), run_ends and results are replaced by
+clock_reaches_duration: /clock reaches the duration (then the run is stopped).
+
+usage: run_main_job.py SCENARIO RESULT_XML [DURATION_S] [WALL_LIMIT_S]
+"""
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from xml.sax.saxutils import escape
+
+import yaml
+
+
+def find_node(name):
+    import roslib.packages
+    found = roslib.packages.find_node("avsp", name)
+    return found[0] if found else None
+
+
+def run(cmd, env, timeout):
+    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True, env=env,
+                       timeout=timeout)
+    return p.returncode, p.stdout, p.stderr
+
+
+def bad_scenario_cases(scenario, env, tmp):
+    """Edits of the good scenario and the key each must be refused with."""
+    with open(scenario) as f:
+        good = yaml.safe_load(f)
+    cases = []
+
+    def edit(name, key, change):
+        doc = yaml.safe_load(yaml.safe_dump(good))
+        change(doc)
+        path = os.path.join(tmp, name + ".yaml")
+        with open(path, "w") as f:
+            yaml.safe_dump(doc, f)
+        cases.append((name, path, key))
+
+    edit("bad_controller", "vehicles[2].controller.type: unknown 'foo'",
+         lambda d: d["vehicles"][2]["controller"].update(type="foo"))
+    edit("missing_key", "geodetic_reference: missing key", lambda d: d.pop("geodetic_reference"))
+    edit("unknown_model", "vehicles[0].model: unknown model 'rover7'", lambda d: d["vehicles"][0].update(model="rover7"))
+    edit("negative_speed", "paths.traverse[1].speed: negative speed",
+         lambda d: d["paths"]["traverse"][1].update(speed=-1.0))
+    # The staging area's first building spans x 53-67 m, y 218.5-227.5 m.
+    edit("inside_building", "vehicles[1].start: 'mrzr' starts inside building",
+         lambda d: d["vehicles"][1]["start"].update(x=60.0, y=223.0))
+    exe = find_node("scenario_launch")
+    results = []
+    for name, path, key in cases:
+        rc, out, err = run([exe, path, "--out", "-"], env, 120)
+        msg = []
+        if rc != 1:
+            msg.append("exit code %d, expected 1" % rc)
+        if (path + ": " + key) not in err:
+            msg.append("stderr does not name '%s: %s': %s" % (path, key, err.strip()))
+        results.append(("bad_scenario_" + name, msg))
+    return results
+
+
+def clock_reaches(duration, env, limit):
+    """Waits (wall limit) until /clock reaches `duration` s; True if it did."""
+    code = ("import rospy, sys\n"
+            "from rosgraph_msgs.msg import Clock\n"
+            "rospy.init_node('main_job_clock_probe', anonymous=True, disable_signals=True)\n"
+            "d = float(sys.argv[1])\n"
+            "while True:\n"
+            "    m = rospy.wait_for_message('/clock', Clock, timeout=60)\n"
+            "    if m.clock.to_sec() >= d: break\n")
+    try:
+        rc, _o, _e = run([sys.executable, "-c", code, str(duration)], env, limit)
+        return rc == 0
+    except subprocess.TimeoutExpired:
+        return False
+
+
+def main(argv):
+    if len(argv) < 3:
+        sys.stderr.write(__doc__)
+        return 2
+    scenario, result = os.path.abspath(argv[1]), argv[2]
+    duration = float(argv[3]) if len(argv) > 3 else 30.0
+    limit = float(argv[4]) if len(argv) > 4 else 600.0
+    with open(scenario) as f:
+        vehicles = [v["name"] for v in yaml.safe_load(f)["vehicles"]]
+    name = os.path.splitext(os.path.basename(scenario))[0]
+    port = random.randint(20000, 40000)
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1")
+    env.pop("ROS_HOSTNAME", None)
+    cases = []
+    tmp = tempfile.mkdtemp(prefix="avsp_main_job_")
+    try:
+        cases += bad_scenario_cases(scenario, env, tmp)
+
+        out = os.path.join(tmp, "results", name)
+        start = time.time()
+        launch = subprocess.Popen(["roslaunch", "-p", str(port), "avsp", "reference_traverse.launch",
+                                   "scenario:=" + scenario, "duration:=%g" % duration, "real_time_factor:=0",
+                                   "output_dir:=" + out], env=env, preexec_fn=os.setsid)
+        recorder = find_node("run_recorder")
+        generated = os.path.join(out, name + ".launch")
+        try:
+            if recorder:
+                try:
+                    rc = launch.wait(timeout=limit)
+                    cases.append(("run_ends", [] if rc == 0 else ["roslaunch exited with %d" % rc]))
+                except subprocess.TimeoutExpired:
+                    cases.append(("run_ends", ["the run did not end within %g s (wall)" % limit]))
+            else:
+                print("run_main_job: run_recorder is not built: checking only that /clock reaches the duration")
+                ok = clock_reaches(duration, env, limit)
+                cases.append(("clock_reaches_duration", [] if ok else ["/clock did not reach %g s" % duration]))
+        finally:
+            if launch.poll() is None:
+                os.killpg(launch.pid, signal.SIGINT)
+                try:
+                    launch.wait(timeout=40)
+                except subprocess.TimeoutExpired:
+                    os.killpg(launch.pid, signal.SIGKILL)
+                    launch.wait()
+        print("run_main_job: %.1f s wall for %g s of sim time" % (time.time() - start, duration))
+        cases.append(("generated_launch", [] if os.path.isfile(generated) else ["no " + generated]))
+        if recorder:
+            msgs = []
+            for f in ["summary.json", "trajectories.png", "ruts.png", "gaps.png"]:
+                p = os.path.join(out, f)
+                if not os.path.isfile(p) or os.path.getsize(p) == 0:
+                    msgs.append("missing or empty: " + p)
+                elif os.path.getmtime(p) < start:
+                    msgs.append("older than the run: " + p)
+            try:
+                with open(os.path.join(out, "summary.json")) as f:
+                    summary = json.load(f)
+                entries = summary.get("vehicles") if isinstance(summary, dict) else None
+                if isinstance(entries, dict):
+                    names = set(entries.keys())
+                elif isinstance(entries, list):
+                    names = {e.get("name") for e in entries if isinstance(e, dict)}
+                else:
+                    names = set()
+                    msgs.append("summary.json has no 'vehicles' list or map")
+                for v in vehicles:
+                    if v not in names:
+                        msgs.append("summary.json has no vehicle " + v)
+            except Exception as e:  # noqa: BLE001 - any reason is a failure to report
+                msgs.append("summary.json unreadable: %s" % e)
+            cases.append(("results", msgs))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+    failures = sum(1 for _n, m in cases if m)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             '<testsuite name="main_job" tests="%d" failures="%d" errors="0">' % (len(cases), failures)]
+    for n, msgs in cases:
+        lines.append('  <testcase classname="main_job" name="%s">' % n)
+        if msgs:
+            lines.append('    <failure message="%s">%s</failure>' % (escape(msgs[0][:200], {'"': "&quot;"}),
+                                                                    escape("\n".join(msgs))))
+        lines.append("  </testcase>")
+    lines.append("</testsuite>")
+    os.makedirs(os.path.dirname(os.path.abspath(result)), exist_ok=True)
+    with open(result, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    for n, msgs in cases:
+        print("%s: %s" % (n, "FAILED: " + "; ".join(msgs) if msgs else "ok"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
