@@ -503,6 +503,8 @@ private:
       }
     }
     return ros::ok();
+  }
+
   /// ~agents: kinematic bodies the vehicles collide with, on the terrain's base heights (as
   /// agents_node and sensors_node place them).
   void loadAgents()

@@ -12,6 +12,9 @@ namespace scenario
 {
 namespace
 {
+/// s: the controllers' period (20 Hz), the dynamics' barrier and the radio's batches.
+constexpr double kLockstepPeriod = 0.05;
+
 std::string xmlEscape(const std::string& s)
 {
   std::string out;
@@ -255,6 +258,20 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   // The start gate sends every vehicle a brake command once all nodes are up: the physics
   // starts then, so every node sees the run from sim time 0.
   w.paramBool("wait_for_command", options.start_gate);
+  // Lockstep: every 50 ms of sim time the physics waits for each controlled vehicle's command
+  // for that instant (controller_node ~lockstep), and each follower for its radio's batch, so a
+  // run does not depend on how fast the processes are scheduled.
+  {
+    std::string names;
+    for (const VehicleSpec& v : s.vehicles)
+      if (v.controller.type != ControllerType::kExternal)
+        names += (names.empty() ? "" : ", ") + quoted(v.name);
+    if (!names.empty())
+    {
+      w.rosparam("lockstep_vehicles", "[" + names + "]");
+      w.param("lockstep_period", kLockstepPeriod);
+    }
+  }
   if (has_agents)
     w.rosparam("agents", agents);
   w.close();
@@ -302,6 +319,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   w.param("antenna_height", s.v2v.antenna_height);
   w.paramInt("seed", static_cast<long long>(s.seed));
   w.paramBool("line_of_sight", s.v2v.line_of_sight);
+  w.param("lockstep_period", kLockstepPeriod);  // batches on v2v/in_lockstep for lockstep followers
   if (s.v2v.line_of_sight)
   {
     w.param("los_step", s.v2v.los_step);
@@ -336,6 +354,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     {
       g.open("avsp", "controller_node", "controller");
       g.param("mode", toString(v.controller.type));
+      g.paramBool("lockstep", true);
       g.param("model", v.model);
       g.param("config_dir", options.vehicles_dir);
       if (v.controller.type == ControllerType::kWaypoints)
