@@ -67,7 +67,8 @@ def load_grid(folder, entry, name):
     except (OSError, ValueError) as e:
         raise InputError(f"{path}: {e}")
     if values.shape != (entry["height"], entry["width"]):
-        raise InputError(f"{path}: shape {values.shape}, grids.json says ({entry['height']}, {entry['width']}) for {name}")
+        raise InputError(f"{path}: shape {values.shape}, grids.json says "
+                         f"({entry['height']}, {entry['width']}) for {name}")
     r = entry["resolution"]
     # imshow extent: cell edges (the origin is the centre of cell (0, 0)).
     extent = [entry["origin_x"] - r / 2, entry["origin_x"] + (entry["width"] - 0.5) * r,

@@ -128,6 +128,8 @@ struct Vehicle
   ar::VehicleRecord record;
   std::string odom_topic, telemetry_topic;
   ros::Subscriber odom_sub, telemetry_sub;
+  /// A message stamped after the duration arrived: everything up to it has (FIFO per topic).
+  bool odom_done = false, telemetry_done = false;
 };
 
 class RunRecorder
@@ -160,22 +162,21 @@ public:
       throw StartupError("parameter ~soils_file: " + std::string(e.what()));
     }
     prepareOutputDir(output_dir_);
-    at::LoadedSource loaded = at::loadTerrainFromParams(pnh, *soils_);
-    terrain_ = std::move(loaded.terrain);
-    objects_ = std::move(loaded.objects);
-    terrain_description_ = loaded.description;
-    ruts_ = std::make_unique<ar::RutMap>(terrain_->base());
+    // The terrain source's parameters are checked now, loaded after subscribing (below).
+    const at::TerrainSource source = at::terrainSourceFromParams(pnh);
 
     for (const ar::VehicleSpec& s : specs)
     {
       auto v = std::make_unique<Vehicle>();
       v->spec = s;
       Vehicle* raw = v.get();
-      // Deep queues: at a high real-time factor 100 Hz of sim time is thousands per wall second.
+      // Deep queues (100 s of sim time at 100 Hz): at a high real-time factor that is a few wall
+      // seconds, and the messages that arrive while the terrain loads wait in them.
       v->odom_sub = nh_.subscribe<nav_msgs::Odometry>(
-          s.name + "/avt_341/odometry", 2000, [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
+          s.name + "/avt_341/odometry", 10000,
+          [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
       v->telemetry_sub = nh_.subscribe<avsp_msgs::VehicleTelemetry>(
-          s.name + "/telemetry", 2000,
+          s.name + "/telemetry", 10000,
           [this, raw](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { onTelemetry(*raw, *m); });
       v->odom_topic = v->odom_sub.getTopic();
       v->telemetry_topic = v->telemetry_sub.getTopic();
@@ -183,6 +184,24 @@ public:
     }
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 200, &RunRecorder::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 200, &RunRecorder::onToppled, this);
+    // Subscribed first: loading a large course takes seconds, while which the simulation may
+    // already run; its messages wait in the queues (callbacks run only once this returns).
+    try
+    {
+      at::LoadedSource loaded = at::loadTerrainSource(source, *soils_);
+      terrain_ = std::move(loaded.terrain);
+      objects_ = std::move(loaded.objects);
+      terrain_description_ = loaded.description;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(std::string("parameter ~") + e.what());
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError(std::string("terrain: ") + e.what());
+    }
+    ruts_ = std::make_unique<ar::RutMap>(terrain_->base());
     ROS_INFO("run_recorder: %zu vehicle(s), %s until sim time %.1f s, terrain %s, results in %s", vehicles_.size(),
              scenario_.c_str(), duration_, terrain_description_.c_str(), output_dir_.c_str());
   }
@@ -206,7 +225,20 @@ public:
         progress(now, wall);
       if (first_clock_ && now >= duration_)
       {
-        ros::spinOnce();  // what arrived with the last tick (stamps past the duration are dropped)
+        // /clock can run ahead of the vehicles' topics: wait until each topic has delivered a
+        // message stamped past the duration (dropped), or 2 s of wall time for a silent one.
+        const ros::WallTime reached = ros::WallTime::now();
+        auto complete = [this] {
+          for (const auto& v : vehicles_)
+            if (!v->odom_done || (!v->telemetry_done && v->record.telemetryCount() > 0))
+              return false;
+          return true;
+        };
+        while (ros::ok() && !complete() && (ros::WallTime::now() - reached).toSec() < 2.0)
+        {
+          ros::spinOnce();
+          ros::WallDuration(0.002).sleep();
+        }
         for (auto& v : vehicles_)
         {
           v->odom_sub.shutdown();
@@ -234,7 +266,10 @@ private:
   {
     const double t = m.header.stamp.toSec();
     if (t > duration_)
+    {
+      v.odom_done = true;
       return;
+    }
     const auto& p = m.pose.pose.position;
     const auto& l = m.twist.twist.linear;
     const double speed = std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z);
@@ -247,7 +282,10 @@ private:
   {
     const double t = m.header.stamp.toSec();
     if (t > duration_)
+    {
+      v.telemetry_done = true;
       return;
+    }
     std::vector<ar::ContactSlip> contacts;
     contacts.reserve(m.contacts.size());
     for (const avsp_msgs::WheelContact& c : m.contacts)

@@ -225,7 +225,8 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
         continue;
       if (previous)
       {
-        own += std::sqrt(std::pow(s.x - previous->x, 2) + std::pow(s.y - previous->y, 2) + std::pow(s.z - previous->z, 2));
+        own += std::sqrt(std::pow(s.x - previous->x, 2) + std::pow(s.y - previous->y, 2) +
+                         std::pow(s.z - previous->z, 2));
         max_gap_dt = std::max(max_gap_dt, s.t - previous->t);
       }
       previous = &s;
@@ -239,7 +240,7 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     EXPECT_NEAR(distance, own, 0.01 * own) << name;
     EXPECT_NEAR(v["mean_speed"].as<double>(), distance / (t1 - t0), 1e-6 * distance);
     EXPECT_GT(v["max_slip"].as<double>(), 0.0) << name << ": driving on sandy loam slips";
-    EXPECT_LT(v["max_slip"].as<double>(), 1.0) << name;
+    EXPECT_LE(v["max_slip"].as<double>(), 1.0) << name;  // 1: a wheel spinning on the spot
     EXPECT_EQ(v["collisions"].as<unsigned>(), collisions[name]) << name;
     EXPECT_GE(v["collisions"].as<unsigned>(), 1u) << name << ": the rear-end";
     EXPECT_DOUBLE_EQ(v["time_stuck"].as<double>(), 0.0) << name;

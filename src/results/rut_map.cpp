@@ -33,7 +33,8 @@ Grid sampleHeights(const terrain::ElevationGrid& base, double x0, double y0, dou
   for (std::size_t j = 0; j < g.height; ++j)
     for (std::size_t i = 0; i < g.width; ++i)
     {
-      const auto z = base.height(x0 + static_cast<double>(i) * g.resolution, y0 + static_cast<double>(j) * g.resolution);
+      const double x = x0 + static_cast<double>(i) * g.resolution, y = y0 + static_cast<double>(j) * g.resolution;
+      const auto z = base.height(x, y);
       g.values[j * g.width + i] = z ? static_cast<float>(*z) : kNoData;
     }
   return g;
