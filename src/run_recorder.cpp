@@ -143,7 +143,12 @@ public:
     output_dir_ = requiredString(pnh, "output_dir");
     pnh.param<std::string>("scenario_name", scenario_, "");
     if (scenario_.empty())
-      scenario_ = fs::path(output_dir_).lexically_normal().filename().string();
+    {
+      fs::path p = fs::path(output_dir_).lexically_normal();
+      if (p.filename().empty())  // "results/run/" ends in a separator
+        p = p.parent_path();
+      scenario_ = p.filename().string();
+    }
     if (!pnh.hasParam("duration"))
       throw StartupError("parameter ~duration is required (s of sim time)");
     duration_ = avsp::msgs::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);

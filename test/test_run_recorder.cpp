@@ -9,7 +9,8 @@
 //    as telemetry gave them (at least one: the rear-end), max speed, ruts deeper than 0;
 //  - gaps.csv: the follower's gap series over the run, each value the leader's x minus the
 //    follower's at that stamp (a straight path along x: the distance along it) within 5 cm.
-// Also: bad parameters exit 1 naming the parameter.
+// Also: a NaN odometry message the test slips in is ignored with a warning naming the topic
+// (the distances would be NaN otherwise); bad parameters exit 1 naming the parameter.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -125,7 +126,8 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     subs.push_back(nh.subscribe<nav_msgs::Odometry>("/" + v + "/avt_341/odometry", 5000,
                                                     [&odom, v](const nav_msgs::Odometry::ConstPtr& m) {
                                                       const auto& p = m->pose.pose.position;
-                                                      odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z });
+                                                      if (std::isfinite(p.x))  // not the test's own NaN
+                                                        odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z });
                                                     }));
     subs.push_back(nh.subscribe<avsp_msgs::VehicleTelemetry>(
         "/" + v + "/telemetry", 5000, [&collisions, v, duration](const avsp_msgs::VehicleTelemetry::ConstPtr& m) {
@@ -134,6 +136,9 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
         }));
     cmd[v] = nh.advertise<geometry_msgs::Twist>("/" + v + "/avt_341/cmd_vel", 1, true);
   }
+
+  // A bad odometry message among dynamics_node's: run_recorder must ignore it, naming the topic.
+  ros::Publisher bad_odom = nh.advertise<nav_msgs::Odometry>("/lead/avt_341/odometry", 1);
 
   // run_recorder in the background; the test drives once it is up.
   int code = -1;
@@ -161,7 +166,11 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     ros::WallDuration(0.05).sleep();
   ASSERT_FALSE(done) << "run_recorder exited at start-up";
   ASSERT_TRUE(subscribed()) << "run_recorder did not subscribe within 30 s";
-  ros::WallDuration(0.5).sleep();  // the publishers connect to it
+  // The publishers connect to it (the test's own subscriber and run_recorder's on the bad topic).
+  while (bad_odom.getNumSubscribers() < 2 && (ros::WallTime::now() - start).toSec() < 30.0)
+    ros::WallDuration(0.01).sleep();
+  ASSERT_GE(bad_odom.getNumSubscribers(), 2u);
+  ros::WallDuration(0.5).sleep();
 
   geometry_msgs::Twist go_lead, go_follow, brake;
   go_lead.linear.x = 0.35;
@@ -169,11 +178,22 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
   brake.linear.y = -1.0;  // avt_341: linear.y = -brake
   cmd["lead"].publish(go_lead);
   cmd["follow"].publish(go_follow);
+  bool bad_sent = false;
   bool braked = false;
   double clock_at_exit = 0.0;
   while (!done && (ros::WallTime::now() - start).toSec() < 75.0)
   {
     ros::spinOnce();
+    if (!bad_sent && ros::Time::now().toSec() >= 3.0)
+    {
+      nav_msgs::Odometry nan_odom;
+      nan_odom.header.stamp = ros::Time::now();
+      nan_odom.header.frame_id = "odom";
+      nan_odom.pose.pose.position.x = std::nan("");
+      nan_odom.pose.pose.orientation.w = 1.0;
+      bad_odom.publish(nan_odom);
+      bad_sent = true;
+    }
     if (!braked && ros::Time::now().toSec() >= brake_time)
     {
       cmd["lead"].publish(brake);
@@ -189,6 +209,8 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
   ASSERT_EQ(code, 0) << output;
   EXPECT_GE(clock_at_exit, duration);
   EXPECT_NE(output.find("[run_recorder] sim "), std::string::npos) << "no progress line";
+  EXPECT_TRUE(bad_sent);
+  EXPECT_NE(output.find("/lead/avt_341/odometry: odometry at"), std::string::npos) << "NaN odometry not reported";
 
   for (const char* f : { "summary.json", "grids.json", "trajectories.csv", "gaps.csv", "objects.csv",
                          "terrain_heights.npy", "rut_depth.npy", "trajectories.png", "ruts.png", "gaps.png" })
