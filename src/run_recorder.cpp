@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -53,6 +54,40 @@ constexpr double kTablePeriod = 0.1;
 constexpr std::size_t kMaxGridCells = 1500;
 /// m: ruts shallower than this do not count for the rut map's extent (float rounding, elastic).
 constexpr double kRutMinDepth = 0.002;
+
+/**
+ * @brief A warning at most once per `period` wall seconds per subject (a topic), with the count
+ *        of those swallowed since. (ROS_WARN_THROTTLE counts on sim time from 0 and swallows
+ *        every warning of a run's first `period` seconds.)
+ */
+void warnThrottled(const std::string& subject, double period, const std::string& text)
+{
+  struct Seen
+  {
+    ros::WallTime last;
+    unsigned swallowed = 0;
+  };
+  static std::map<std::string, Seen> seen;
+  const ros::WallTime now = ros::WallTime::now();
+  const auto it = seen.find(subject);
+  if (it != seen.end() && (now - it->second.last).toSec() < period)
+  {
+    ++it->second.swallowed;
+    return;
+  }
+  const unsigned swallowed = it == seen.end() ? 0 : it->second.swallowed;
+  const std::string more = swallowed ? " (and " + std::to_string(swallowed) + " more since the last warning)" : "";
+  ROS_WARN("run_recorder: %s: %s%s", subject.c_str(), text.c_str(), more.c_str());
+  seen[subject] = Seen{ now, 0 };
+}
+
+/// printf of one number into a std::string.
+std::string format(const char* fmt, double a)
+{
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer, fmt, a);
+  return buffer;
+}
 
 std::vector<ar::VehicleSpec> vehicleList(const ros::NodeHandle& pnh)
 {
@@ -279,8 +314,7 @@ private:
     const auto& l = m.twist.twist.linear;
     const double speed = std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z);
     if (!v.record.addOdometry(t, p.x, p.y, p.z, speed))
-      ROS_WARN_THROTTLE(5.0, "run_recorder: %s: odometry at %.3f s ignored (a non-finite value, or out of order)",
-                        v.odom_topic.c_str(), t);
+      warnThrottled(v.odom_topic, 5.0, format("odometry at %.3f s ignored (a non-finite value, or out of order)", t));
   }
 
   void onTelemetry(Vehicle& v, const avsp_msgs::VehicleTelemetry& m)
@@ -296,8 +330,7 @@ private:
     for (const avsp_msgs::WheelContact& c : m.contacts)
       contacts.push_back(ar::ContactSlip{ c.slip, c.normal_force, c.driven != 0 });
     if (!v.record.addTelemetry(t, ar::maxDrivenSlip(contacts), m.stuck, m.collisions))
-      ROS_WARN_THROTTLE(5.0, "run_recorder: %s: message at %.3f s ignored (out of order)", v.telemetry_topic.c_str(),
-                        t);
+      warnThrottled(v.telemetry_topic, 5.0, format("message at %.3f s ignored (out of order)", t));
   }
 
   /// Every publisher's patches count: /terrain/ruts carries current heights, whoever deformed them.
@@ -307,8 +340,9 @@ private:
     if (!m.header.frame_id.empty() && m.header.frame_id != "map")
     {
       ++patches_rejected_;
-      ROS_WARN_THROTTLE(5.0, "run_recorder: /terrain/ruts from %s in frame '%s', expected 'map'; ignored",
-                        event.getPublisherName().c_str(), m.header.frame_id.c_str());
+      warnThrottled("/terrain/ruts", 5.0,
+                    "from " + event.getPublisherName() + " in frame '" + m.header.frame_id +
+                        "', expected 'map'; ignored");
       return;
     }
     at::HeightPatch p;
@@ -326,8 +360,7 @@ private:
     catch (const std::exception& e)
     {
       ++patches_rejected_;
-      ROS_WARN_THROTTLE(5.0, "run_recorder: /terrain/ruts from %s rejected: %s", event.getPublisherName().c_str(),
-                        e.what());
+      warnThrottled("/terrain/ruts", 5.0, "from " + event.getPublisherName() + " rejected: " + e.what());
     }
   }
 
