@@ -17,8 +17,16 @@ PACKAGES = ["avsp", "avsp_msgs", "avsp_terrain", "avsp_dynamics", "avsp_sensors"
 # catkin_lint stops descending at the root package.xml, so each package path is named.
 PATHS = [".", "avsp_msgs", "avsp_terrain", "avsp_dynamics", "avsp_sensors"]
 # The sources are linted in a copy named 'avsp' (the root package's name) without the
-# colcon build/install/log folders, whose executables catkin_lint would take for sources.
-SKIP = shutil.ignore_patterns(".git", "build", "install", "log", "results", "__pycache__")
+# colcon build/install/log folders and the main job's results/, whose files catkin_lint would
+# take for sources; only at the top level (src/results/ is a source folder).
+TOP_LEVEL_SKIP = {".git", "build", "install", "log", "results"}
+
+
+def skip(directory, names):
+    ignored = {n for n in names if n == "__pycache__"}
+    if os.path.abspath(directory) == skip.root:
+        ignored |= TOP_LEVEL_SKIP & set(names)
+    return ignored
 
 
 def main(argv):
@@ -29,7 +37,8 @@ def main(argv):
     env = dict(os.environ, PATH="/usr/bin:/bin:" + os.environ.get("PATH", ""))
     with tempfile.TemporaryDirectory(prefix="avsp_catkin_lint_") as tmp:
         root = os.path.join(tmp, "avsp")
-        shutil.copytree(source, root, ignore=SKIP, symlinks=True)
+        skip.root = os.path.abspath(source)
+        shutil.copytree(source, root, ignore=skip, symlinks=True)
         proc = subprocess.run(["catkin_lint", "-W2", "--strict", "--quiet", "--color", "never", "--offline"] +
                               [os.path.join(root, p) for p in PATHS],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True, env=env)

@@ -55,6 +55,7 @@
 #include <avsp_terrain/height_patch.hpp>
 #include <avsp_terrain/soil.hpp>
 
+#include "avsp_dynamics/collision_counter.hpp"
 #include "avsp_dynamics/stuck_detector.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
@@ -143,6 +144,7 @@ struct VehicleIo
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
   double rut_margin = 0.0;                  ///< m, a contact's reach beyond its centre
   ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
+  ad::CollisionCounter collisions;          ///< VehicleTelemetry.collisions
   sensor_msgs::JointState joints;           ///< names fixed at start-up, values per publication
   // Area the wheels ran over since the last rut publication (map x, y, m).
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
@@ -583,6 +585,7 @@ private:
     {
       const ad::VehicleState& s = world_->state(v->id);
       v->stuck.update(v->model, s, world_->time());
+      v->collisions.update(s, world_->time());  // every step: a short impact is not missed
       for (std::size_t w = 0; w < s.wheels.size(); ++w)
       {
         v->spin_angle[w] = std::remainder(v->spin_angle[w] + s.wheels[w].spin_rate * h, 2.0 * M_PI);
@@ -735,9 +738,10 @@ private:
     tm.command.brake = s.command.brake;
     tm.command.steering = s.command.steering;
     // Per wheel, or per track segment (the patch under each road wheel), in the model's order.
-    auto add = [&](const std::string& name, const auto& c, const Eigen::Vector3d& rest) {
+    auto add = [&](const std::string& name, const auto& c, const Eigen::Vector3d& rest, bool driven) {
       avsp_msgs::WheelContact m;
       m.name = name;
+      m.driven = driven;
       m.normal_force = c.normal_force;
       m.sinkage = c.sinkage;
       m.slip = c.slip;
@@ -748,11 +752,13 @@ private:
       tm.contacts.push_back(m);
     };
     for (std::size_t w = 0; w < v.model.wheels.size(); ++w)
-      add(v.model.wheels[w].link, s.wheels[w], v.model.wheels[w].rest_position);
+      add(v.model.wheels[w].link, s.wheels[w], v.model.wheels[w].rest_position, v.model.wheels[w].driven);
     for (std::size_t k = 0; k < s.tracks.size(); ++k)
       for (std::size_t w = 0; w < s.tracks[k].segments.size(); ++w)
-        add(s.tracks[k].segments[w].name, s.tracks[k].segments[w], v.model.tracks[k].road_wheels[w].rest_position);
+        add(s.tracks[k].segments[w].name, s.tracks[k].segments[w], v.model.tracks[k].road_wheels[w].rest_position,
+            true);  // a track is driven as a whole by its sprocket
     tm.stuck = v.stuck.stuck();
+    tm.collisions = v.collisions.count();
     v.telemetry_pub.publish(tm);
   }
 

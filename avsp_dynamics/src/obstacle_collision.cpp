@@ -443,8 +443,12 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     dJointSetFeedback(joint, &feedback_[j]);
     joints_.push_back(RigidJoint{ h.vehicle_a, h.vehicle_b, vb != nullptr });
     ++va.report.contacts;
+    ++va.report.rigid_contacts;
     if (vb)
+    {
       ++vb->report.contacts;
+      ++vb->report.rigid_contacts;
+    }
     ++j;
   }
 }

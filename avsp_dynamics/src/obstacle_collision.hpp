@@ -83,6 +83,7 @@ struct AgentCollisionBody
 struct CollisionReport
 {
   int contacts = 0;                                        ///< contact points
+  int rigid_contacts = 0;  ///< of which with rigid obstacles and other vehicles (not toppleable objects)
   Eigen::Vector3d impulse = Eigen::Vector3d::Zero();       ///< N s on the vehicle, map
 };
 

@@ -77,6 +77,7 @@ public:
   void setCollisionReport(const CollisionReport& r) override
   {
     state_.obstacle_contacts = r.contacts;
+    state_.obstacle_rigid_contacts = r.rigid_contacts;
     state_.obstacle_impulse = r.impulse;
   }
 

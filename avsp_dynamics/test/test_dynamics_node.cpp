@@ -160,11 +160,13 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
     EXPECT_EQ(tm.command.throttle, 0.0);
     EXPECT_EQ(tm.command.brake, 1.0);
     EXPECT_FALSE(tm.stuck);
+    EXPECT_EQ(tm.collisions, 0u);  // nothing to hit on the open square
     ASSERT_EQ(tm.contacts.size(), model.wheels.size());
     double load = 0.0;
     for (std::size_t w = 0; w < tm.contacts.size(); ++w)
     {
       EXPECT_EQ(tm.contacts[w].name, model.wheels[w].link);
+      EXPECT_EQ(tm.contacts[w].driven, model.wheels[w].driven) << tm.contacts[w].name;
       EXPECT_EQ(tm.contacts[w].soil, "gravel");
       load += tm.contacts[w].normal_force;
     }
@@ -355,6 +357,7 @@ TEST(DynamicsNode, TrackedCarrierPublishesRunningGearAndSegments)
   for (std::size_t k = 0; k < segments.size(); ++k)
   {
     EXPECT_EQ(tm.contacts[k].name, segments[k]);
+    EXPECT_TRUE(tm.contacts[k].driven) << segments[k];  // a track is driven by its sprocket
     EXPECT_EQ(tm.contacts[k].soil, "gravel");
     normal += tm.contacts[k].normal_force;
   }

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,7 @@
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
 
+#include "avsp_dynamics/collision_counter.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
 
 using namespace avsp::dynamics;
@@ -148,6 +151,8 @@ struct LaunchRun
   double impact_momentum_change = 0.0;  ///< N s, m_total x change of the COM x-velocity over the same steps
   VehicleState final;
   std::vector<std::vector<double>> trace;  ///< fingerprint per step
+  std::uint32_t collisions = 0;            ///< CollisionCounter over the run
+  int rigid_contact_steps = 0;             ///< steps with rigid contact points
 };
 
 enum class Target
@@ -175,10 +180,13 @@ LaunchRun launch(terrain::ObjectSet* objects, double speed, const DriveCommand& 
   Eigen::Vector3d com = world.state(id).centre_of_mass;
   Eigen::Vector3d v_before = Eigen::Vector3d(speed, 0.0, 0.0);
   const auto steps = static_cast<long>(std::lround(seconds / h));
+  CollisionCounter counter;
   for (long k = 0; k < steps; ++k)
   {
     world.step();
     const VehicleState& s = world.state(id);
+    counter.update(s, world.time());
+    run.rigid_contact_steps += s.obstacle_rigid_contacts > 0;
     const Eigen::Vector3d v = comVelocity(com, s.centre_of_mass, h);
     com = s.centre_of_mass;
     const double reach = target == Target::kPlane ? reachPast(m, s, face_or_x) :
@@ -195,6 +203,7 @@ LaunchRun launch(terrain::ObjectSet* objects, double speed, const DriveCommand& 
     run.trace.push_back(fingerprint(s));
   }
   run.final = world.state(id);
+  run.collisions = counter.count();
   return run;
 }
 }  // namespace
@@ -222,6 +231,11 @@ TEST(Obstacles, BuildingStopsAVehicleAt15MetresPerSecondWithoutTunnelling)
   // share over 20 ms is a few percent at most.
   EXPECT_LT(run.impact_impulse_x, -0.9 * 5710.0 * 14.0);
   EXPECT_NEAR(run.impact_impulse_x, run.impact_momentum_change, 0.05 * std::abs(run.impact_momentum_change));
+  // One collision (VehicleTelemetry.collisions): the impact, then full throttle against the wall
+  // for ~1 s; whatever the contact points do meanwhile (they bounce off 2 cm for 0.7 s), it is
+  // the same collision.
+  EXPECT_GT(run.rigid_contact_steps, 500);
+  EXPECT_EQ(run.collisions, 1u);
 }
 
 // A large tree is rigid: it stops the vehicle like a wall, the chassis never more than
@@ -238,6 +252,7 @@ TEST(Obstacles, StrongTreeStopsTheVehicleLikeABuilding)
   EXPECT_LT(run.final.linear_velocity.norm(), 0.1);
   EXPECT_LT(run.final.pose.translation().x(), -2.0);
   EXPECT_FALSE(objects.get(0).toppled);
+  EXPECT_EQ(run.collisions, 1u);
 }
 
 // A rock (rigid box) 0.25 m high under the left wheels: the wheels climb it (a box edge pushes
@@ -328,8 +343,12 @@ TEST(Obstacles, ShrubToppleseAndTheVehiclePassesLosingLittleSpeed)
   const double h = 0.001, mass = 5710.0;
   double impulse = 0.0, peak_force = 0.0;
   std::size_t first = a.size(), last = 0;
+  CollisionCounter counter;
   for (std::size_t k = 0; k < a.size(); ++k)
   {
+    // A shrub is not a rigid obstacle: never a collision (it is reported as toppled instead).
+    EXPECT_EQ(a[k].obstacle_rigid_contacts, 0) << "step " << k;
+    counter.update(a[k], 0.001 * static_cast<double>(k + 1));
     if (a[k].obstacle_contacts == 0)
       continue;
     first = std::min(first, k);
@@ -338,6 +357,7 @@ TEST(Obstacles, ShrubToppleseAndTheVehiclePassesLosingLittleSpeed)
     peak_force = std::max(peak_force, a[k].obstacle_impulse.norm() / h);
   }
   ASSERT_LT(first, a.size()) << "never touched the shrub";
+  EXPECT_EQ(counter.count(), 0u);
   const double contact_time = (last - first + 1) * h;
   // Momentum lost against the run without the shrub, 50 ms after the shrub went down.
   const std::size_t k = last + 50;
@@ -421,10 +441,14 @@ TEST(Obstacles, TwoVehiclesCollideRatherThanPassThrough)
   Eigen::Vector3d com_a = world.state(a).centre_of_mass, com_b = world.state(b).centre_of_mass;
   double p_before = 0.0, p_previous = 0.0, va_after = 0.0, vb_after = 0.0;
   long contact_step = -1;
+  CollisionCounter collisions_a, collisions_b;
   for (long k = 0; k < 3000; ++k)
   {
     world.step();
     const VehicleState &sa = world.state(a), &sb = world.state(b);
+    collisions_a.update(sa, world.time());
+    collisions_b.update(sb, world.time());
+    EXPECT_EQ(sa.obstacle_rigid_contacts, sb.obstacle_rigid_contacts);  // one contact, seen from both sides
     const double va = comVelocity(com_a, sa.centre_of_mass, h).x(), vb = comVelocity(com_b, sb.centre_of_mass, h).x();
     com_a = sa.centre_of_mass;
     com_b = sb.centre_of_mass;
@@ -461,8 +485,45 @@ TEST(Obstacles, TwoVehiclesCollideRatherThanPassThrough)
   const double common = p_before / (2.0 * m.total_mass);
   EXPECT_NEAR(va_after, common, 0.1 * common);
   EXPECT_NEAR(vb_after, common, 0.1 * common);
+  // One collision each (a pushes b on at the common speed: they may touch again, the same collision).
+  EXPECT_EQ(collisions_a.count(), 1u);
+  EXPECT_EQ(collisions_b.count(), 1u);
   // Never through: a stays behind b.
   EXPECT_LT(world.state(a).pose.translation().x(), world.state(b).pose.translation().x() - 4.8);
+}
+
+// The collision count's rule on given contact sequences: a collision begins at the first step with
+// rigid contact points after >= 0.5 s without any.
+TEST(CollisionCounter, CountsContactsBegunAfterASeparation)
+{
+  CollisionCounter c(0.5, 0.5);
+  auto at = [](double x) { return Eigen::Vector3d(x, 0.0, 0.0); };
+  EXPECT_FALSE(c.update(0, 0.001, at(0.0)));
+  EXPECT_EQ(c.count(), 0u);
+  EXPECT_TRUE(c.update(3, 0.002, at(0.0)));  // first contact: a collision
+  EXPECT_TRUE(c.inContact());
+  EXPECT_FALSE(c.update(2, 0.003, at(0.0)));  // the same one goes on
+  EXPECT_FALSE(c.update(0, 0.004, at(-0.01)));  // bounces off ...
+  EXPECT_FALSE(c.inContact());
+  EXPECT_FALSE(c.update(1, 0.010, at(0.0)));  // ... and touches again 7 ms later: the same collision
+  EXPECT_EQ(c.count(), 1u);
+  // Off for 0.5 s and 0.2 m back and forth (0.4 m of travel): still the same.
+  EXPECT_FALSE(c.update(0, 0.3, at(-0.2)));
+  EXPECT_FALSE(c.update(1, 0.6, at(0.0)));
+  // Off for 0.499 s after 2 m of travel: the same.
+  EXPECT_FALSE(c.update(0, 0.7, at(-1.0)));
+  EXPECT_FALSE(c.update(1, 1.099, at(0.0)));
+  EXPECT_EQ(c.count(), 1u);
+  // Off for 0.6 s and 1 m of travel: a new one.
+  EXPECT_FALSE(c.update(0, 1.4, at(-0.5)));
+  EXPECT_TRUE(c.update(1, 1.7, at(0.0)));
+  EXPECT_EQ(c.count(), 2u);
+  EXPECT_FALSE(c.update(0, 5.0, at(-3.0)));
+  EXPECT_TRUE(c.update(4, 10.0, at(0.0)));
+  EXPECT_EQ(c.count(), 3u);
+  EXPECT_THROW(CollisionCounter(-1.0), std::invalid_argument);
+  EXPECT_THROW(CollisionCounter(std::nan("")), std::invalid_argument);
+  EXPECT_THROW(CollisionCounter(0.5, -0.1), std::invalid_argument);
 }
 
 // Collision must not disturb the soil-only physics: with obstacles far from the path the run is

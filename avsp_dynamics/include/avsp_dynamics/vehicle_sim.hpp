@@ -195,6 +195,9 @@ struct VehicleState
   std::vector<TrackState> tracks;  ///< tracked vehicles: left, then right; empty if wheeled
   /// Contact points with obstacles and other vehicles over the last step (0 = touching nothing).
   int obstacle_contacts = 0;
+  /// Of those, the points with rigid obstacles (strength +inf) and other vehicles: what
+  /// CollisionCounter counts as collisions (collision_counter.hpp).
+  int obstacle_rigid_contacts = 0;
   /// N s, impulse obstacles and other vehicles gave the vehicle over the last step (map frame):
   /// the rigid contacts' constraint forces and the toppleable objects' resistance, times the step.
   Eigen::Vector3d obstacle_impulse = Eigen::Vector3d::Zero();

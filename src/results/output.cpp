@@ -1,0 +1,284 @@
+#include "avsp/results/output.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <cstdint>
+#include <fstream>
+#include <limits>
+#include <stdexcept>
+
+namespace avsp
+{
+namespace results
+{
+Json::Json(bool b) : kind_(Kind::kBool), bool_(b)
+{
+}
+
+Json::Json(double number)
+{
+  if (std::isfinite(number))
+  {
+    kind_ = Kind::kNumber;
+    number_ = number;
+  }
+}
+
+Json::Json(const char* text) : kind_(Kind::kString), string_(text ? text : "")
+{
+}
+
+Json::Json(const std::string& text) : kind_(Kind::kString), string_(text)
+{
+}
+
+Json Json::array()
+{
+  Json j;
+  j.kind_ = Kind::kArray;
+  return j;
+}
+
+Json Json::object()
+{
+  Json j;
+  j.kind_ = Kind::kObject;
+  return j;
+}
+
+Json& Json::push(Json value)
+{
+  if (kind_ != Kind::kArray)
+    throw std::logic_error("Json::push on a value that is not an array");
+  items_.push_back(std::move(value));
+  return *this;
+}
+
+Json& Json::set(const std::string& key, Json value)
+{
+  if (kind_ != Kind::kObject)
+    throw std::logic_error("Json::set('" + key + "') on a value that is not an object");
+  for (auto& m : members_)
+    if (m.first == key)
+    {
+      m.second = std::move(value);
+      return *this;
+    }
+  members_.emplace_back(key, std::move(value));
+  return *this;
+}
+
+std::string jsonQuote(const std::string& text)
+{
+  std::string out = "\"";
+  for (const char ch : text)
+  {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (c)
+    {
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      default:
+        if (c < 0x20)
+        {
+          char buffer[8];
+          std::snprintf(buffer, sizeof buffer, "\\u%04x", c);
+          out += buffer;
+        }
+        else
+          out += ch;  // UTF-8 passes through unchanged
+    }
+  }
+  return out + "\"";
+}
+
+std::string Json::dump(int indent) const
+{
+  std::string out;
+  write(out, indent, 0);
+  return out + "\n";
+}
+
+void Json::write(std::string& out, int indent, int level) const
+{
+  const std::string pad(static_cast<std::size_t>(indent * (level + 1)), ' ');
+  const std::string end_pad(static_cast<std::size_t>(indent * level), ' ');
+  switch (kind_)
+  {
+    case Kind::kNull:
+      out += "null";
+      break;
+    case Kind::kBool:
+      out += bool_ ? "true" : "false";
+      break;
+    case Kind::kNumber:
+    {
+      char buffer[32];
+      std::snprintf(buffer, sizeof buffer, "%.10g", number_);
+      out += buffer;
+      break;
+    }
+    case Kind::kString:
+      out += jsonQuote(string_);
+      break;
+    case Kind::kArray:
+      if (items_.empty())
+      {
+        out += "[]";
+        break;
+      }
+      out += "[\n";
+      for (std::size_t k = 0; k < items_.size(); ++k)
+      {
+        out += pad;
+        items_[k].write(out, indent, level + 1);
+        out += k + 1 < items_.size() ? ",\n" : "\n";
+      }
+      out += end_pad + "]";
+      break;
+    case Kind::kObject:
+      if (members_.empty())
+      {
+        out += "{}";
+        break;
+      }
+      out += "{\n";
+      for (std::size_t k = 0; k < members_.size(); ++k)
+      {
+        out += pad + jsonQuote(members_[k].first) + ": ";
+        members_[k].second.write(out, indent, level + 1);
+        out += k + 1 < members_.size() ? ",\n" : "\n";
+      }
+      out += end_pad + "}";
+      break;
+  }
+}
+
+namespace
+{
+/// An output file that throws naming itself on any failure.
+class OutFile
+{
+public:
+  explicit OutFile(const std::string& path) : path_(path), out_(path, std::ios::binary | std::ios::trunc)
+  {
+    if (!out_)
+      throw std::runtime_error("cannot write " + path_ + ": " + std::strerror(errno));
+  }
+  std::ofstream& stream() { return out_; }
+  void close()
+  {
+    out_.close();
+    if (!out_)
+      throw std::runtime_error("cannot write " + path_ + ": write failed (disk full?)");
+  }
+
+private:
+  std::string path_;
+  std::ofstream out_;
+};
+}  // namespace
+
+void writeText(const std::string& path, const std::string& text)
+{
+  OutFile f(path);
+  f.stream() << text;
+  f.close();
+}
+
+void writeNpy(const std::string& path, const Grid& grid)
+{
+  if (grid.values.size() != grid.width * grid.height)
+    throw std::invalid_argument("writeNpy " + path + ": the grid has " + std::to_string(grid.values.size()) +
+                                " values for " + std::to_string(grid.width) + " x " + std::to_string(grid.height));
+  std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(grid.height) + ", " +
+                       std::to_string(grid.width) + "), }";
+  // Magic (6) + version (2) + header length (2) + header, padded with spaces to a multiple of
+  // 64 bytes and ended by a newline (NumPy's format, version 1.0).
+  const std::size_t unpadded = 10 + header.size() + 1;
+  header.append((64 - unpadded % 64) % 64, ' ');
+  header += '\n';
+  OutFile f(path);
+  std::ofstream& out = f.stream();
+  out.write("\x93NUMPY\x01\x00", 8);
+  const auto n = static_cast<std::uint16_t>(header.size());
+  const char len[2] = { static_cast<char>(n & 0xff), static_cast<char>(n >> 8) };
+  out.write(len, 2);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  static_assert(sizeof(float) == 4, "float32");
+  // x86-64 and ARM are little-endian, as '<f4' says.
+  out.write(reinterpret_cast<const char*>(grid.values.data()),
+            static_cast<std::streamsize>(grid.values.size() * sizeof(float)));
+  f.close();
+}
+
+Json gridJson(const std::string& file, const Grid& grid)
+{
+  Json j = Json::object();
+  j.set("file", file);
+  j.set("origin_x", grid.origin_x);
+  j.set("origin_y", grid.origin_y);
+  j.set("resolution", grid.resolution);
+  j.set("width", grid.width);
+  j.set("height", grid.height);
+  return j;
+}
+
+void writeTrajectories(const std::string& path, const std::vector<std::string>& names,
+                       const std::vector<const VehicleRecord*>& records, double period)
+{
+  if (names.size() != records.size() || !(period > 0.0))
+    throw std::invalid_argument("writeTrajectories " + path + ": bad arguments");
+  OutFile f(path);
+  std::ofstream& out = f.stream();
+  out << "vehicle,t,x,y,z,speed,distance\n";
+  char line[256];
+  for (std::size_t k = 0; k < names.size(); ++k)
+  {
+    const std::vector<OdometrySample>& s = records[k]->samples();
+    double next = -std::numeric_limits<double>::infinity();
+    for (std::size_t n = 0; n < s.size(); ++n)
+    {
+      if (s[n].t < next - 1e-9 && n + 1 < s.size())
+        continue;
+      next = (std::floor(s[n].t / period + 1e-9) + 1.0) * period;
+      std::snprintf(line, sizeof line, ",%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", s[n].t, s[n].x, s[n].y, s[n].z,
+                    s[n].speed, s[n].distance);
+      out << names[k] << line;
+    }
+  }
+  f.close();
+}
+
+void writeGaps(const std::string& path, const std::vector<GapTable>& gaps)
+{
+  OutFile f(path);
+  std::ofstream& out = f.stream();
+  out << "follower,leader,t,gap,lateral\n";
+  char line[128];
+  for (const GapTable& g : gaps)
+    for (const GapSample& s : g.series)
+    {
+      std::snprintf(line, sizeof line, ",%.3f,%.3f,%.3f\n", s.t, s.gap, s.lateral);
+      out << g.follower << ',' << g.leader << line;
+    }
+  f.close();
+}
+
+}  // namespace results
+}  // namespace avsp

@@ -1,0 +1,652 @@
+// run_recorder: the main job's results writer. Records every listed vehicle's odometry and
+// telemetry and the ruts on /terrain/ruts on sim time, prints a progress line at most once per
+// ~progress_period wall seconds, and when /clock reaches ~duration writes ~output_dir/
+// (summary.json, CSVs, .npy grids), runs scripts/plot_results.py for the PNGs and exits 0
+// (non-zero naming the file or topic on failure). Launched required="true", it ends the run.
+//
+// Thin: the computations and file formats are avsp_results (include/avsp/results/, no ROS);
+// this file reads parameters, converts messages and keeps time. Parameters: README.md,
+// "Run recorder".
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/VehicleTelemetry.h>
+#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/height_patch.hpp>
+#include <avsp_terrain/soil.hpp>
+#include <avsp_terrain/terrain_source_params.hpp>
+#include <nav_msgs/Odometry.h>
+#include <ros/package.h>
+#include <ros/ros.h>
+
+#include "avsp/results/gap.hpp"
+#include "avsp/results/output.hpp"
+#include "avsp/results/rut_map.hpp"
+#include "avsp/results/vehicle_record.hpp"
+
+namespace ar = avsp::results;
+namespace at = avsp::terrain;
+namespace fs = std::filesystem;
+using avsp::msgs::StartupError;
+
+namespace
+{
+/// s of sim time between the rows of trajectories.csv and between gap samples.
+constexpr double kTablePeriod = 0.1;
+/// Grid cells along the longer side of the hillshade and rut grids at most.
+constexpr std::size_t kMaxGridCells = 1500;
+/// m: ruts shallower than this do not count for the rut map's extent (float rounding, elastic).
+constexpr double kRutMinDepth = 0.002;
+
+/**
+ * @brief A warning at most once per `period` wall seconds per subject (a topic), with the count
+ *        of those swallowed since. (ROS_WARN_THROTTLE counts on sim time from 0 and swallows
+ *        every warning of a run's first `period` seconds.)
+ */
+void warnThrottled(const std::string& subject, double period, const std::string& text)
+{
+  struct Seen
+  {
+    ros::WallTime last;
+    unsigned swallowed = 0;
+  };
+  static std::map<std::string, Seen> seen;
+  const ros::WallTime now = ros::WallTime::now();
+  const auto it = seen.find(subject);
+  if (it != seen.end() && (now - it->second.last).toSec() < period)
+  {
+    ++it->second.swallowed;
+    return;
+  }
+  const unsigned swallowed = it == seen.end() ? 0 : it->second.swallowed;
+  const std::string more = swallowed ? " (and " + std::to_string(swallowed) + " more since the last warning)" : "";
+  ROS_WARN("run_recorder: %s: %s%s", subject.c_str(), text.c_str(), more.c_str());
+  seen[subject] = Seen{ now, 0 };
+}
+
+/// printf of one number into a std::string.
+std::string format(const char* fmt, double a)
+{
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer, fmt, a);
+  return buffer;
+}
+
+std::vector<ar::VehicleSpec> vehicleList(const ros::NodeHandle& pnh)
+{
+  XmlRpc::XmlRpcValue list;
+  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    throw StartupError("parameter ~vehicles must be a list of {name, leader}");
+  std::vector<ar::VehicleSpec> out;
+  for (int k = 0; k < list.size(); ++k)
+  {
+    const std::string where = "parameter ~vehicles[" + std::to_string(k) + "]";
+    XmlRpc::XmlRpcValue& e = list[k];
+    if (e.getType() != XmlRpc::XmlRpcValue::TypeStruct)
+      throw StartupError(where + " must be a {name, leader} map");
+    ar::VehicleSpec v;
+    for (auto it = e.begin(); it != e.end(); ++it)
+    {
+      if (it->first != "name" && it->first != "leader")
+        throw StartupError(where + "." + it->first + ": unknown key (name, leader)");
+      if (it->second.getType() != XmlRpc::XmlRpcValue::TypeString)
+        throw StartupError(where + "." + it->first + " must be a string");
+    }
+    if (!e.hasMember("name"))
+      throw StartupError(where + ".name is required");
+    v.name = static_cast<std::string>(e["name"]);
+    if (e.hasMember("leader"))
+      v.leader = static_cast<std::string>(e["leader"]);
+    std::string why;
+    if (!v.name.empty() && (v.name.find('/') != std::string::npos || !ros::names::validate(v.name, why)))
+      throw StartupError(where + ".name '" + v.name + "' must be a valid ROS name without '/'");
+    out.push_back(v);
+  }
+  try
+  {
+    ar::validateVehicles(out);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw StartupError("parameter ~" + std::string(e.what()));
+  }
+  return out;
+}
+
+std::string requiredString(const ros::NodeHandle& pnh, const std::string& key)
+{
+  std::string value;
+  if (!pnh.hasParam(key))
+    throw StartupError("parameter ~" + key + " is required");
+  if (!pnh.getParam(key, value) || value.empty())
+    throw StartupError("parameter ~" + key + " must be a non-empty string");
+  return value;
+}
+
+/// Creates `dir` and checks that a file can be written in it.
+void prepareOutputDir(const std::string& dir)
+{
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    throw StartupError("parameter ~output_dir '" + dir + "': cannot create it: " + ec.message());
+  if (!fs::is_directory(dir))
+    throw StartupError("parameter ~output_dir '" + dir + "' is not a directory");
+  const std::string probe = dir + "/.run_recorder_write_test";
+  std::ofstream out(probe);
+  if (!out)
+    throw StartupError("parameter ~output_dir '" + dir + "' is not writable: " + std::strerror(errno));
+  out.close();
+  std::remove(probe.c_str());
+}
+
+struct Vehicle
+{
+  ar::VehicleSpec spec;
+  ar::VehicleRecord record;
+  std::string odom_topic, telemetry_topic;
+  ros::Subscriber odom_sub, telemetry_sub;
+  /// A message stamped after the duration arrived: everything up to it has (FIFO per topic).
+  bool odom_done = false, telemetry_done = false;
+};
+
+class RunRecorder
+{
+public:
+  RunRecorder(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh)
+  {
+    if (!ros::Time::isSimTime())
+      throw StartupError("parameter /use_sim_time must be true: ~duration is sim time (/clock)");
+    const std::vector<ar::VehicleSpec> specs = vehicleList(pnh);
+    output_dir_ = requiredString(pnh, "output_dir");
+    pnh.param<std::string>("scenario_name", scenario_, "");
+    if (scenario_.empty())
+    {
+      fs::path p = fs::path(output_dir_).lexically_normal();
+      if (p.filename().empty())  // "results/run/" ends in a separator
+        p = p.parent_path();
+      scenario_ = p.filename().string();
+    }
+    if (!pnh.hasParam("duration"))
+      throw StartupError("parameter ~duration is required (s of sim time)");
+    duration_ = avsp::msgs::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);
+    progress_period_ = avsp::msgs::boundedParam(pnh, "progress_period", 1.0, 0.01, 3600.0);
+    pnh.param<std::string>("plot_script", plot_script_, ros::package::getPath("avsp") + "/scripts/plot_results.py");
+    if (plot_script_.empty() || !fs::is_regular_file(plot_script_))
+      throw StartupError("parameter ~plot_script '" + plot_script_ + "' is not a file");
+    std::string soils_file;
+    pnh.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+    try
+    {
+      soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError("parameter ~soils_file: " + std::string(e.what()));
+    }
+    prepareOutputDir(output_dir_);
+    // The terrain source's parameters are checked now, loaded after subscribing (below).
+    const at::TerrainSource source = at::terrainSourceFromParams(pnh);
+
+    for (const ar::VehicleSpec& s : specs)
+    {
+      auto v = std::make_unique<Vehicle>();
+      v->spec = s;
+      Vehicle* raw = v.get();
+      // Deep queues (100 s of sim time at 100 Hz): at a high real-time factor that is a few wall
+      // seconds, and the messages that arrive while the terrain loads wait in them.
+      v->odom_sub = nh_.subscribe<nav_msgs::Odometry>(
+          s.name + "/avt_341/odometry", 10000,
+          [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
+      v->telemetry_sub = nh_.subscribe<avsp_msgs::VehicleTelemetry>(
+          s.name + "/telemetry", 10000,
+          [this, raw](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { onTelemetry(*raw, *m); });
+      v->odom_topic = v->odom_sub.getTopic();
+      v->telemetry_topic = v->telemetry_sub.getTopic();
+      vehicles_.push_back(std::move(v));
+    }
+    ruts_sub_ = nh_.subscribe("/terrain/ruts", 200, &RunRecorder::onPatch, this);
+    toppled_sub_ = nh_.subscribe("/terrain/toppled", 200, &RunRecorder::onToppled, this);
+    // Subscribed first: loading a large course takes seconds, while which the simulation may
+    // already run; its messages wait in the queues (callbacks run only once this returns).
+    try
+    {
+      at::LoadedSource loaded = at::loadTerrainSource(source, *soils_);
+      terrain_ = std::move(loaded.terrain);
+      objects_ = std::move(loaded.objects);
+      terrain_description_ = loaded.description;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(std::string("parameter ~") + e.what());
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError(std::string("terrain: ") + e.what());
+    }
+    ruts_ = std::make_unique<ar::RutMap>(terrain_->base());
+    ROS_INFO("run_recorder: %zu vehicle(s), %s until sim time %.1f s, terrain %s, results in %s", vehicles_.size(),
+             scenario_.c_str(), duration_, terrain_description_.c_str(), output_dir_.c_str());
+  }
+
+  /// Records until /clock reaches ~duration, then writes the results. @return the exit code
+  int run()
+  {
+    const ros::WallTime started = ros::WallTime::now();
+    while (ros::ok())
+    {
+      ros::spinOnce();
+      const double now = ros::Time::now().toSec();
+      const ros::WallTime wall = ros::WallTime::now();
+      if (now > 0.0 && !first_clock_)
+      {
+        first_clock_ = true;
+        sim_start_ = sim_last_ = now;
+        wall_start_ = wall_last_ = wall;
+      }
+      if (first_clock_ && (wall - wall_last_).toSec() >= progress_period_)
+        progress(now, wall);
+      if (first_clock_ && now >= duration_)
+      {
+        // /clock can run ahead of the vehicles' topics: wait until each topic has delivered a
+        // message stamped past the duration (dropped), or 2 s of wall time for a silent one.
+        const ros::WallTime reached = ros::WallTime::now();
+        auto complete = [this] {
+          for (const auto& v : vehicles_)
+            if (!v->odom_done || (!v->telemetry_done && v->record.telemetryCount() > 0))
+              return false;
+          return true;
+        };
+        while (ros::ok() && !complete() && (ros::WallTime::now() - reached).toSec() < 2.0)
+        {
+          ros::spinOnce();
+          ros::WallDuration(0.002).sleep();
+        }
+        for (auto& v : vehicles_)
+        {
+          v->odom_sub.shutdown();
+          v->telemetry_sub.shutdown();
+        }
+        ruts_sub_.shutdown();
+        sim_end_ = now;
+        wall_end_ = ros::WallTime::now();
+        return finish();
+      }
+      if (!first_clock_ && !waiting_said_ && (wall - started).toSec() >= 10.0)
+      {
+        ROS_WARN("run_recorder: no /clock after 10 s (wall); waiting for the simulation");
+        waiting_said_ = true;
+      }
+      ros::WallDuration(0.002).sleep();
+    }
+    ROS_ERROR("run_recorder: shut down at sim time %.2f s before ~duration %.2f s: no results written",
+              ros::Time::now().toSec(), duration_);
+    return 1;
+  }
+
+private:
+  void onOdometry(Vehicle& v, const nav_msgs::Odometry& m)
+  {
+    const double t = m.header.stamp.toSec();
+    if (t > duration_)
+    {
+      v.odom_done = true;
+      return;
+    }
+    const auto& p = m.pose.pose.position;
+    const auto& l = m.twist.twist.linear;
+    const double speed = std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z);
+    if (!v.record.addOdometry(t, p.x, p.y, p.z, speed))
+      warnThrottled(v.odom_topic, 5.0, format("odometry at %.3f s ignored (a non-finite value, or out of order)", t));
+  }
+
+  void onTelemetry(Vehicle& v, const avsp_msgs::VehicleTelemetry& m)
+  {
+    const double t = m.header.stamp.toSec();
+    if (t > duration_)
+    {
+      v.telemetry_done = true;
+      return;
+    }
+    std::vector<ar::ContactSlip> contacts;
+    contacts.reserve(m.contacts.size());
+    for (const avsp_msgs::WheelContact& c : m.contacts)
+      contacts.push_back(ar::ContactSlip{ c.slip, c.normal_force, c.driven != 0 });
+    if (!v.record.addTelemetry(t, ar::maxDrivenSlip(contacts), m.stuck, m.collisions))
+      warnThrottled(v.telemetry_topic, 5.0, format("message at %.3f s ignored (out of order)", t));
+  }
+
+  /// Every publisher's patches count: /terrain/ruts carries current heights, whoever deformed them.
+  void onPatch(const ros::MessageEvent<const avsp_msgs::TerrainPatch>& event)
+  {
+    const avsp_msgs::TerrainPatch& m = *event.getMessage();
+    if (!m.header.frame_id.empty() && m.header.frame_id != "map")
+    {
+      ++patches_rejected_;
+      warnThrottled("/terrain/ruts", 5.0,
+                    "from " + event.getPublisherName() + " in frame '" + m.header.frame_id +
+                        "', expected 'map'; ignored");
+      return;
+    }
+    at::HeightPatch p;
+    p.origin_x = m.origin.x;
+    p.origin_y = m.origin.y;
+    p.resolution = m.resolution;
+    p.width = m.width;
+    p.height = m.height;
+    p.heights = m.heights;
+    try
+    {
+      ruts_->apply(p);
+      ++patches_;
+    }
+    catch (const std::exception& e)
+    {
+      ++patches_rejected_;
+      warnThrottled("/terrain/ruts", 5.0, "from " + event.getPublisherName() + " rejected: " + e.what());
+    }
+  }
+
+  void onToppled(const avsp_msgs::ObjectToppled::ConstPtr& m)
+  {
+    toppled_.insert(m->id);
+  }
+
+  void progress(double now, const ros::WallTime& wall)
+  {
+    const double rtf = (now - sim_last_) / std::max(1e-9, (wall - wall_last_).toSec());
+    const double run_rtf = (now - sim_start_) / std::max(1e-9, (wall - wall_start_).toSec());
+    std::string line;
+    char buffer[160];
+    std::snprintf(buffer, sizeof buffer, "[run_recorder] sim %.1f / %.1f s | RTF %.2f (run %.2f)", now, duration_,
+                  rtf, run_rtf);
+    line += buffer;
+    for (const auto& v : vehicles_)
+    {
+      std::snprintf(buffer, sizeof buffer, " | %s %.1f m %.2f m/s", v->spec.name.c_str(), v->record.distance(),
+                    v->record.speed());
+      line += buffer;
+    }
+    std::printf("%s\n", line.c_str());
+    std::fflush(stdout);
+    sim_last_ = now;
+    wall_last_ = wall;
+  }
+
+  Vehicle* find(const std::string& name)
+  {
+    for (auto& v : vehicles_)
+      if (v->spec.name == name)
+        return v.get();
+    return nullptr;
+  }
+
+  /// Writes every file; @return the exit code.
+  int finish()
+  {
+    const double wall_time = (wall_end_ - wall_start_).toSec();
+    const double run_rtf = wall_time > 0.0 ? (sim_end_ - sim_start_) / wall_time : std::nan("");
+    std::vector<std::string> silent;
+    for (const auto& v : vehicles_)
+      if (v->record.samples().empty())
+        silent.push_back(v->odom_topic);
+    try
+    {
+      const std::string dir = output_dir_ + "/";
+      // Trajectories and their hillshade: the box they cover, 10 m or 10 % wider on every side.
+      double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+      for (const auto& v : vehicles_)
+        for (const ar::OdometrySample& s : v->record.samples())
+        {
+          x0 = std::min(x0, s.x);
+          y0 = std::min(y0, s.y);
+          x1 = std::max(x1, s.x);
+          y1 = std::max(y1, s.y);
+        }
+      const at::ElevationGrid& base = terrain_->base();
+      if (!(x1 >= x0))
+      {
+        x0 = base.originX();
+        y0 = base.originY();
+        x1 = x0 + base.dx() * static_cast<double>(base.columns() - 1);
+        y1 = y0 + base.dy() * static_cast<double>(base.rows() - 1);
+      }
+      const double margin = std::max(10.0, 0.1 * std::max(x1 - x0, y1 - y0));
+      x0 -= margin;
+      y0 -= margin;
+      x1 += margin;
+      y1 += margin;
+      const ar::Grid heights = ar::sampleHeights(base, x0, y0, x1, y1, kMaxGridCells);
+      ar::writeNpy(dir + "terrain_heights.npy", heights);
+      ar::Json grids = ar::Json::object();
+      grids.set("terrain", ar::gridJson("terrain_heights.npy", heights));
+      const std::optional<ar::Grid> ruts = ruts_->depthGrid(kRutMinDepth, 2.0, kMaxGridCells);
+      if (ruts)
+      {
+        ar::writeNpy(dir + "rut_depth.npy", *ruts);
+        grids.set("ruts", ar::gridJson("rut_depth.npy", *ruts));
+      }
+      else
+        grids.set("ruts", ar::Json());
+      ar::writeText(dir + "grids.json", grids.dump());
+
+      std::vector<std::string> names;
+      std::vector<const ar::VehicleRecord*> records;
+      for (const auto& v : vehicles_)
+      {
+        names.push_back(v->spec.name);
+        records.push_back(&v->record);
+      }
+      ar::writeTrajectories(dir + "trajectories.csv", names, records, kTablePeriod);
+      std::vector<ar::GapTable> gaps;
+      for (const auto& v : vehicles_)
+        if (!v->spec.leader.empty())
+          gaps.push_back({ v->spec.name, v->spec.leader,
+                           ar::gapSeries(find(v->spec.leader)->record.samples(), v->record.samples(), kTablePeriod) });
+      ar::writeGaps(dir + "gaps.csv", gaps);
+      writeObjects(dir + "objects.csv", x0, y0, x1, y1);
+
+      ar::Json summary = ar::Json::object();
+      summary.set("scenario", scenario_);
+      summary.set("duration", duration_);
+      summary.set("sim_time_start", sim_start_);
+      summary.set("sim_time_end", sim_end_);
+      summary.set("wall_time", wall_time);
+      summary.set("real_time_factor", run_rtf);
+      summary.set("terrain", terrain_description_);
+      ar::Json vehicles = ar::Json::array();
+      for (const auto& v : vehicles_)
+      {
+        const ar::VehicleRecord& r = v->record;
+        ar::Json j = ar::Json::object();
+        j.set("name", v->spec.name);
+        j.set("leader", v->spec.leader.empty() ? ar::Json() : ar::Json(v->spec.leader));
+        j.set("distance", r.distance());
+        j.set("mean_speed", r.meanSpeed());
+        j.set("max_speed", r.samples().empty() ? ar::Json() : ar::Json(r.maxSpeed()));
+        j.set("max_slip", r.maxSlip());
+        j.set("time_stuck", r.telemetryCount() > 0 ? ar::Json(r.timeStuck()) : ar::Json());
+        j.set("collisions", r.collisions());
+        std::optional<ar::GapStats> gap;
+        for (const ar::GapTable& g : gaps)
+          if (g.follower == v->spec.name)
+            gap = ar::gapStats(g.series);
+        j.set("gap_min", gap ? ar::Json(gap->min) : ar::Json());
+        j.set("gap_mean", gap ? ar::Json(gap->mean) : ar::Json());
+        j.set("odometry_samples", r.samples().size());
+        j.set("telemetry_messages", r.telemetryCount());
+        if (!r.samples().empty())
+        {
+          const ar::OdometrySample &a = r.samples().front(), &b = r.samples().back();
+          j.set("t_first", a.t);
+          j.set("t_last", b.t);
+          j.set("start", ar::Json::array().push(a.x).push(a.y));
+          j.set("end", ar::Json::array().push(b.x).push(b.y));
+        }
+        vehicles.push(j);
+      }
+      summary.set("vehicles", vehicles);
+      ar::Json rut = ar::Json::object();
+      rut.set("max_depth", ruts_->maxDepth());
+      rut.set("area_deeper_than_1cm", ruts_->areaDeeperThan(0.01));
+      rut.set("points", ruts_->pointCount());
+      rut.set("patches", patches_);
+      rut.set("patches_rejected", patches_rejected_);
+      summary.set("ruts", rut);
+      summary.set("units", unitsNote());
+      ar::writeText(dir + "summary.json", summary.dump());
+    }
+    catch (const std::exception& e)
+    {
+      ROS_ERROR("run_recorder: %s", e.what());
+      return 1;
+    }
+    if (!plot())
+      return 1;
+    for (const auto& v : vehicles_)
+    {
+      const ar::VehicleRecord& r = v->record;
+      std::printf("[run_recorder] %s: %.1f m, mean %.2f m/s, max slip %s, stuck %.1f s, collisions %s\n",
+                  v->spec.name.c_str(), r.distance(), r.meanSpeed().value_or(0.0),
+                  r.maxSlip() ? std::to_string(*r.maxSlip()).c_str() : "n/a", r.timeStuck(),
+                  r.collisions() ? std::to_string(*r.collisions()).c_str() : "n/a");
+    }
+    std::printf("[run_recorder] %.1f s of sim time in %.1f s wall (real-time factor %.2f); results in %s\n",
+                sim_end_ - sim_start_, (wall_end_ - wall_start_).toSec(), run_rtf, output_dir_.c_str());
+    std::fflush(stdout);
+    if (!silent.empty())
+    {
+      std::string list;
+      for (const std::string& t : silent)
+        list += (list.empty() ? "" : ", ") + t;
+      ROS_ERROR("run_recorder: no odometry received on %s: the results miss those vehicles", list.c_str());
+      return 1;
+    }
+    return 0;
+  }
+
+  static ar::Json unitsNote()
+  {
+    ar::Json u = ar::Json::object();
+    u.set("distance", "m, driven (3-D, from odometry)");
+    u.set("mean_speed", "m/s, distance / (t_last - t_first)");
+    u.set("max_speed", "m/s");
+    u.set("max_slip", "longitudinal slip of the driven wheels/track segments on the ground, + = driving");
+    u.set("time_stuck", "s of sim time with the stuck flag");
+    u.set("collisions", "rigid contacts begun with obstacles or other vehicles");
+    u.set("gap_min", "m along the leader's path, null without a leader");
+    u.set("duration", "s of sim time");
+    u.set("wall_time", "s from the first /clock tick to the end");
+    u.set("real_time_factor", "sim time / wall time over the run");
+    u.set("ruts", "m (depth below the undeformed terrain), m^2");
+    return u;
+  }
+
+  /// objects.csv: the terrain's objects inside the plotted box (toppled ones as reported).
+  void writeObjects(const std::string& path, double x0, double y0, double x1, double y1)
+  {
+    std::string text = "id,type,x,y,yaw,length,width,height,rigid,toppled\n";
+    char line[256];
+    for (const at::TerrainObject& o : objects_.all())
+    {
+      const double reach = 0.5 * std::hypot(o.length, o.width);
+      if (o.x + reach < x0 || o.x - reach > x1 || o.y + reach < y0 || o.y - reach > y1)
+        continue;
+      std::snprintf(line, sizeof line, "%u,%s,%.3f,%.3f,%.4f,%.3f,%.3f,%.3f,%d,%d\n", o.id, at::toString(o.type), o.x,
+                    o.y, o.yaw, o.length, o.width, o.height, std::isfinite(o.strength) ? 0 : 1,
+                    (o.toppled || toppled_.count(o.id)) ? 1 : 0);
+      text += line;
+    }
+    ar::writeText(path, text);
+  }
+
+  /// Runs the plot script on the results folder; false (logged, naming what is missing) on failure.
+  bool plot()
+  {
+    std::fflush(stdout);
+    const pid_t pid = fork();
+    if (pid < 0)
+    {
+      ROS_ERROR("run_recorder: cannot start %s: %s", plot_script_.c_str(), std::strerror(errno));
+      return false;
+    }
+    if (pid == 0)
+    {
+      execl("/usr/bin/python3", "python3", plot_script_.c_str(), output_dir_.c_str(), static_cast<char*>(nullptr));
+      std::fprintf(stderr, "run_recorder: cannot run /usr/bin/python3 %s: %s\n", plot_script_.c_str(),
+                   std::strerror(errno));
+      _exit(127);
+    }
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR)
+    {
+    }
+    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (code != 0)
+    {
+      ROS_ERROR("run_recorder: /usr/bin/python3 %s %s failed (exit %d): trajectories.png, ruts.png or gaps.png "
+                "not written (its message above names the file)",
+                plot_script_.c_str(), output_dir_.c_str(), code);
+      return false;
+    }
+    for (const char* png : { "trajectories.png", "ruts.png", "gaps.png" })
+      if (!fs::is_regular_file(output_dir_ + "/" + png))
+      {
+        ROS_ERROR("run_recorder: %s/%s was not written by %s", output_dir_.c_str(), png, plot_script_.c_str());
+        return false;
+      }
+    return true;
+  }
+
+  ros::NodeHandle& nh_;
+  std::string output_dir_, scenario_, plot_script_, terrain_description_;
+  double duration_ = 0.0, progress_period_ = 1.0;
+  std::unique_ptr<at::SoilLibrary> soils_;
+  std::unique_ptr<at::DeformableTerrain> terrain_;
+  at::ObjectSet objects_;
+  std::unique_ptr<ar::RutMap> ruts_;
+  std::vector<std::unique_ptr<Vehicle>> vehicles_;
+  ros::Subscriber ruts_sub_, toppled_sub_;
+  std::set<std::uint32_t> toppled_;
+  std::size_t patches_ = 0, patches_rejected_ = 0;
+  bool first_clock_ = false, waiting_said_ = false;
+  double sim_start_ = 0.0, sim_last_ = 0.0, sim_end_ = 0.0;
+  ros::WallTime wall_start_, wall_last_, wall_end_;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  // Progress lines are for people watching a log file too: one line each, as it comes.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  ros::init(argc, argv, "run_recorder");
+  ros::NodeHandle nh, pnh("~");
+  std::unique_ptr<RunRecorder> node;
+  try
+  {
+    node = std::make_unique<RunRecorder>(nh, pnh);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("run_recorder: %s", e.what());
+    return 1;
+  }
+  return node->run();
+}
