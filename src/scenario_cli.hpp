@@ -92,23 +92,6 @@ inline int generateFromCommandLine(const std::string& program, const std::vector
   }
   dir = fs::path(dir).lexically_normal().string();
   cmd.options.output_dir = dir;
-  // run_recorder and agents_node are built by other parts of the project: a tree without one
-  // still runs (without results or agents), with a warning.
-  {
-    std::error_code ec;
-    const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec)
-    {
-      const fs::path bin = self.parent_path();
-      cmd.options.have_run_recorder = fs::exists(bin / "run_recorder");
-      cmd.options.have_agents_node = fs::exists(bin / "agents_node");
-      if (!cmd.options.have_run_recorder)
-        std::cerr << program << ": warning: run_recorder is not built (" << (bin / "run_recorder").string()
-                  << "): no results, and the run will not end by itself\n";
-      if (!cmd.options.have_agents_node && out.scenario.agents.IsSequence() && out.scenario.agents.size() > 0)
-        std::cerr << program << ": warning: agents_node is not built: the scenario's agents are left out\n";
-    }
-  }
   cmd.options.vehicles_dir = load.vehicles_dir;
   std::string text;
   try

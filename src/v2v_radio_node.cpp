@@ -258,8 +258,20 @@ private:
           waiting += (waiting.empty() ? "" : ", ") + radio_->vehicles()[k] + "/v2v/out";
       if (!waiting.empty())
       {
-        ROS_WARN_THROTTLE(5.0, "v2v_radio_node: lockstep batch at %.3f s waits for broadcasts up to %.3f s from %s",
-                          t, grid, waiting.c_str());
+        // Waiting a moment for a broadcast in flight is normal; seconds of it mean one is missing.
+        const ros::WallTime now = ros::WallTime::now();
+        if (waiting_batch_ != next_batch_)
+        {
+          waiting_batch_ = next_batch_;
+          waiting_since_ = now;
+        }
+        else if ((now - waiting_since_).toSec() > 2.0 && (now - last_wait_warning_).toSec() > 5.0)
+        {
+          ROS_WARN("v2v_radio_node: lockstep batch at %.3f s has waited %.1f s (wall) for broadcasts up to %.3f s "
+                   "from %s (is its v2v_broadcaster running?)",
+                   t, (now - waiting_since_).toSec(), grid, waiting.c_str());
+          last_wait_warning_ = now;
+        }
         return;
       }
       // Transmit in (stamp, sender) order: the range test uses the other antennas' positions.
@@ -391,6 +403,8 @@ private:
   double broadcast_period_ = 0.1;  ///< s, the broadcasters' grid
   double latency_ = 0.0;
   std::uint64_t next_batch_ = 0;   ///< the next lockstep batch is at next_batch_ * period
+  std::uint64_t waiting_batch_ = ~std::uint64_t{ 0 };  ///< the batch waited for since waiting_since_
+  ros::WallTime waiting_since_, last_wait_warning_;
   std::vector<std::deque<avsp_msgs::VehicleState::ConstPtr>> queued_;  ///< lockstep: not yet transmitted
   std::vector<double> last_stamp_;                                     ///< per sender, s
   std::vector<ros::Publisher> batch_pubs_;

@@ -114,7 +114,10 @@ def main(argv):
 
         out = os.path.join(tmp, "results", name)
         start = time.time()
-        launch = subprocess.Popen(["roslaunch", "-p", str(port), "avsp", "reference_traverse.launch",
+        # By path: with both the source tree and install/ on ROS_PACKAGE_PATH the name is ambiguous.
+        launch_file = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "launch",
+                                   "reference_traverse.launch")
+        launch = subprocess.Popen(["roslaunch", "-p", str(port), launch_file,
                                    "scenario:=" + scenario, "duration:=%g" % duration, "real_time_factor:=0",
                                    "output_dir:=" + out], env=env, preexec_fn=os.setsid)
         recorder = find_node("run_recorder")
