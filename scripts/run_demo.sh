@@ -19,7 +19,7 @@ export ROS_IP=127.0.0.1
 gui=false; rtf=0
 [ "${AVSP_GUI:-0}" = 1 ] && { gui=true; rtf=1; }
 
-# Without run_recorder (built by the recorder's part of the project) the run would never end.
+# Without run_recorder the run would never end.
 /usr/bin/python3 -c "import roslib.packages as p, sys; sys.exit(0 if p.find_node('avsp', 'run_recorder') else 1)" \
   || { echo "run_demo: run_recorder is not built: the reference traverse cannot write its results" >&2; exit 1; }
 mkdir -p "$out"
@@ -27,7 +27,7 @@ stamp="$out/.run_started"
 touch "$stamp"
 rc=0
 timeout --signal=INT --kill-after=30 "${AVSP_DEMO_TIMEOUT:-3600}" \
-  roslaunch -p "$port" avsp reference_traverse.launch scenario:="$scenario" output_dir:="$out" \
+  roslaunch -p "$port" "$share/launch/reference_traverse.launch" scenario:="$scenario" output_dir:="$out" \
     real_time_factor:=$rtf rviz:=$gui duration:="${AVSP_DEMO_DURATION:-0}" || rc=$?
 [ $rc -eq 124 ] && { echo "run_demo: the run did not end within ${AVSP_DEMO_TIMEOUT:-3600} s (wall)" >&2; exit 1; }
 missing=0

@@ -12,7 +12,8 @@ gui=false; [ "${AVSP_GUI:-0}" = 1 ] && gui=true
 timeout_s="${AVSP_DEMO_TIMEOUT:-30}"
 share="$(rospack find avsp)" || { echo "run_team_check: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
 
-roslaunch -p "$port" avsp demo.launch gui:=$gui &
+# By path: with both the source tree and install/ on ROS_PACKAGE_PATH the name is ambiguous.
+roslaunch -p "$port" "$share/launch/demo.launch" gui:=$gui &
 launch_pid=$!
 cleanup() { kill -INT "$launch_pid" 2>/dev/null || true; wait "$launch_pid" 2>/dev/null || true; }
 trap cleanup EXIT

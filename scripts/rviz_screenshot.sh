@@ -12,6 +12,7 @@ for tool in Xvfb import rviz roslaunch; do
   command -v "$tool" >/dev/null || { echo "rviz_screenshot: '$tool' not found (make screenshot installs it)" >&2; exit 1; }
 done
 mkdir -p "$(dirname "$out")"
+share="$(rospack find avsp)" || { echo "rviz_screenshot: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
 display_num=$(( 90 + RANDOM % 9 ))
 port=$(( 20000 + RANDOM % 20000 ))
 export DISPLAY=":${display_num}" ROS_MASTER_URI="http://127.0.0.1:${port}" ROS_IP=127.0.0.1
@@ -28,7 +29,7 @@ trap cleanup EXIT
 sleep 1
 kill -0 "$xvfb_pid" 2>/dev/null || { echo "rviz_screenshot: Xvfb did not start on $DISPLAY" >&2; exit 1; }
 
-roslaunch -p "$port" avsp demo.launch gui:=true &
+roslaunch -p "$port" "$share/launch/demo.launch" gui:=true &
 launch_pid=$!
 # RViz under software GL needs a while to load meshes and draw; there is no 'drawn' event
 # to wait for, and this script is a viewing aid, not a test.
