@@ -43,6 +43,11 @@ def main(argv):
         write_failure(result, "two_hosts.py needs root to create network namespaces (run the tests as root)")
         return 0
     k = os.getpid() % 200 + 20
+
+    def inside(ns):
+        # Enter only the network namespace (util-linux nsenter): `ip netns exec` also remounts
+        # / as a slave mount, which fails where / is not a mount point (a chroot).
+        return ["nsenter", "--net=/run/netns/" + ns]
     ns_a, ns_b = "avsp_a%d" % os.getpid(), "avsp_b%d" % os.getpid()
     veth_a, veth_b = "avspa%d" % (os.getpid() % 100000), "avspb%d" % (os.getpid() % 100000)
     ip_a, ip_b = "10.231.%d.1" % k, "10.231.%d.2" % k
@@ -54,12 +59,12 @@ def main(argv):
         for cmd in (["ip", "netns", "add", ns_a], ["ip", "netns", "add", ns_b],
                     ["ip", "link", "add", veth_a, "type", "veth", "peer", "name", veth_b],
                     ["ip", "link", "set", veth_a, "netns", ns_a], ["ip", "link", "set", veth_b, "netns", ns_b],
-                    ["ip", "netns", "exec", ns_a, "ip", "addr", "add", ip_a + "/24", "dev", veth_a],
-                    ["ip", "netns", "exec", ns_b, "ip", "addr", "add", ip_b + "/24", "dev", veth_b],
-                    ["ip", "netns", "exec", ns_a, "ip", "link", "set", veth_a, "up"],
-                    ["ip", "netns", "exec", ns_b, "ip", "link", "set", veth_b, "up"],
-                    ["ip", "netns", "exec", ns_a, "ip", "link", "set", "lo", "up"],
-                    ["ip", "netns", "exec", ns_b, "ip", "link", "set", "lo", "up"]):
+                    inside(ns_a) + ["ip", "addr", "add", ip_a + "/24", "dev", veth_a],
+                    inside(ns_b) + ["ip", "addr", "add", ip_b + "/24", "dev", veth_b],
+                    inside(ns_a) + ["ip", "link", "set", veth_a, "up"],
+                    inside(ns_b) + ["ip", "link", "set", veth_b, "up"],
+                    inside(ns_a) + ["ip", "link", "set", "lo", "up"],
+                    inside(ns_b) + ["ip", "link", "set", "lo", "up"]):
             r = run(cmd)
             if r.returncode != 0:
                 write_failure(result, "network set-up failed: %s: %s" % (" ".join(cmd), r.stdout))
@@ -68,7 +73,7 @@ def main(argv):
             env = {"HOME": os.environ.get("HOME", "/root"), "PATH": "/usr/bin:/bin:/usr/sbin:/sbin",
                    "ROS_IP": ip, "ROS_MASTER_URI": master, "ROS_HOME": "/tmp/avsp_two_hosts_%s" % name}
             out = open("/tmp/avsp_two_hosts_%d_%s.log" % (os.getpid(), name), "w")
-            p = subprocess.Popen(["ip", "netns", "exec", ns, "bash", "-c", ". %s && %s" % (setup, script)],
+            p = subprocess.Popen(inside(ns) + ["bash", "-c", ". %s && %s" % (setup, script)],
                                  env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
             procs.append((name, p, out.name))
             return p
@@ -77,7 +82,7 @@ def main(argv):
         time.sleep(1.0)
         deadline = time.time() + 30.0
         while time.time() < deadline:
-            r = subprocess.run(["ip", "netns", "exec", ns_a, "bash", "-c",
+            r = subprocess.run(inside(ns_a) + ["bash", "-c",
                                 ". %s && ROS_MASTER_URI=%s rosparam list >/dev/null 2>&1" % (setup, master)])
             if r.returncode == 0:
                 break
@@ -88,7 +93,7 @@ def main(argv):
                 "host_b")
         # The test node on host A: every vehicle's lockstep controller, comparing the layouts.
         test = subprocess.run(
-            ["ip", "netns", "exec", ns_a, "bash", "-c",
+            inside(ns_a) + ["bash", "-c",
              ". %s && rosparam set /test_partitions/vehicles '[m113, mrzr, tracer_x, fed_alpha]' && "
              "rosparam set /test_partitions/until %s && exec %s __name:=test_partitions "
              "--gtest_filter=Partitions.* --gtest_output=xml:%s" % (setup, until, binary, result)],
@@ -96,7 +101,7 @@ def main(argv):
                  "ROS_MASTER_URI": master, "ROS_HOME": "/tmp/avsp_two_hosts_test"},
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True, timeout=300)
         # Partition p2 really ran on host B: the master lists it at host B's address.
-        where = run(["ip", "netns", "exec", ns_a, "bash", "-c",
+        where = run(inside(ns_a) + ["bash", "-c",
                      ". %s && ROS_MASTER_URI=%s rosnode list --all 2>&1 | grep dynamics"
                      % (setup, master)])
         log.append("dynamics partitions on the master (URI, name):\n" + where.stdout)
