@@ -174,13 +174,103 @@ const PointDeformation* DeformableTerrain::find(std::size_t i, std::size_t j) co
 
 PointDeformation& DeformableTerrain::touch(std::size_t i, std::size_t j)
 {
-  std::unique_ptr<Tile>& tile = tiles_[tileIndex(i, j)];
+  const std::size_t t = tileIndex(i, j);
+  std::unique_ptr<Tile>& tile = tiles_[t];
   if (!tile)
   {
     tile = std::make_unique<Tile>();
     ++allocated_tiles_;
   }
+  if (tracking_ && !before_[t])
+  {
+    // The first write to this tile in the interval: keep the tile as it was.
+    before_[t] = std::make_unique<Tile>(*tile);
+    changed_tiles_.push_back(t);
+  }
   return (*tile)[(j % kTileSize) * kTileSize + i % kTileSize];
+}
+
+void DeformableTerrain::setChangeTracking(bool on)
+{
+  tracking_ = on;
+  before_.clear();
+  changed_tiles_.clear();
+  if (on)
+    before_.resize(tiles_.size());
+}
+
+namespace
+{
+bool sameDeformation(const PointDeformation& a, const PointDeformation& b)
+{
+  return a.plastic == b.plastic && a.displaced == b.displaced && a.sigma_max == b.sigma_max;
+}
+}  // namespace
+
+std::vector<PointChange> DeformableTerrain::takeChanges()
+{
+  std::vector<PointChange> changes;
+  if (!tracking_)
+    return changes;
+  std::sort(changed_tiles_.begin(), changed_tiles_.end());
+  for (std::size_t t : changed_tiles_)
+  {
+    const Tile& now = *tiles_[t];
+    const Tile& then = *before_[t];
+    const std::size_t i0 = (t % tiles_x_) * kTileSize, j0 = (t / tiles_x_) * kTileSize;
+    for (std::size_t k = 0; k < now.size(); ++k)
+      if (!sameDeformation(now[k], then[k]))
+      {
+        PointChange c;
+        c.i = static_cast<std::uint32_t>(i0 + k % kTileSize);
+        c.j = static_cast<std::uint32_t>(j0 + k / kTileSize);
+        c.before = then[k];
+        c.after = now[k];
+        changes.push_back(c);
+      }
+    before_[t].reset();
+  }
+  changed_tiles_.clear();
+  return changes;
+}
+
+std::size_t DeformableTerrain::applyChanges(const std::vector<PointChange>& changes)
+{
+  for (const PointChange& c : changes)
+  {
+    checkPoint("applyChanges", c.i, c.j);
+    for (const PointDeformation* d : { &c.before, &c.after })
+      if (!std::isfinite(d->plastic) || !std::isfinite(d->displaced) || !std::isfinite(d->sigma_max))
+        throw std::invalid_argument("DeformableTerrain::applyChanges: point (" + std::to_string(c.i) + ", " +
+                                    std::to_string(c.j) + ") has a non-finite deformation");
+  }
+  std::size_t merged = 0;
+  for (const PointChange& c : changes)
+  {
+    const std::size_t t = tileIndex(c.i, c.j), k = (c.j % kTileSize) * kTileSize + c.i % kTileSize;
+    std::unique_ptr<Tile>& tile = tiles_[t];
+    if (!tile)
+    {
+      tile = std::make_unique<Tile>();
+      ++allocated_tiles_;
+    }
+    PointDeformation& state = (*tile)[k];
+    if (sameDeformation(state, c.before))
+    {
+      state = c.after;
+    }
+    else
+    {
+      state.plastic = std::max(state.plastic, c.after.plastic);
+      state.sigma_max = std::max(state.sigma_max, c.after.sigma_max);
+      state.displaced += c.after.displaced - c.before.displaced;
+      ++merged;
+    }
+    // Not this terrain's change: what it changes from here on counts from the merged state.
+    if (tracking_ && before_[t])
+      (*before_[t])[k] = state;
+  }
+  return merged;
 }
 
 void DeformableTerrain::checkPoint(const char* function, std::size_t i, std::size_t j) const

@@ -1,6 +1,7 @@
 // Deformable terrain: probes leave no trace, elastic sinkage recovers and compaction stays
 // (T2, T3, T6), flowed soil is conserved and forms berms with transport on and vanishes
 // with it off (T4, T5), and the contact force grows with sinkage.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -942,4 +943,154 @@ TEST(DeformableTerrain, ThinPoleBetweenGridPointsIsStillHit)
   ASSERT_GT(f.normal_force, 3000.0);
   EXPECT_EQ(f.toppled_objects, std::vector<std::uint32_t>{ pole });
   EXPECT_NEAR(objects.get(pole).fall_direction, M_PI / 2, 1e-12);
+}
+
+namespace
+{
+/// A wheel driving along y = `y` at 1 m/s with 20 % slip, at x, sunk 3.5 cm below z = 0.
+WheelPatch rollingWheel(double x, double y, double heading = 0.0)
+{
+  WheelPatch w = wheelAt(x, y, -0.035);
+  w.heading = heading;
+  w.velocity = Eigen::Vector3d(std::cos(heading), std::sin(heading), 0);
+  w.spin_rate = 1.25 / w.radius;
+  return w;
+}
+
+void expectSameTerrain(const DeformableTerrain& a, const DeformableTerrain& b, const char* what)
+{
+  for (std::size_t j = 0; j < a.base().rows(); ++j)
+    for (std::size_t i = 0; i < a.base().columns(); ++i)
+    {
+      const PointDeformation da = a.deformation(i, j), db = b.deformation(i, j);
+      ASSERT_EQ(std::memcmp(&da, &db, sizeof(da)), 0) << what << " at " << i << "," << j;
+    }
+}
+}  // namespace
+
+TEST(DeformableTerrain, ExchangedChangesGiveTheSingleProcessTerrainBitForBit)
+{
+  // Two "partitions" A and B each run one wheel and swap their changes every 10 steps; C runs
+  // both wheels. Then B's wheel crosses the rut A's wheel made: its forces and every terrain
+  // must equal the single-process run to the bit.
+  DeformableTerrain a = flat("mud", true), b = flat("mud", true), c = flat("mud", true);
+  a.setChangeTracking(true);
+  b.setChangeTracking(true);
+  const double dt = 0.004;
+  std::size_t exchanged = 0;
+  auto swap = [&] {
+    const std::vector<PointChange> from_a = a.takeChanges(), from_b = b.takeChanges();
+    exchanged += from_a.size() + from_b.size();
+    EXPECT_EQ(b.applyChanges(from_a), 0u);
+    EXPECT_EQ(a.applyChanges(from_b), 0u);
+  };
+  int step = 0;
+  for (double x = 1.0; x < 5.0; x += 0.004, ++step)
+  {
+    a.wheelContact(rollingWheel(x, 1.5), dt, true);
+    c.wheelContact(rollingWheel(x, 1.5), dt, true);
+    b.wheelContact(rollingWheel(x, 4.5), dt, true);
+    c.wheelContact(rollingWheel(x, 4.5), dt, true);
+    if (step % 10 == 9)
+      swap();
+  }
+  swap();
+  EXPECT_GT(exchanged, 1000u);
+  expectSameTerrain(a, c, "A after phase 1");
+  expectSameTerrain(b, c, "B after phase 1");
+  // Phase 2: B's wheel turns across A's rut (y = 1.5).
+  for (double y = 4.0; y > 0.5; y -= 0.004, ++step)
+  {
+    const ContactForces fb = b.wheelContact(rollingWheel(3.0, y, -M_PI / 2), dt, true);
+    const ContactForces fc = c.wheelContact(rollingWheel(3.0, y, -M_PI / 2), dt, true);
+    ASSERT_EQ(fb.normal_force, fc.normal_force) << y;
+    ASSERT_EQ(fb.longitudinal_force, fc.longitudinal_force) << y;
+    ASSERT_EQ(fb.resistance_force, fc.resistance_force) << y;
+    if (step % 10 == 9)
+      swap();
+  }
+  swap();
+  expectSameTerrain(a, c, "A after phase 2");
+  expectSameTerrain(b, c, "B after phase 2");
+  // Applied changes are not echoed back as the receiver's own.
+  EXPECT_TRUE(a.takeChanges().empty());
+  EXPECT_TRUE(b.takeChanges().empty());
+}
+
+TEST(DeformableTerrain, WithoutTheExchangeTheCrossingWheelFeelsNoRut)
+{
+  // The control for the test above: B never gets A's rut, so its wheel's forces differ.
+  DeformableTerrain a = flat("mud", true), b = flat("mud", true);
+  for (double x = 1.0; x < 5.0; x += 0.004)
+    a.wheelContact(rollingWheel(x, 1.5), 0.004, true);
+  bool differed = false;
+  for (double y = 4.0; y > 0.5; y -= 0.004)
+  {
+    const ContactForces fa = a.wheelContact(rollingWheel(3.0, y, -M_PI / 2), 0.004, true);
+    const ContactForces fb = b.wheelContact(rollingWheel(3.0, y, -M_PI / 2), 0.004, true);
+    differed = differed || fa.normal_force != fb.normal_force;
+  }
+  EXPECT_TRUE(differed);
+}
+
+TEST(DeformableTerrain, ChangesToTheSamePointInOneIntervalAreMerged)
+{
+  DeformableTerrain a = flat("mud", true), b = flat("mud", true);
+  a.setChangeTracking(true);
+  b.setChangeTracking(true);
+  a.wheelContact(rollingWheel(3.0, 3.0), 0.004, true);
+  b.wheelContact(rollingWheel(3.02, 3.0), 0.004, true);  // overlapping patches
+  const std::vector<PointChange> from_a = a.takeChanges(), from_b = b.takeChanges();
+  ASSERT_FALSE(from_a.empty());
+  ASSERT_FALSE(from_b.empty());
+  const std::size_t merged = a.applyChanges(from_b);
+  EXPECT_GT(merged, 0u);
+  EXPECT_LT(merged, from_b.size() + 1);
+  // Each merged point: the larger compaction and stress, both displacements.
+  std::size_t checked = 0;
+  for (const PointChange& c : from_b)
+  {
+    const auto mine = std::find_if(from_a.begin(), from_a.end(),
+                                   [&](const PointChange& m) { return m.i == c.i && m.j == c.j; });
+    if (mine == from_a.end())
+      continue;
+    const PointDeformation d = a.deformation(c.i, c.j);
+    EXPECT_EQ(d.plastic, std::max(mine->after.plastic, c.after.plastic));
+    EXPECT_EQ(d.sigma_max, std::max(mine->after.sigma_max, c.after.sigma_max));
+    EXPECT_NEAR(d.displaced, mine->after.displaced + c.after.displaced - c.before.displaced, 1e-9);
+    ++checked;
+  }
+  EXPECT_EQ(checked, merged);
+}
+
+TEST(DeformableTerrain, ChangeTrackingOffReportsNothingAndBadChangesAreRefused)
+{
+  DeformableTerrain t = flat("mud", true);
+  t.wheelContact(rollingWheel(3.0, 3.0), 0.004, true);
+  EXPECT_TRUE(t.takeChanges().empty());
+  t.setChangeTracking(true);
+  EXPECT_TRUE(t.takeChanges().empty());  // nothing since tracking began
+  PointChange outside;
+  outside.i = 120;  // the grid is 120 x 120
+  outside.after.plastic = 0.01f;
+  PointChange good;
+  good.i = good.j = 5;
+  good.after.plastic = 0.02f;
+  try
+  {
+    t.applyChanges({ good, outside });
+    FAIL() << "a point outside the grid was applied";
+  }
+  catch (const std::out_of_range& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("(120, 0)"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(t.deformation(5, 5).plastic, 0.f);  // nothing applied
+  PointChange nan = good;
+  nan.after.displaced = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(t.applyChanges({ nan }), std::invalid_argument);
+  EXPECT_EQ(t.deformation(5, 5).displaced, 0.f);
+  EXPECT_EQ(t.applyChanges({ good }), 0u);
+  EXPECT_EQ(t.deformation(5, 5).plastic, 0.02f);
+  EXPECT_TRUE(t.takeChanges().empty());  // applied, not this terrain's own
 }

@@ -84,6 +84,15 @@ struct PointDeformation
   float sigma_max = 0.f;  ///< Pa, largest normal stress seen (governs T2 and T4's b1 term)
 };
 
+/// One grid point's deformation before and after an interval (DeformableTerrain change
+/// tracking): what a dynamics partition sends the others so they drive on the same ruts.
+struct PointChange
+{
+  std::uint32_t i = 0, j = 0;  ///< grid point
+  PointDeformation before;     ///< at the start of the interval
+  PointDeformation after;      ///< at its end
+};
+
 /**
  * @brief Elevation grid + soil map + sparse deformation state + wheel and track contact.
  *
@@ -213,6 +222,32 @@ public:
   }
   const Options& options() const { return options_; }
 
+  /**
+   * @brief Records which points change from now on (on), or stops and forgets (off). The
+   *        first change of a tile in an interval copies the tile as it was (768 B), so
+   *        tracking costs one flag test per contact point and a copy per tile per interval.
+   */
+  void setChangeTracking(bool on);
+  bool changeTracking() const { return tracking_; }
+  /**
+   * @brief The points whose deformation differs from the start of the interval (when tracking
+   *        began or the last call), with both states, in tile order then row-major within the
+   *        tile; starts the next interval. Empty when tracking is off.
+   */
+  std::vector<PointChange> takeChanges();
+  /**
+   * @brief Applies another terrain's changes (takeChanges() there, same grid). A point still
+   *        exactly at `before` becomes `after` bit for bit (so processes that never touch the
+   *        same point in one interval hold identical terrains); a point this terrain changed
+   *        too is merged: plastic and sigma_max take the larger, displaced adds the other's
+   *        change (after - before). Applied changes are not reported by takeChanges() as
+   *        this terrain's own; the flow accounting (flowedVolume) is not changed.
+   * @return the number of merged points (both changed them in the same interval)
+   * @throw std::out_of_range naming the point when one is outside the grid (nothing applied);
+   *        std::invalid_argument when a value is not finite (nothing applied)
+   */
+  std::size_t applyChanges(const std::vector<PointChange>& changes);
+
   const ElevationGrid& base() const { return base_; }
 
   /// The soils, indexed by the soil map.
@@ -276,6 +311,10 @@ private:
   double arrived_volume_ = 0.0;
   std::vector<LoadedPoint> loaded_;  ///< scratch of the current contact (kept: no allocation per call)
   std::vector<double> arrivals_;     ///< scratch: soil arriving per point of the contact's window, m
+  // Change tracking: per tile, its state at the start of the interval once it changed in it.
+  bool tracking_ = false;
+  std::vector<std::unique_ptr<Tile>> before_;  ///< same indexing as tiles_, null = unchanged
+  std::vector<std::size_t> changed_tiles_;     ///< tiles with a before_ copy, in first-change order
 };
 
 /**
