@@ -32,6 +32,8 @@ struct World::Ode
   dWorldID world = nullptr;
   dJointGroupID contacts = nullptr;
   std::vector<dBodyID> agent_bodies;  ///< kinematic, one per World::agents_ entry
+  std::vector<dBodyID> proxy_bodies;  ///< kinematic, one per World::proxies_ entry
+  std::vector<AgentCollisionBody> agent_geoms, proxy_geoms;  ///< what ObstacleCollision gets
   ~Ode()
   {
     if (contacts)
@@ -715,8 +717,103 @@ void World::setAgents(std::vector<terrain::Agent> agents)
     ode_->agent_bodies.push_back(c.body);
     bodies.push_back(std::move(c));
   }
-  collision_->setAgents(bodies);
+  ode_->agent_geoms = std::move(bodies);
+  updateKinematicGeoms();
   driveAgents();
+}
+
+void World::updateKinematicGeoms()
+{
+  std::vector<AgentCollisionBody> all = ode_->agent_geoms;
+  all.insert(all.end(), ode_->proxy_geoms.begin(), ode_->proxy_geoms.end());
+  collision_->setAgents(all);
+}
+
+std::size_t World::addProxy(const VehicleModel& model, const std::string& name)
+{
+  AgentCollisionBody c;
+  c.boxes = model.collision_boxes;
+  auto wheel_box = [&](const Eigen::Vector3d& centre, double radius, double width) {
+    CollisionBox b;
+    b.link = name;
+    b.pose = Eigen::Isometry3d(Eigen::Translation3d(centre));
+    b.size = Eigen::Vector3d(2.0 * radius, width, 2.0 * radius);
+    if (!(b.size.allFinite() && b.size.minCoeff() > 0.0))
+      throw std::invalid_argument("World::addProxy: '" + name + "' has a wheel of radius " + std::to_string(radius) +
+                                  " m and width " + std::to_string(width) + " m");
+    c.boxes.push_back(b);
+  };
+  for (const WheelSpec& w : model.wheels)
+    wheel_box(w.rest_position, w.radius, w.width);
+  for (const TrackSpec& t : model.tracks)
+    for (const RoadWheelSpec& w : t.road_wheels)
+      wheel_box(w.rest_position, w.radius, std::max(w.width, model.track.shoe_width));
+  c.body = dBodyCreate(ode_->world);
+  dBodySetKinematic(c.body);
+  dBodySetPosition(c.body, 0.0, 0.0, -1e4);  // out of reach until placed
+  ode_->proxy_bodies.push_back(c.body);
+  ode_->proxy_geoms.push_back(std::move(c));
+  Proxy p;
+  p.name = name;
+  p.pose.translation() = Eigen::Vector3d(0.0, 0.0, -1e4);
+  p.since = time();
+  proxies_.push_back(p);
+  collision_->clearAgents();  // geoms before the change of list
+  updateKinematicGeoms();
+  return proxies_.size() - 1;
+}
+
+void World::setProxyState(std::size_t proxy, const Eigen::Isometry3d& pose, const Eigen::Vector3d& linear_velocity,
+                          const Eigen::Vector3d& angular_velocity)
+{
+  if (proxy >= proxies_.size())
+    throw std::out_of_range("World::setProxyState: no proxy " + std::to_string(proxy) + " (have " +
+                            std::to_string(proxies_.size()) + ")");
+  if (!pose.matrix().allFinite() || !linear_velocity.allFinite() || !angular_velocity.allFinite())
+    throw std::invalid_argument("World::setProxyState: state of proxy '" + proxies_[proxy].name + "' is not finite");
+  Proxy& p = proxies_[proxy];
+  p.pose = pose;
+  p.linear_velocity = linear_velocity;
+  p.angular_velocity = angular_velocity;
+  p.since = time();
+  driveProxies();
+}
+
+Eigen::Isometry3d World::proxyPose(std::size_t proxy) const
+{
+  if (proxy >= proxies_.size())
+    throw std::out_of_range("World::proxyPose: no proxy " + std::to_string(proxy) + " (have " +
+                            std::to_string(proxies_.size()) + ")");
+  return extrapolated(proxies_[proxy], time());
+}
+
+Eigen::Isometry3d World::extrapolated(const Proxy& p, double t) const
+{
+  // Constant velocities since the last state: the other process's vehicle as well as this
+  // world can know it between two exchanges.
+  const double dt = t - p.since;
+  Eigen::Isometry3d pose = p.pose;
+  pose.translation() += p.linear_velocity * dt;
+  const double angle = p.angular_velocity.norm() * dt;
+  if (angle > 0.0)
+    pose.linear() = Eigen::AngleAxisd(angle, p.angular_velocity.normalized()).toRotationMatrix() * p.pose.linear();
+  return pose;
+}
+
+void World::driveProxies()
+{
+  for (std::size_t k = 0; k < proxies_.size(); ++k)
+  {
+    const Proxy& p = proxies_[k];
+    const Eigen::Isometry3d pose = extrapolated(p, time());
+    const dBodyID body = ode_->proxy_bodies[k];
+    dBodySetPosition(body, pose.translation().x(), pose.translation().y(), pose.translation().z());
+    const Eigen::Quaterniond q(pose.linear());
+    const dQuaternion dq = { q.w(), q.x(), q.y(), q.z() };
+    dBodySetQuaternion(body, dq);
+    dBodySetLinearVel(body, p.linear_velocity.x(), p.linear_velocity.y(), p.linear_velocity.z());
+    dBodySetAngularVel(body, p.angular_velocity.x(), p.angular_velocity.y(), p.angular_velocity.z());
+  }
 }
 
 terrain::AgentState World::agentState(std::size_t agent) const
@@ -772,6 +869,7 @@ void World::step()
   for (auto& v : vehicles_)
     v->beforeStep(terrain_, ode_->contacts, times);
   driveAgents();
+  driveProxies();
   const auto tc = times ? Clock::now() : Clock::time_point();
   collision_->collide(ode_->world, ode_->contacts);
   const auto t1 = times ? Clock::now() : Clock::time_point();

@@ -299,6 +299,30 @@ public:
   /// Agent k's state at the world's time (where its body is now). @throw std::out_of_range
   terrain::AgentState agentState(std::size_t agent) const;
 
+  /**
+   * @brief Adds a vehicle simulated by another process (a dynamics partition) as a proxy: a
+   *        kinematic body at its base_link carrying the model's collision boxes and a box
+   *        round each wheel and road wheel (2 radius x width x 2 radius). Vehicles of this
+   *        world meet it as they meet an agent: rigid, moving, never pushed (contacts, counts
+   *        and impulses as with other vehicles). It does not touch the terrain, obstacles or
+   *        agents (its own process handles those). It rests at the origin, far below any
+   *        vehicle, until setProxyState() places it.
+   * @param name used in errors
+   * @return the proxy's index
+   */
+  std::size_t addProxy(const VehicleModel& model, const std::string& name);
+  /**
+   * @brief Places proxy k with base_link at `pose` (map) now, moving on from there at
+   *        `linear_velocity` (m/s, base_link origin, map) and `angular_velocity` (rad/s, map):
+   *        at every later step it is put at the pose these give, until the next call.
+   * @throw std::out_of_range for an unknown proxy; std::invalid_argument when a value is not finite
+   */
+  void setProxyState(std::size_t proxy, const Eigen::Isometry3d& pose, const Eigen::Vector3d& linear_velocity,
+                     const Eigen::Vector3d& angular_velocity);
+  std::size_t proxyCount() const { return proxies_.size(); }
+  /// Proxy k's base_link pose at the world's time (map). @throw std::out_of_range
+  Eigen::Isometry3d proxyPose(std::size_t proxy) const;
+
   /// One physics step of options().step seconds.
   void step();
   /// Steps until `seconds` more have elapsed (rounded to whole steps).
@@ -326,7 +350,20 @@ public:
   terrain::DeformableTerrain& terrain() { return terrain_; }
 
 private:
+  /// A proxy's last known state (setProxyState) and when it was given.
+  struct Proxy
+  {
+    std::string name;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero(), angular_velocity = Eigen::Vector3d::Zero();
+    double since = 0.0;  ///< s, world time of `pose`
+  };
   void driveAgents();
+  void driveProxies();
+  /// Hands the agents' and proxies' bodies to the collision (agents first).
+  void updateKinematicGeoms();
+  Eigen::Isometry3d extrapolated(const Proxy& p, double t) const;
+  std::vector<Proxy> proxies_;  ///< their bodies are in Ode (same order)
   struct Ode;  // ODE handles
   terrain::DeformableTerrain& terrain_;
   WorldOptions options_;
