@@ -22,10 +22,20 @@
 // vehicles in its own world. lockstep_clock publishes /clock; on each tick the node steps its
 // world to that time (with its controllers' barriers on the way) and reports it on
 // /lockstep/done, and the clock moves on only when every partition has.
+//
+// Peers (~peers, the run's other partitions): at the end of every interval T the partition
+// publishes its vehicles' states and the soil its vehicles changed on
+// /lockstep/exchange/<partition>, and before stepping past T it waits for every peer's
+// exchange of T and applies it: the peers' vehicles become kinematic proxies its vehicles
+// collide with (one interval late at most: between exchanges a proxy moves on at its last
+// velocities) and their soil changes are copied exactly, so all partitions drive on the same
+// ruts. Without contacts between partitions' vehicles, or two partitions' wheels on the same
+// soil point in one interval, any layout gives the same trajectories bit for bit.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -35,6 +45,7 @@
 
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/PartitionExchange.h>
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
@@ -132,6 +143,7 @@ struct VehicleIo
   std::string name;
   std::size_t id = 0;
   ad::VehicleModel model;
+  std::string model_name;  ///< ~vehicles[k].model (config_dir/<model_name>.yaml)
   std::string cmd_topic, drive_topic;
   ros::Subscriber cmd_sub, drive_sub;
   ros::Publisher odom_pub, joint_pub, telemetry_pub;
@@ -159,6 +171,7 @@ public:
     const std::vector<VehicleSpec> specs = vehicleSpecs(pnh_);
     std::string config_dir, soils_file;
     pnh_.param<std::string>("config_dir", config_dir, ros::package::getPath("avsp") + "/config/vehicles");
+    config_dir_ = config_dir;
     pnh_.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
     try
     {
@@ -234,6 +247,7 @@ public:
         throw StartupError("vehicle '" + s.name + "' (model '" + s.model + "', ~vehicles, ~config_dir " +
                            config_dir + "): " + e.what());
       }
+      v->model_name = s.model;
       v->spin_angle.assign(v->model.wheels.size(), 0.0);
       for (const ad::WheelSpec& w : v->model.wheels)
       {
@@ -280,6 +294,7 @@ public:
     ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
     if (publish_clock_)
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    loadPeers();
     if (!partition_.empty())
     {
       done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
@@ -379,6 +394,13 @@ private:
     if (lockstep_every_ > 0 && !waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
       return false;
     double reported = 0.0;
+    if (!peers_.empty())
+    {
+      // Every peer must hear the first exchange: wait until all have subscribed.
+      if (!waitForPeerSubscribers())
+        return false;
+      publishExchange(reported);
+    }
     reportDone(reported);
     const double h = world_->options().step;
     while (ros::ok())
@@ -392,6 +414,8 @@ private:
         continue;
       }
       const double target = *tick_;
+      if (!peers_.empty() && !applyPeerExchanges(reported))
+        return false;
       while (ros::ok() && world_->time() + 0.5 * h < target)
       {
         step();
@@ -399,9 +423,11 @@ private:
           return false;
       }
       reported = target;
+      if (!peers_.empty())
+        publishExchange(reported);
       reportDone(reported);
     }
-    return true;
+    return !exchange_error_;
   }
 
   void onTick(const rosgraph_msgs::Clock::ConstPtr& c)
@@ -411,6 +437,264 @@ private:
       tick_repeated_ = true;
     else
       tick_ = t;
+  }
+
+  /// ~peers: the run's other partitions (plain names, not this one, each once).
+  void loadPeers()
+  {
+    if (!pnh_.hasParam("peers"))
+      return;
+    XmlRpc::XmlRpcValue list;
+    pnh_.getParam("peers", list);
+    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+      throw StartupError("parameter ~peers must be a list of partition names");
+    if (list.size() > 0 && partition_.empty())
+      throw StartupError("parameter ~peers needs a ~partition");
+    for (int k = 0; k < list.size(); ++k)
+    {
+      const std::string where = "parameter ~peers[" + std::to_string(k) + "]";
+      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
+        throw StartupError(where + " must be a partition name (string)");
+      const std::string name = static_cast<std::string>(list[k]);
+      std::string why;
+      if (name.empty() || name.find('/') != std::string::npos || !ros::names::validate(name, why))
+        throw StartupError(where + " '" + name + "' must be a plain name (no '/')");
+      if (name == partition_)
+        throw StartupError(where + " '" + name + "' is this partition (~partition)");
+      if (!peers_.emplace(name, Peer{}).second)
+        throw StartupError(where + " '" + name + "' is listed twice");
+    }
+    if (peers_.empty())
+      return;
+    terrain_->setChangeTracking(true);
+    exchange_standing_ = standing_;
+    exchange_pub_ = nh_.advertise<avsp_msgs::PartitionExchange>("/lockstep/exchange/" + partition_, 100);
+    for (auto& [name, peer] : peers_)
+    {
+      peer.topic = "/lockstep/exchange/" + name;
+      const std::string peer_name = name;
+      peer.sub = nh_.subscribe<avsp_msgs::PartitionExchange>(
+          peer.topic, 100,
+          [this, peer_name](const avsp_msgs::PartitionExchange::ConstPtr& m) { onExchange(peer_name, m); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+    }
+    ROS_INFO("dynamics_node: partition '%s' exchanges vehicles and soil with %zu peer(s)", partition_.c_str(),
+             peers_.size());
+  }
+
+  /// Until every peer has subscribed to this partition's exchange (or ~lockstep_timeout).
+  bool waitForPeerSubscribers()
+  {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && exchange_pub_.getNumSubscribers() < peers_.size())
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (ros::WallTime::now() > deadline)
+      {
+        std::string missing;
+        for (const auto& [name, peer] : peers_)
+          if (peer.sub.getNumPublishers() == 0)
+            missing += (missing.empty() ? "" : ", ") + name;
+        ROS_FATAL("dynamics_node: partition '%s': only %u of %zu peers subscribed to /lockstep/exchange/%s within "
+                  "~lockstep_timeout %g s (wall); not connected: %s; stopping the run",
+                  partition_.c_str(), exchange_pub_.getNumSubscribers(), peers_.size(), partition_.c_str(),
+                  lockstep_timeout_, missing.empty() ? "?" : missing.c_str());
+        ros::shutdown();
+        return false;
+      }
+    }
+    return ros::ok();
+  }
+
+  /// A peer's exchange arrives: checked, then kept until the interval it closes is applied.
+  void onExchange(const std::string& peer_name, const avsp_msgs::PartitionExchange::ConstPtr& m)
+  {
+    Peer& peer = peers_.at(peer_name);
+    std::string why;
+    if (m->partition != peer_name)
+      why = "partition is '" + m->partition + "', not '" + peer_name + "'";
+    else if (m->soil_before.size() != 3 * m->soil_points.size() || m->soil_after.size() != 3 * m->soil_points.size())
+      why = "soil_before and soil_after must hold 3 values per soil_points entry";
+    else if (m->toppled_directions.size() != m->toppled_ids.size())
+      why = "toppled_directions must have one entry per toppled_ids entry";
+    if (!why.empty())
+    {
+      // The lockstep cannot go on without it, nor guess it: the run stops, naming the topic.
+      ROS_FATAL("dynamics_node: bad exchange on %s: %s; stopping the run", peer.topic.c_str(), why.c_str());
+      exchange_error_ = true;
+      ros::shutdown();
+      return;
+    }
+    peer.received[m->header.stamp.toNSec()] = m;
+  }
+
+  /// Waits for every peer's exchange stamped `t` and applies them (peers in name order):
+  /// proxies placed (created from the first), soil changes copied, objects toppled.
+  bool applyPeerExchanges(double t)
+  {
+    const std::uint64_t key = ros::Time(t).toNSec();
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    auto all_in = [&] {
+      return std::all_of(peers_.begin(), peers_.end(),
+                         [&](const auto& p) { return p.second.received.count(key) > 0; });
+    };
+    while (ros::ok() && !all_in())
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (ros::WallTime::now() > deadline && !all_in())
+      {
+        std::string silent;
+        for (const auto& [name, peer] : peers_)
+          if (!peer.received.count(key))
+            silent += (silent.empty() ? "" : ", ") + peer.topic;
+        ROS_FATAL("dynamics_node: partition '%s': no exchange for t = %.3f s on %s within ~lockstep_timeout %g s "
+                  "(wall); stopping the run",
+                  partition_.c_str(), t, silent.c_str(), lockstep_timeout_);
+        ros::shutdown();
+        return false;
+      }
+    }
+    if (!ros::ok() || exchange_error_)
+      return false;
+    const at::ElevationGrid& g = terrain_->base();
+    for (auto& [name, peer] : peers_)
+    {
+      const avsp_msgs::PartitionExchange& m = *peer.received.at(key);
+      try
+      {
+        for (const avsp_msgs::ProxyVehicle& pv : m.vehicles)
+          placeProxy(name, pv);
+        std::vector<at::PointChange> changes(m.soil_points.size());
+        for (std::size_t k = 0; k < changes.size(); ++k)
+        {
+          const std::uint32_t index = m.soil_points[k];
+          if (index >= g.columns() * g.rows())
+            throw std::out_of_range("soil_points[" + std::to_string(k) + "] = " + std::to_string(index) +
+                                    " is outside the " + std::to_string(g.columns()) + " x " +
+                                    std::to_string(g.rows()) + " grid");
+          at::PointChange& c = changes[k];
+          c.i = static_cast<std::uint32_t>(index % g.columns());
+          c.j = static_cast<std::uint32_t>(index / g.columns());
+          c.before = { m.soil_before[3 * k], m.soil_before[3 * k + 1], m.soil_before[3 * k + 2] };
+          c.after = { m.soil_after[3 * k], m.soil_after[3 * k + 1], m.soil_after[3 * k + 2] };
+        }
+        const std::size_t merged = terrain_->applyChanges(changes);
+        if (merged > 0)
+          ROS_DEBUG("dynamics_node: %zu soil point(s) changed by both this partition and '%s' before t = %.3f s: "
+                    "merged",
+                    merged, name.c_str(), t);
+        for (std::size_t k = 0; k < m.toppled_ids.size(); ++k)
+        {
+          std::string why;
+          const std::uint32_t id = m.toppled_ids[k];
+          if (!objects_.applyToppled(id, m.toppled_directions[k], why))
+            ROS_WARN("dynamics_node: %s: toppled object %u not applied: %s", peer.topic.c_str(), id, why.c_str());
+          // Toppled by the peer: not ours to report on /terrain/toppled or to the peers.
+          standing_.erase(std::remove(standing_.begin(), standing_.end(), id), standing_.end());
+          exchange_standing_.erase(std::remove(exchange_standing_.begin(), exchange_standing_.end(), id),
+                                   exchange_standing_.end());
+        }
+      }
+      catch (const std::exception& e)
+      {
+        ROS_FATAL("dynamics_node: bad exchange on %s for t = %.3f s: %s; stopping the run", peer.topic.c_str(), t,
+                  e.what());
+        ros::shutdown();
+        return false;
+      }
+      // Older intervals are done with too (a repeated publication can leave one behind).
+      peer.received.erase(peer.received.begin(), peer.received.upper_bound(key));
+    }
+    return true;
+  }
+
+  /// A peer's vehicle: its proxy (made the first time from config_dir/<model>.yaml) placed.
+  void placeProxy(const std::string& peer, const avsp_msgs::ProxyVehicle& pv)
+  {
+    auto it = proxies_.find(pv.name);
+    if (it == proxies_.end())
+    {
+      if (std::any_of(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return v->name == pv.name; }))
+        throw std::invalid_argument("vehicle '" + pv.name + "' is simulated here too (in ~vehicles)");
+      if (pv.model.empty() || pv.model.find('/') != std::string::npos)
+        throw std::invalid_argument("vehicle '" + pv.name + "' has model '" + pv.model + "', not a model name");
+      const std::string yaml = config_dir_ + "/" + pv.model + ".yaml";
+      ad::VehicleModel model;
+      try
+      {
+        model = ad::loadVehicleModel(yaml);
+      }
+      catch (const std::exception& e)
+      {
+        throw std::invalid_argument("vehicle '" + pv.name + "' of partition '" + peer + "': " + e.what());
+      }
+      it = proxies_.emplace(pv.name, world_->addProxy(model, pv.name)).first;
+      ROS_INFO("dynamics_node: partition '%s' sees %s (%s, partition '%s') as a proxy", partition_.c_str(),
+               pv.name.c_str(), pv.model.c_str(), peer.c_str());
+    }
+    const geometry_msgs::Pose& p = pv.pose;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
+    const Eigen::Quaterniond q(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z);
+    if (!(std::fabs(q.norm() - 1.0) < 1e-3))
+      throw std::invalid_argument("vehicle '" + pv.name + "': orientation is not a unit quaternion");
+    pose.linear() = q.normalized().toRotationMatrix();
+    const geometry_msgs::Twist& v = pv.velocity;
+    world_->setProxyState(it->second, pose, Eigen::Vector3d(v.linear.x, v.linear.y, v.linear.z),
+                          Eigen::Vector3d(v.angular.x, v.angular.y, v.angular.z));
+  }
+
+  /// This partition's part of interval `t`: its vehicles, its soil changes, what it toppled.
+  void publishExchange(double t)
+  {
+    avsp_msgs::PartitionExchange m;
+    m.header.stamp = ros::Time(t);
+    m.header.frame_id = "map";
+    m.partition = partition_;
+    for (const auto& v : vehicles_)
+    {
+      const ad::VehicleState& s = world_->state(v->id);
+      avsp_msgs::ProxyVehicle pv;
+      pv.name = v->name;
+      pv.model = v->model_name;
+      const Eigen::Quaterniond q(s.pose.linear());
+      pv.pose.position.x = s.pose.translation().x();
+      pv.pose.position.y = s.pose.translation().y();
+      pv.pose.position.z = s.pose.translation().z();
+      pv.pose.orientation.w = q.w();
+      pv.pose.orientation.x = q.x();
+      pv.pose.orientation.y = q.y();
+      pv.pose.orientation.z = q.z();
+      pv.velocity.linear.x = s.linear_velocity.x();
+      pv.velocity.linear.y = s.linear_velocity.y();
+      pv.velocity.linear.z = s.linear_velocity.z();
+      pv.velocity.angular.x = s.angular_velocity.x();
+      pv.velocity.angular.y = s.angular_velocity.y();
+      pv.velocity.angular.z = s.angular_velocity.z();
+      m.vehicles.push_back(pv);
+    }
+    const std::size_t columns = terrain_->base().columns();
+    const std::vector<at::PointChange> changes = terrain_->takeChanges();
+    m.soil_points.reserve(changes.size());
+    m.soil_before.reserve(3 * changes.size());
+    m.soil_after.reserve(3 * changes.size());
+    for (const at::PointChange& c : changes)
+    {
+      m.soil_points.push_back(static_cast<std::uint32_t>(c.j * columns + c.i));
+      m.soil_before.insert(m.soil_before.end(), { c.before.plastic, c.before.displaced, c.before.sigma_max });
+      m.soil_after.insert(m.soil_after.end(), { c.after.plastic, c.after.displaced, c.after.sigma_max });
+    }
+    auto fallen = std::stable_partition(exchange_standing_.begin(), exchange_standing_.end(),
+                                        [this](std::uint32_t id) { return !objects_.get(id).toppled; });
+    for (auto it = fallen; it != exchange_standing_.end(); ++it)
+    {
+      m.toppled_ids.push_back(*it);
+      m.toppled_directions.push_back(objects_.get(*it).fall_direction);
+    }
+    exchange_standing_.erase(fallen, exchange_standing_.end());
+    exchange_pub_.publish(m);
   }
 
   void reportDone(double t)
@@ -425,6 +709,7 @@ private:
   std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
   {
     std::set<std::string> names;
+    lockstep_timeout_ = boundedParam(pnh_, "lockstep_timeout", 30.0, 0.01, 3600.0);
     if (!pnh_.hasParam("lockstep_vehicles"))
       return names;
     XmlRpc::XmlRpcValue list;
@@ -443,7 +728,6 @@ private:
         throw StartupError(where + " '" + name + "' is listed twice");
     }
     const double period = boundedParam(pnh_, "lockstep_period", 0.05, step, 10.0);
-    lockstep_timeout_ = boundedParam(pnh_, "lockstep_timeout", 30.0, 0.01, 3600.0);
     if (names.empty())
       return names;
     if (!publish_clock_ && partition_.empty())
@@ -849,6 +1133,19 @@ private:
   bool tick_repeated_ = false;        ///< the clock re-sent a tick already reached
   ros::Publisher done_pub_;
   ros::Subscriber tick_sub_;
+  /// Another partition of the run (~peers): its exchanges, by stamp (ns), until applied.
+  struct Peer
+  {
+    std::string topic;
+    ros::Subscriber sub;
+    std::map<std::uint64_t, avsp_msgs::PartitionExchange::ConstPtr> received;
+  };
+  std::map<std::string, Peer> peers_;                ///< by partition name (applied in this order)
+  std::map<std::string, std::size_t> proxies_;       ///< peers' vehicles: World proxy index by name
+  std::vector<std::uint32_t> exchange_standing_;     ///< toppleable objects not yet sent as toppled
+  ros::Publisher exchange_pub_;
+  bool exchange_error_ = false;
+  std::string config_dir_;
   double lockstep_timeout_ = 30.0;    ///< s, wall
   std::optional<ros::Time> follow_start_;  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;

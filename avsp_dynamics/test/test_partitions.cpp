@@ -4,10 +4,13 @@
 //   as their lockstep controller with the same open-loop commands: every odometry message of
 //   every vehicle is bit-identical between the layouts.
 // - A partition killed mid-run stops the clock within its timeout, naming the partition.
+// - Two vehicles in two partitions driven head-on collide through their proxies: neither
+//   passes through the other.
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,6 +22,8 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/VehicleTelemetry.h>
+#include <avsp_dynamics/vehicle_model.hpp>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/master.h>
@@ -42,15 +47,16 @@ bool spinUntil(const std::function<bool()>& done, double timeout)
   return done();
 }
 
-/// Open-loop command of vehicle k at sim time t: throttle ramps, steering weaves, a brake pulse.
-avsp_msgs::DriveCommand command(std::size_t k, const ros::Time& stamp)
+/// Open-loop command of vehicle k at sim time t: throttle ramps, steering weaves (k < 0:
+/// straight on), a brake pulse.
+avsp_msgs::DriveCommand command(int k, const ros::Time& stamp)
 {
   const double t = stamp.toSec();
   avsp_msgs::DriveCommand c;
   c.header.stamp = stamp;
   c.throttle = std::min(1.0, 0.2 + 0.1 * t) * (t > 6.0 && t < 7.0 ? 0.0 : 1.0);
   c.brake = t > 6.0 && t < 7.0 ? 0.5 : 0.0;
-  c.steering = 0.3 * std::sin(0.7 * t + static_cast<double>(k));
+  c.steering = k < 0 ? 0.0 : 0.3 * std::sin(0.7 * t + static_cast<double>(k));
   return c;
 }
 
@@ -61,6 +67,11 @@ TEST(Partitions, OneAndTwoPartitionsGiveIdenticalOdometry)
   ASSERT_TRUE(pnh.getParam("vehicles", vehicles));
   double until = 10.0;
   pnh.param("until", until, 10.0);
+  // ~crossing drives straight on across ~crossed's path after it: over its rut, made in the
+  // other partition in the two-partition layout.
+  std::string crossing, crossed;
+  pnh.param<std::string>("crossing", crossing, "");
+  pnh.param<std::string>("crossed", crossed, "");
   const std::vector<std::string> layouts{ "one", "two" };
   std::map<std::string, std::vector<nav_msgs::Odometry>> streams;  // "<layout>/<vehicle>"
   std::vector<ros::Subscriber> subs;
@@ -70,10 +81,11 @@ TEST(Partitions, OneAndTwoPartitionsGiveIdenticalOdometry)
     for (std::size_t k = 0; k < vehicles.size(); ++k)
     {
       const std::string key = layout + "/" + vehicles[k];
+      const int k_command = vehicles[k] == crossing ? -1 : static_cast<int>(k);
       commands[key] = nh.advertise<avsp_msgs::DriveCommand>("/" + key + "/cmd_drive", 10);
       subs.push_back(nh.subscribe<nav_msgs::Odometry>(
           "/" + key + "/avt_341/odometry", 1000,
-          [&, key, k](const nav_msgs::Odometry::ConstPtr& m) {
+          [&, key, k = k_command](const nav_msgs::Odometry::ConstPtr& m) {
             std::vector<nav_msgs::Odometry>& s = streams[key];
             const double t = m->header.stamp.toSec();
             if (!s.empty() && m->header.stamp <= s.back().header.stamp)
@@ -127,8 +139,104 @@ TEST(Partitions, OneAndTwoPartitionsGiveIdenticalOdometry)
     const double dist = std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
                                    a[n - 1].pose.pose.position.y - a[0].pose.pose.position.y);
     EXPECT_GT(dist, 5.0) << v;
-    std::printf("[ partitions ] %s: %zu messages identical, %.1f m driven\n", v.c_str(), n, dist);
+    std::printf("[ partitions ] %s: %zu messages, %zu differ, %.1f m driven\n", v.c_str(), n, differ, dist);
   }
+  if (crossing.empty())
+    return;
+  // The crossing vehicle did drive where the crossed one had been at least 1 s before it (so
+  // over its rut, and the two never touched).
+  const auto& a = streams["one/" + crossing];
+  const auto& b = streams["one/" + crossed];
+  double closest = 1e9, when = 0.0;
+  for (const auto& m : a)
+    for (const auto& o : b)
+    {
+      if (o.header.stamp.toSec() > m.header.stamp.toSec() - 1.0)
+        break;
+      const double d =
+          std::hypot(m.pose.pose.position.x - o.pose.pose.position.x, m.pose.pose.position.y - o.pose.pose.position.y);
+      if (d < closest)
+      {
+        closest = d;
+        when = m.header.stamp.toSec() - o.header.stamp.toSec();
+      }
+    }
+  EXPECT_LT(closest, 0.5) << crossing << " did not cross " << crossed << "'s path";
+  std::printf("[ partitions ] %s crossed %s's path %.2f m from where it had been %.1f s before\n", crossing.c_str(),
+              crossed.c_str(), closest, when);
+}
+
+TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
+{
+  ros::NodeHandle nh, pnh("~");
+  std::string yaml;
+  ASSERT_TRUE(pnh.getParam("model_yaml", yaml));
+  double until = 8.0;
+  pnh.param("until", until, 8.0);
+  const avsp::dynamics::VehicleModel model = avsp::dynamics::loadVehicleModel(yaml);
+  double reach = 0.0;  // m, how far the chassis reaches ahead of base_link
+  for (const avsp::dynamics::CollisionBox& b : model.collision_boxes)
+    reach = std::max(reach, b.pose.translation().x() + 0.5 * b.size.x());
+  const std::vector<std::string> names{ "east", "west" };
+  std::map<std::string, std::vector<nav_msgs::Odometry>> streams;
+  std::map<std::string, std::uint32_t> collisions;
+  std::map<std::string, ros::Publisher> commands;
+  std::vector<ros::Subscriber> subs;
+  for (const std::string& v : names)
+  {
+    commands[v] = nh.advertise<avsp_msgs::DriveCommand>("/" + v + "/cmd_drive", 10);
+    subs.push_back(nh.subscribe<avsp_msgs::VehicleTelemetry>(
+        "/" + v + "/telemetry", 100,
+        [&, v](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { collisions[v] = m->collisions; }));
+    subs.push_back(nh.subscribe<nav_msgs::Odometry>(
+        "/" + v + "/avt_341/odometry", 1000,
+        [&, v](const nav_msgs::Odometry::ConstPtr& m) {
+          std::vector<nav_msgs::Odometry>& s = streams[v];
+          const double t = m->header.stamp.toSec();
+          const bool repeat = !s.empty() && m->header.stamp <= s.back().header.stamp;
+          if (!repeat)
+            s.push_back(*m);
+          if ((repeat && m->header.stamp.isZero()) ||
+              (!repeat && t <= until && std::abs(t - 0.05 * std::round(t / 0.05)) < 1e-6))
+          {
+            avsp_msgs::DriveCommand c;  // full throttle straight ahead
+            c.header.stamp = m->header.stamp;
+            c.throttle = 1.0;
+            commands[v].publish(c);
+          }
+        },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+  }
+  auto reached = [&] {
+    return std::all_of(names.begin(), names.end(), [&](const std::string& v) {
+      return !streams[v].empty() && streams[v].back().header.stamp.toSec() >= until;
+    });
+  };
+  ASSERT_TRUE(spinUntil(reached, 100.0)) << "the run did not reach t = " << until << " s";
+  const auto& e = streams["east"];
+  const auto& w = streams["west"];
+  const std::size_t n = std::min(e.size(), w.size());
+  ASSERT_GE(n, static_cast<std::size_t>(100.0 * until));
+  double closest = 1e9;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    ASSERT_EQ(e[i].header.stamp, w[i].header.stamp);
+    closest = std::min(closest, std::hypot(e[i].pose.pose.position.x - w[i].pose.pose.position.x,
+                                           e[i].pose.pose.position.y - w[i].pose.pose.position.y));
+  }
+  // They met (each counted a collision), and the base_links never came closer than the two
+  // chassis' reach less 5 cm: one interval (10 ms) at the closing speed plus the contact layer.
+  EXPECT_GE(collisions["east"], 1u);
+  EXPECT_GE(collisions["west"], 1u);
+  EXPECT_GT(closest, 2.0 * reach - 0.05);
+  EXPECT_LT(e[n - 1].pose.pose.position.x, w[n - 1].pose.pose.position.x);
+  // Without the other, each would have driven well past the meeting point (x = 0) by now.
+  EXPECT_LT(e[n - 1].pose.pose.position.x, 0.0);
+  EXPECT_GT(w[n - 1].pose.pose.position.x, 0.0);
+  std::printf("[ partitions ] head-on across partitions: closest base_links %.3f m (chassis reach 2 x %.3f m), "
+              "collisions %u / %u, final x %.2f / %.2f m\n",
+              closest, reach, collisions["east"], collisions["west"], e[n - 1].pose.pose.position.x,
+              w[n - 1].pose.pose.position.x);
 }
 
 /// pid of a running node, from its own XML-RPC getPid.

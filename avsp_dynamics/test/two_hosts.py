@@ -95,7 +95,8 @@ def main(argv):
         test = subprocess.run(
             inside(ns_a) + ["bash", "-c",
              ". %s && rosparam set /test_partitions/vehicles '[m113, mrzr, tracer_x, fed_alpha]' && "
-             "rosparam set /test_partitions/until %s && exec %s __name:=test_partitions "
+             "rosparam set /test_partitions/until %s && rosparam set /test_partitions/crossing fed_alpha && "
+             "rosparam set /test_partitions/crossed mrzr && exec %s __name:=test_partitions "
              "--gtest_filter=Partitions.* --gtest_output=xml:%s" % (setup, until, binary, result)],
             env={"HOME": os.environ.get("HOME", "/root"), "PATH": "/usr/bin:/bin:/usr/sbin:/sbin", "ROS_IP": ip_a,
                  "ROS_MASTER_URI": master, "ROS_HOME": "/tmp/avsp_two_hosts_test"},
