@@ -678,3 +678,115 @@ TEST(ReferenceScenario, CarriersRouteKeepsClearOfObjects)
   std::printf("closest object to the route: %.2f m (%s)\n", worst, worst_what.c_str());
   EXPECT_GE(worst, 2.5) << worst_what;
 }
+
+TEST(Scenario, PartitionsBalanceByCostOrFollowTheList)
+{
+  // base(): lead fed_alpha (4 wheels: cost 5), second mrzr (5), third tracer_x (5), ext m113
+  // (10 road wheels: 11). Two partitions: m113 alone, the three 4x4s together.
+  YAML::Node n = base();
+  n["partitions"] = 2;
+  as::Scenario s = as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false));
+  ASSERT_EQ(s.partitions.size(), 2u);
+  EXPECT_EQ(s.partitions[0].name, "p1");
+  EXPECT_EQ(s.partitions[0].vehicles, std::vector<std::string>{ "ext" });
+  EXPECT_EQ(s.partitions[1].vehicles, (std::vector<std::string>{ "lead", "second", "third" }));
+  // One partition is the plain single process.
+  n["partitions"] = 1;
+  EXPECT_TRUE(as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false)).partitions.empty());
+  // Explicit, with a machine.
+  n["partitions"] = YAML::Load("[{name: north, vehicles: [third, lead], machine: hostb}, "
+                               "{name: south, vehicles: [second, ext]}]");
+  n["machines"] = YAML::Load("{hostb: {address: 10.0.0.2, env_loader: /opt/avsp/env.sh, user: sim}}");
+  s = as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false));
+  ASSERT_EQ(s.partitions.size(), 2u);
+  EXPECT_EQ(s.partitions[0].vehicles, (std::vector<std::string>{ "lead", "third" }));  // scenario order
+  EXPECT_EQ(s.partitions[0].machine, "hostb");
+  EXPECT_EQ(s.partitions[1].machine, "");
+  ASSERT_EQ(s.machines.size(), 1u);
+  EXPECT_EQ(s.machines[0].address, "10.0.0.2");
+  EXPECT_EQ(s.machines[0].user, "sim");
+}
+
+TEST(Scenario, BalancedPartitionsAreGreedyByCost)
+{
+  // Costs 11, 5, 5, 5, 11, 5, 5, 5 over 3: the two 11s apart, then the 5s to the lightest.
+  const std::vector<std::string> names{ "a", "b", "c", "d", "e", "f", "g", "h" };
+  const std::vector<as::PartitionSpec> p =
+      as::balancedPartitions(names, { 11, 5, 5, 5, 11, 5, 5, 5 }, 3);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p[0].vehicles, (std::vector<std::string>{ "a", "f" }));       // 16
+  EXPECT_EQ(p[1].vehicles, (std::vector<std::string>{ "e", "g" }));       // 16
+  EXPECT_EQ(p[2].vehicles, (std::vector<std::string>{ "b", "c", "d", "h" }));  // 20
+  EXPECT_THROW(as::balancedPartitions(names, { 1, 2 }, 2), std::invalid_argument);
+  EXPECT_THROW(as::balancedPartitions(names, std::vector<double>(8, 1.0), 9), std::invalid_argument);
+  EXPECT_THROW(as::balancedPartitions(names, std::vector<double>(8, 1.0), 0), std::invalid_argument);
+}
+
+TEST(Scenario, BadPartitionsAreNamed)
+{
+  YAML::Node n = base();
+  n["partitions"] = 5;
+  EXPECT_ERROR(errorOf(n), "partitions: 5 must be in [1, 4]");
+  n["partitions"] = "two";
+  EXPECT_ERROR(errorOf(n), "partitions", "not an integer");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second]}, {name: b, vehicles: [second, third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[1].vehicles[0]", "'second' is already in partition 'a'");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second]}, {name: b, vehicles: [third]}]");
+  EXPECT_ERROR(errorOf(n), "partitions", "vehicle 'ext' is in no partition");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second, nobody]}, {name: b, vehicles: [third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[0].vehicles[2]", "unknown vehicle 'nobody'");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second]}, {name: a, vehicles: [third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[1].name", "duplicate partition 'a'");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second], machine: far}, {name: b, vehicles: [third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[0].machine", "unknown machine 'far'");
+  n["partitions"] = YAML::Load("[{name: a/b, vehicles: [lead, second]}, {name: b, vehicles: [third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[0].name", "not a valid name");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: []}, {name: b, vehicles: [lead, second, third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[0].vehicles", "non-empty list");
+  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second], speed: 3}, {name: b, vehicles: [third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[0].speed");
+  n.remove("partitions");
+  n["machines"] = YAML::Load("{hostb: {address: 10.0.0.2, env_loader: /opt/env.sh}}");
+  EXPECT_ERROR(errorOf(n), "machines", "no partitions use them");
+  n["partitions"] = 2;
+  n["machines"] = YAML::Load("{hostb: {address: 10.0.0.2}}");
+  EXPECT_ERROR(errorOf(n), "machines.hostb.env_loader: missing key");
+}
+
+TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
+{
+  YAML::Node n = base();
+  n["partitions"] = YAML::Load("[{name: north, vehicles: [third, lead], machine: hostb}, "
+                               "{name: south, vehicles: [second, ext]}]");
+  n["machines"] = YAML::Load("{hostb: {address: 10.0.0.2, env_loader: /opt/avsp/env.sh}}");
+  const as::Scenario s = as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false));
+  as::LaunchOptions o;
+  o.output_dir = "/tmp/results/base";
+  o.vehicles_dir = kConfig + "/vehicles";
+  o.real_time_factor = 1.0;
+  const std::string xml = as::generateLaunch(s, o);
+  EXPECT_NE(xml.find("<machine name=\"hostb\" address=\"10.0.0.2\" env-loader=\"/opt/avsp/env.sh\"/>"),
+            std::string::npos)
+      << xml;
+  EXPECT_EQ(xml.find("name=\"dynamics\""), std::string::npos);  // no single dynamics_node
+  EXPECT_NE(xml.find("type=\"lockstep_clock\" name=\"clock\" required=\"true\""), std::string::npos);
+  const YAML::Node parts = rosparamOf(xml, "clock", "partitions");
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].as<std::string>(), "north");
+  EXPECT_EQ(paramOf(xml, "clock", "real_time_factor"), "1.0");
+  EXPECT_EQ(paramOf(xml, "clock", "sync_interval"), "0.01");
+  EXPECT_NE(xml.find("name=\"dynamics_north\" required=\"true\" machine=\"hostb\""), std::string::npos);
+  const YAML::Node north = rosparamOf(xml, "dynamics_north", "vehicles");
+  ASSERT_EQ(north.size(), 2u);
+  EXPECT_EQ(north[0]["name"].as<std::string>(), "lead");
+  EXPECT_EQ(north[1]["name"].as<std::string>(), "third");
+  EXPECT_EQ(paramOf(xml, "dynamics_north", "partition"), "north");
+  EXPECT_EQ(rosparamOf(xml, "dynamics_north", "peers")[0].as<std::string>(), "south");
+  EXPECT_EQ(paramOf(xml, "dynamics_north", "publish_clock"), "false");
+  EXPECT_EQ(rosparamOf(xml, "dynamics_north", "lockstep_vehicles").size(), 2u);
+  EXPECT_EQ(rosparamOf(xml, "dynamics_south", "vehicles").size(), 2u);
+  EXPECT_EQ(rosparamOf(xml, "dynamics_south", "peers")[0].as<std::string>(), "north");
+  // ext is external: only "second" is in south's lockstep.
+  EXPECT_EQ(rosparamOf(xml, "dynamics_south", "lockstep_vehicles").size(), 1u);
+  EXPECT_EQ(paramOf(xml, "dynamics_south", "flat_soil"), "gravel");
+}

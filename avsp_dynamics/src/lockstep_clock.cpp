@@ -55,6 +55,7 @@ public:
     const std::vector<std::string> names = partitionNames(pnh);
     const double interval = boundedParam(pnh, "sync_interval", 0.01, 1e-4, 10.0);
     timeout_ = boundedParam(pnh, "timeout", 10.0, 0.01, 3600.0);
+    startup_timeout_ = boundedParam(pnh, "startup_timeout", 300.0, 0.01, 36000.0);
     real_time_factor_ = boundedParam(pnh, "real_time_factor", 0.0, 0.0, 1000.0);
     duration_ = boundedParam(pnh, "duration", 0.0, 0.0, 1e9);
     try
@@ -92,11 +93,15 @@ public:
           publish();
           resend = now;
         }
-        if ((now - progress).toSec() > timeout_)
+        // Time 0 waits for the partitions to load their worlds and for the run's start.
+        const bool starting = barrier_->time() == 0.0;
+        const double limit = starting ? startup_timeout_ : timeout_;
+        if ((now - progress).toSec() > limit)
         {
-          ROS_FATAL("lockstep_clock: partition(s) %s did not report t = %.3f s within ~timeout %g s (wall); "
+          ROS_FATAL("lockstep_clock: partition(s) %s did not report t = %.3f s within ~%s %g s (wall); "
                     "stopping the run",
-                    joined(barrier_->waitingFor()).c_str(), barrier_->time(), timeout_);
+                    joined(barrier_->waitingFor()).c_str(), barrier_->time(), starting ? "startup_timeout" : "timeout",
+                    limit);
           ros::shutdown();
           return false;
         }
@@ -161,7 +166,7 @@ private:
   }
 
   std::unique_ptr<avsp::dynamics::LockstepBarrier> barrier_;
-  double timeout_ = 10.0, real_time_factor_ = 0.0, duration_ = 0.0;
+  double timeout_ = 10.0, startup_timeout_ = 300.0, real_time_factor_ = 0.0, duration_ = 0.0;
   ros::Publisher clock_pub_;
   ros::Subscriber done_sub_;
 };

@@ -12,6 +12,10 @@ namespace scenario
 {
 namespace
 {
+/// s: lockstep_clock's interval with partitions (each partition's exchange period).
+constexpr double kSyncInterval = 0.01;
+/// s (wall): a partition or peer silent this long stops the run.
+constexpr double kPartitionTimeout = 30.0;
 /// s: the controllers' period (20 Hz), the dynamics' barrier and the radio's batches.
 constexpr double kLockstepPeriod = 0.05;
 
@@ -247,23 +251,57 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   w.params(terrain);
   w.close();
 
-  // One dynamics_node for every vehicle: the clock.
-  w.open("avsp_dynamics", "dynamics_node", "dynamics", true);
-  w.rosparam("vehicles", vehicles);
-  w.param("config_dir", options.vehicles_dir);
-  w.params(terrain);
-  w.paramInt("seed", static_cast<long long>(s.seed));
-  w.param("real_time_factor", options.real_time_factor);
-  w.param("clock_rate", options.clock_rate);
-  // The start gate sends every vehicle a brake command once all nodes are up: the physics
-  // starts then, so every node sees the run from sim time 0.
-  w.paramBool("wait_for_command", options.start_gate);
-  // Lockstep: every 50 ms of sim time the physics waits for each controlled vehicle's command
-  // for that instant (controller_node ~lockstep), and each follower for its radio's batch, so a
-  // run does not depend on how fast the processes are scheduled.
+  // The dynamics: one dynamics_node for every vehicle, which is the clock; or, with partitions,
+  // lockstep_clock and one dynamics_node per partition, each seeing the others' vehicles.
+  for (const MachineSpec& m : s.machines)
+    o << "  <machine name=\"" << xmlEscape(m.name) << "\" address=\"" << xmlEscape(m.address) << "\" env-loader=\""
+      << xmlEscape(m.env_loader) << "\"" << (m.user.empty() ? "" : " user=\"" + xmlEscape(m.user) + "\"") << "/>\n";
+  if (!s.partitions.empty())
   {
+    std::string list;
+    for (const PartitionSpec& p : s.partitions)
+      list += (list.empty() ? "" : ", ") + quoted(p.name);
+    w.open("avsp_dynamics", "lockstep_clock", "clock", true);
+    w.rosparam("partitions", "[" + list + "]");
+    w.param("sync_interval", kSyncInterval);
+    w.param("real_time_factor", options.real_time_factor);
+    w.param("timeout", kPartitionTimeout);
+    w.close();
+  }
+  auto dynamics = [&](const std::string& node_name, const std::vector<std::string>& members, const PartitionSpec* p) {
+    Scenario part;  // the members' specs, for the vehicle list
+    for (const std::string& name : members)
+      part.vehicles.push_back(s.vehicles[static_cast<std::size_t>(s.vehicleIndex(name))]);
+    w.open("avsp_dynamics", "dynamics_node", node_name, true,
+           p && !p->machine.empty() ? " machine=\"" + xmlEscape(p->machine) + "\"" : std::string());
+    w.rosparam("vehicles", vehicleListYaml(part));
+    w.param("config_dir", options.vehicles_dir);
+    w.params(terrain);
+    w.paramInt("seed", static_cast<long long>(s.seed));
+    if (p)
+    {
+      w.param("partition", p->name);
+      std::string peers;
+      for (const PartitionSpec& q : s.partitions)
+        if (q.name != p->name)
+          peers += (peers.empty() ? "" : ", ") + quoted(q.name);
+      w.rosparam("peers", "[" + peers + "]");
+      w.paramBool("publish_clock", false);
+      w.param("lockstep_timeout", kPartitionTimeout);
+    }
+    else
+    {
+      w.param("real_time_factor", options.real_time_factor);
+      w.param("clock_rate", options.clock_rate);
+    }
+    // The start gate sends every vehicle a brake command once all nodes are up: the physics
+    // starts then, so every node sees the run from sim time 0.
+    w.paramBool("wait_for_command", options.start_gate);
+    // Lockstep: every 50 ms of sim time the physics waits for each controlled vehicle's command
+    // for that instant (controller_node ~lockstep), and each follower for its radio's batch, so a
+    // run does not depend on how fast the processes are scheduled.
     std::string names;
-    for (const VehicleSpec& v : s.vehicles)
+    for (const VehicleSpec& v : part.vehicles)
       if (v.controller.type != ControllerType::kExternal)
         names += (names.empty() ? "" : ", ") + quoted(v.name);
     if (!names.empty())
@@ -271,10 +309,20 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
       w.rosparam("lockstep_vehicles", "[" + names + "]");
       w.param("lockstep_period", kLockstepPeriod);
     }
+    if (has_agents)
+      w.rosparam("agents", agents);
+    w.close();
+  };
+  if (s.partitions.empty())
+  {
+    std::vector<std::string> all;
+    for (const VehicleSpec& v : s.vehicles)
+      all.push_back(v.name);
+    dynamics("dynamics", all, nullptr);
   }
-  if (has_agents)
-    w.rosparam("agents", agents);
-  w.close();
+  else
+    for (const PartitionSpec& p : s.partitions)
+      dynamics("dynamics_" + p.name, p.vehicles, &p);
 
   // One sensors_node for every vehicle.
   w.open("avsp_sensors", "sensors_node", "sensors");

@@ -12,6 +12,7 @@
 
 #include <avsp/environment/astronomy.hpp>
 #include <avsp/environment/weather.hpp>
+#include <avsp_dynamics/vehicle_model.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source.hpp>
 
@@ -917,6 +918,116 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
       s.agents = readAgents(ctx, agents, agent_names);
     }
 
+    // Machines, then partitions naming them.
+    const YAML::Node machines = top.get("machines");
+    if (present(machines))
+    {
+      MapReader mr(ctx, machines, "machines");
+      for (const auto& kv : machines)
+      {
+        MachineSpec m;
+        m.name = kv.first.Scalar();
+        const std::string mk = mr.key(m.name);
+        if (!isRosName(m.name))
+          ctx.fail(mk, "'" + m.name + "' is not a valid name (a letter, then letters, digits, _)");
+        MapReader e(ctx, mr.get(m.name), mk);
+        m.address = toString(ctx, e.required("address"), e.key("address"));
+        m.env_loader = toString(ctx, e.required("env_loader"), e.key("env_loader"));
+        const YAML::Node user = e.get("user");
+        if (present(user))
+          m.user = toString(ctx, user, e.key("user"));
+        e.finish();
+        s.machines.push_back(m);
+      }
+      mr.finish();
+    }
+    const YAML::Node partitions = top.get("partitions");
+    if (present(partitions))
+    {
+      if (partitions.IsScalar())
+      {
+        const std::size_t n = static_cast<std::size_t>(
+            toInt(ctx, partitions, "partitions", 1, static_cast<long long>(s.vehicles.size())));
+        std::vector<std::string> names;
+        std::vector<double> costs;
+        for (const VehicleSpec& v : s.vehicles)
+        {
+          names.push_back(v.name);
+          double cost = 1.0;
+          try
+          {
+            const dynamics::VehicleModel m =
+                dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+            cost += static_cast<double>(m.wheels.size());
+            for (const dynamics::TrackSpec& t : m.tracks)
+              cost += static_cast<double>(t.road_wheels.size());
+          }
+          catch (const std::exception& e)
+          {
+            ctx.fail("partitions", "model '" + v.model + "' of '" + v.name + "': " + e.what());
+          }
+          costs.push_back(cost);
+        }
+        if (n > 1)
+          s.partitions = balancedPartitions(names, costs, n);
+      }
+      else
+      {
+        if (!partitions.IsSequence() || partitions.size() == 0)
+          ctx.fail("partitions", "must be a number of partitions or a list of {name, vehicles, machine}");
+        std::map<std::string, std::string> placed;  // vehicle -> partition
+        std::set<std::string> partition_names;
+        for (std::size_t k = 0; k < partitions.size(); ++k)
+        {
+          const std::string pk = indexKey("partitions", k);
+          MapReader pr(ctx, partitions[k], pk);
+          PartitionSpec p;
+          p.name = toString(ctx, pr.required("name"), pr.key("name"));
+          if (!isRosName(p.name))
+            ctx.fail(pr.key("name"), "'" + p.name + "' is not a valid name (a letter, then letters, digits, _)");
+          if (!partition_names.insert(p.name).second)
+            ctx.fail(pr.key("name"), "duplicate partition '" + p.name + "'");
+          const YAML::Node pv = pr.required("vehicles");
+          if (!pv.IsSequence() || pv.size() == 0)
+            ctx.fail(pr.key("vehicles"), "must be a non-empty list of vehicle names");
+          std::set<std::string> mine;
+          for (std::size_t j = 0; j < pv.size(); ++j)
+          {
+            const std::string vk = indexKey(pr.key("vehicles"), j);
+            const std::string name = toString(ctx, pv[j], vk);
+            if (s.vehicleIndex(name) < 0)
+              ctx.fail(vk, "unknown vehicle '" + name + "'");
+            if (placed.count(name))
+              ctx.fail(vk, "'" + name + "' is already in partition '" + placed[name] + "'");
+            placed[name] = p.name;
+            mine.insert(name);
+          }
+          for (const VehicleSpec& v : s.vehicles)  // scenario order
+            if (mine.count(v.name))
+              p.vehicles.push_back(v.name);
+          const YAML::Node machine = pr.get("machine");
+          if (present(machine))
+          {
+            p.machine = toString(ctx, machine, pr.key("machine"));
+            if (std::none_of(s.machines.begin(), s.machines.end(),
+                             [&](const MachineSpec& m) { return m.name == p.machine; }))
+              ctx.fail(pr.key("machine"), "unknown machine '" + p.machine + "' (not in machines)");
+          }
+          pr.finish();
+          s.partitions.push_back(p);
+        }
+        for (const VehicleSpec& v : s.vehicles)
+          if (!placed.count(v.name))
+            ctx.fail("partitions", "vehicle '" + v.name + "' is in no partition");
+        if (s.partitions.size() == 1 && !s.partitions[0].machine.empty())
+          ctx.fail("partitions", "a single partition cannot run on a machine (use two or more)");
+        if (s.partitions.size() == 1)
+          s.partitions.clear();  // one partition: the plain single dynamics_node
+      }
+    }
+    else if (!s.machines.empty())
+      ctx.fail("machines", "given but no partitions use them");
+
     s.seed = static_cast<std::uint64_t>(toInt(ctx, top.required("seed"), "seed", 0, 2147483647));
     s.duration = requiredDouble(ctx, top, "duration", 1e-3, 1e7, "s");
     top.finish();
@@ -965,6 +1076,35 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
     // Anything yaml-cpp throws past the checks above (it should not) still names the file.
     throw ScenarioError(path + ": line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
+}
+
+std::vector<PartitionSpec> balancedPartitions(const std::vector<std::string>& names, const std::vector<double>& costs,
+                                              std::size_t count)
+{
+  if (names.size() != costs.size())
+    throw std::invalid_argument("balancedPartitions: " + std::to_string(names.size()) + " names but " +
+                                std::to_string(costs.size()) + " costs");
+  if (count == 0 || count > names.size())
+    throw std::invalid_argument("balancedPartitions: " + std::to_string(count) + " partitions for " +
+                                std::to_string(names.size()) + " vehicles");
+  std::vector<std::size_t> order(names.size());
+  for (std::size_t i = 0; i < order.size(); ++i)
+    order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return costs[a] > costs[b]; });
+  std::vector<double> load(count, 0.0);
+  std::vector<std::size_t> home(names.size());
+  for (std::size_t i : order)
+  {
+    const std::size_t p = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[p] += costs[i];
+    home[i] = p;
+  }
+  std::vector<PartitionSpec> out(count);
+  for (std::size_t p = 0; p < count; ++p)
+    out[p].name = "p" + std::to_string(p + 1);
+  for (std::size_t i = 0; i < names.size(); ++i)
+    out[home[i]].vehicles.push_back(names[i]);
+  return out;
 }
 
 }  // namespace scenario

@@ -118,6 +118,31 @@ struct V2VSpec
   bool line_of_sight = false;
 };
 
+/// A dynamics partition: one dynamics_node process with these vehicles (issue 7).
+struct PartitionSpec
+{
+  std::string name;                   ///< dynamics_node ~partition
+  std::vector<std::string> vehicles;  ///< in scenario order
+  std::string machine;                ///< roslaunch <machine> it runs on ("" = the launching host)
+};
+
+/// A roslaunch <machine> a partition can run on.
+struct MachineSpec
+{
+  std::string name, address, env_loader, user;  ///< user "" = the launching user
+};
+
+/**
+ * @brief Splits vehicles over `count` partitions p1..pN, balancing their cost: the most
+ *        expensive first, each to the partition with the least cost so far (ties: the lower
+ *        number). A vehicle's cost is 1 + its wheels + its road wheels (the ODE bodies with
+ *        soil contacts, what a step costs). Vehicles keep the scenario's order within a
+ *        partition. Deterministic.
+ * @param costs per vehicle, in scenario order
+ */
+std::vector<PartitionSpec> balancedPartitions(const std::vector<std::string>& names, const std::vector<double>& costs,
+                                              std::size_t count);
+
 struct Scenario
 {
   std::string file;   ///< as given to loadScenario()
@@ -133,6 +158,10 @@ struct Scenario
   FormationSpec formation;
   V2VSpec v2v;
   YAML::Node agents;                ///< agents_node's ~agents list (validated); may be null
+  /// Dynamics partitions (`partitions:` N or an explicit list); empty = one dynamics_node
+  /// that is its own clock. Each vehicle is in exactly one.
+  std::vector<PartitionSpec> partitions;
+  std::vector<MachineSpec> machines;  ///< `machines:` (only those partitions name)
   std::uint64_t seed = 0;
   double duration = 0.0;            ///< s of sim time
 
