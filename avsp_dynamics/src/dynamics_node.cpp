@@ -34,6 +34,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -305,6 +307,9 @@ public:
              real_time_factor_);
   }
 
+  /// A fatal error (a silent lockstep vehicle or peer, a bad exchange) stopped the run.
+  bool failed() const { return failed_; }
+
   /// Runs until shutdown; false when a lockstep vehicle did not answer in time.
   bool run()
   {
@@ -403,6 +408,31 @@ private:
     }
     reportDone(reported);
     const double h = world_->options().step;
+    // Wall time per interval spent stepping (with the controllers' barriers) and waiting for
+    // the clock and the peers: the lockstep's cost, logged at the end.
+    double stepping = 0.0, waiting = 0.0, exchanging = 0.0;
+    std::uint64_t intervals = 0;
+    ros::WallTime mark = ros::WallTime::now();
+    const auto log_times = [&] {
+      if (intervals == 0)
+        return;
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "dynamics_node: partition '%s': %llu intervals to t = %.3f s; per interval %.1f us stepping, "
+                    "%.1f us waiting for the clock and peers, %.1f us exchanging with them",
+                    partition_.c_str(), static_cast<unsigned long long>(intervals), reported,
+                    1e6 * stepping / intervals, 1e6 * waiting / intervals, 1e6 * exchanging / intervals);
+      if (ros::ok())
+        ROS_INFO("%s", line);
+      else
+        std::printf("%s\n", line);  // rosconsole is shut down with the node
+      std::fflush(stdout);
+    };
+    struct AtExit
+    {
+      std::function<void()> f;
+      ~AtExit() { f(); }
+    } at_exit{ log_times };
     while (ros::ok())
     {
       queue->callAvailable(ros::WallDuration(0.001));
@@ -414,8 +444,11 @@ private:
         continue;
       }
       const double target = *tick_;
-      if (!peers_.empty() && !applyPeerExchanges(reported))
+      const double exchanged_before = exchanging;
+      if (!peers_.empty() && !applyPeerExchanges(reported, exchanging))
         return false;
+      const ros::WallTime begin = ros::WallTime::now();
+      waiting += (begin - mark).toSec() - (exchanging - exchanged_before);
       while (ros::ok() && world_->time() + 0.5 * h < target)
       {
         step();
@@ -423,11 +456,18 @@ private:
           return false;
       }
       reported = target;
+      const ros::WallTime stepped = ros::WallTime::now();
+      stepping += (stepped - begin).toSec();
       if (!peers_.empty())
         publishExchange(reported);
       reportDone(reported);
+      mark = ros::WallTime::now();
+      exchanging += (mark - stepped).toSec();
+      ++intervals;
+      if (intervals % 1000 == 0)
+        log_times();
     }
-    return !exchange_error_;
+    return !failed_;
   }
 
   void onTick(const rosgraph_msgs::Clock::ConstPtr& c)
@@ -501,6 +541,7 @@ private:
                   partition_.c_str(), exchange_pub_.getNumSubscribers(), peers_.size(), partition_.c_str(),
                   lockstep_timeout_, missing.empty() ? "?" : missing.c_str());
         ros::shutdown();
+        failed_ = true;
         return false;
       }
     }
@@ -522,7 +563,7 @@ private:
     {
       // The lockstep cannot go on without it, nor guess it: the run stops, naming the topic.
       ROS_FATAL("dynamics_node: bad exchange on %s: %s; stopping the run", peer.topic.c_str(), why.c_str());
-      exchange_error_ = true;
+      failed_ = true;
       ros::shutdown();
       return;
     }
@@ -531,7 +572,8 @@ private:
 
   /// Waits for every peer's exchange stamped `t` and applies them (peers in name order):
   /// proxies placed (created from the first), soil changes copied, objects toppled.
-  bool applyPeerExchanges(double t)
+  /// `applying` (s, wall) grows by the time spent applying them.
+  bool applyPeerExchanges(double t, double& applying)
   {
     const std::uint64_t key = ros::Time(t).toNSec();
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
@@ -553,11 +595,19 @@ private:
                   "(wall); stopping the run",
                   partition_.c_str(), t, silent.c_str(), lockstep_timeout_);
         ros::shutdown();
+        failed_ = true;
         return false;
       }
     }
-    if (!ros::ok() || exchange_error_)
+    if (!ros::ok() || failed_)
       return false;
+    const ros::WallTime apply_start = ros::WallTime::now();
+    struct Account
+    {
+      const ros::WallTime& start;
+      double& sum;
+      ~Account() { sum += (ros::WallTime::now() - start).toSec(); }
+    } account{ apply_start, applying };
     const at::ElevationGrid& g = terrain_->base();
     for (auto& [name, peer] : peers_)
     {
@@ -602,6 +652,7 @@ private:
         ROS_FATAL("dynamics_node: bad exchange on %s for t = %.3f s: %s; stopping the run", peer.topic.c_str(), t,
                   e.what());
         ros::shutdown();
+        failed_ = true;
         return false;
       }
       // Older intervals are done with too (a repeated publication can leave one behind).
@@ -785,6 +836,7 @@ private:
                   "stopping the run",
                   missing, world_->time(), silent.c_str(), lockstep_timeout_);
         ros::shutdown();
+        failed_ = true;
         return false;
       }
     }
@@ -1144,7 +1196,7 @@ private:
   std::map<std::string, std::size_t> proxies_;       ///< peers' vehicles: World proxy index by name
   std::vector<std::uint32_t> exchange_standing_;     ///< toppleable objects not yet sent as toppled
   ros::Publisher exchange_pub_;
-  bool exchange_error_ = false;
+  bool failed_ = false;  ///< a fatal error stopped the run (exit 1; a plain shutdown exits 0)
   std::string config_dir_;
   double lockstep_timeout_ = 30.0;    ///< s, wall
   std::optional<ros::Time> follow_start_;  ///< external clock when following began
@@ -1168,5 +1220,6 @@ int main(int argc, char** argv)
     ROS_FATAL("dynamics_node: %s", e.what());
     return 1;
   }
-  return node->run() ? 0 : 1;
+  node->run();
+  return node->failed() ? 1 : 0;
 }

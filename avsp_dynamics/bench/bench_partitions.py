@@ -1,0 +1,304 @@
+#!/usr/bin/python3
+"""Partitions benchmark (issue 7). Prints two tables:
+
+1. Real-time factor vs number of vehicles (default 4, 8, 16, 32, 64) with 1 and 2 dynamics
+   partitions behind lockstep_clock, on the default course (600 m x 400 m, 0.1 m cells),
+   deformable soil on, no sensors, no controllers: the vehicles (m113, mrzr, tracer_x, fed_alpha
+   in turn) drive straight east in lanes 5.5 m apart from x = 400 m at throttle 0.4 (a latched
+   command; ~command_timeout set long). Obstacles are off so that no start pose needs a
+   clearance check. With 2 partitions the vehicles are split by cost as scenario `partitions: 2`
+   does, and the partitions are peers (proxies and soil exchange on). The real-time factor is
+   sim time / wall time between /clock = 1 s and the end (`--duration`, default 10 s): start-up
+   (each partition builds the course) is not counted.
+2. Lockstep synchronisation overhead: two partitions with one fed_alpha each on flat gravel;
+   per 10 ms interval the wall time a partition spends waiting for the clock and its peer (from
+   its own log). The faster partition's wait also holds the load difference, so the figure is
+   the lesser of the two waits: the round trip done -> clock -> tick plus the exchange. On the
+   loopback, and (`--veth`, needs root) with partition p2 in a second network namespace joined
+   by a veth pair, as in test/two_hosts.py.
+
+usage: . build/avsp/devel/setup.sh && python3 avsp_dynamics/bench/bench_partitions.py
+       [--vehicles 4,8,16,32,64] [--duration 10] [--veth] [--sync-only] [--rtf-only]
+"""
+import argparse
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+MODELS = ["m113", "mrzr", "tracer_x", "fed_alpha"]
+COST = {"m113": 11.0, "mrzr": 5.0, "tracer_x": 5.0, "fed_alpha": 5.0}  # 1 + wheels + road wheels
+
+
+def balanced(vehicles, count):
+    """Greedy by cost, as avsp::scenario::balancedPartitions."""
+    order = sorted(range(len(vehicles)), key=lambda i: -COST[vehicles[i][1]])
+    load = [0.0] * count
+    home = [0] * len(vehicles)
+    for i in order:
+        p = load.index(min(load))
+        load[p] += COST[vehicles[i][1]]
+        home[i] = p
+    return [[vehicles[i] for i in range(len(vehicles)) if home[i] == p] for p in range(count)]
+
+
+def node_xml(name, vehicles, partition, peers, terrain, machine_attr=""):
+    vlist = ", ".join("{name: %s, model: %s, x: %.1f, y: %.1f, yaw: 0.0}" % (n, m, x, y)
+                      for n, m, x, y in vehicles)
+    peers_xml = '    <rosparam param="peers">[%s]</rosparam>\n' % ", ".join(peers) if peers else ""
+    return ('  <node pkg="avsp_dynamics" type="dynamics_node" name="%s" required="true" output="screen"%s>\n'
+            '    <rosparam param="vehicles">[%s]</rosparam>\n'
+            '    <param name="partition" value="%s"/>\n%s'
+            '    <param name="publish_clock" value="false"/>\n'
+            '    <param name="wait_for_command" value="true"/>\n'
+            '    <param name="command_timeout" value="3600.0"/>\n'
+            '    <param name="obstacles" value="false"/>\n'
+            '    <param name="config_dir" value="$(find avsp)/config/vehicles"/>\n'
+            '    <param name="soils_file" value="$(find avsp)/config/soils.yaml"/>\n%s'
+            '  </node>\n' % (name, machine_attr, vlist, partition, peers_xml, terrain))
+
+
+def launch_xml(parts, duration, terrain, host_split=False):
+    names = ["p%d" % (k + 1) for k in range(len(parts))]
+    out = ['<?xml version="1.0"?>\n<launch>\n', '  <arg name="host_a" default="true"/>\n',
+           '  <arg name="host_b" default="true"/>\n', '  <param name="/use_sim_time" value="true"/>\n']
+    a = ['  <node pkg="avsp_dynamics" type="lockstep_clock" name="clock" required="true" output="screen">\n'
+         '    <rosparam param="partitions">[%s]</rosparam>\n'
+         '    <param name="duration" value="%g"/>\n    <param name="timeout" value="60.0"/>\n'
+         '  </node>\n' % (", ".join(names), duration)]
+    b = []
+    for k, vehicles in enumerate(parts):
+        peers = [n for n in names if n != names[k]]
+        xml = node_xml("dynamics_" + names[k], vehicles, names[k], peers, terrain)
+        (b if host_split and k == 1 else a).append(xml)
+    if host_split:
+        out += ['  <group if="$(arg host_a)">\n'] + a + ['  </group>\n', '  <group if="$(arg host_b)">\n'] + b + \
+               ['  </group>\n']
+    else:
+        out += a + b
+    out.append('</launch>\n')
+    return "".join(out)
+
+
+# The measuring side: a rospy node that latches a command to every vehicle and times /clock.
+PROBE = r'''
+import sys, time, rospy
+from avsp_msgs.msg import DriveCommand
+from rosgraph_msgs.msg import Clock
+names = sys.argv[1].split(",")
+start_at, end_at = float(sys.argv[2]), float(sys.argv[3])
+rospy.init_node("bench_probe", disable_signals=True)
+pubs = [rospy.Publisher("/%s/cmd_drive" % n, DriveCommand, queue_size=1, latch=True) for n in names]
+for p in pubs:
+    c = DriveCommand(); c.throttle = 0.4; p.publish(c)
+marks = {}
+def on_clock(m):
+    t = m.clock.to_sec()
+    if "a" not in marks and t >= start_at: marks["a"] = (time.time(), t)
+    if "b" not in marks and t >= end_at - 1e-6: marks["b"] = (time.time(), t)
+rospy.Subscriber("/clock", Clock, on_clock, queue_size=1000)
+deadline = time.time() + float(sys.argv[4])
+while time.time() < deadline and "b" not in marks:
+    time.sleep(0.01)
+if "a" in marks and "b" in marks:
+    print("RTF %.6f" % ((marks["b"][1] - marks["a"][1]) / (marks["b"][0] - marks["a"][0])))
+else:
+    print("RTF nan")
+'''
+
+WAIT_RE = re.compile(r"partition '(\w+)': (\d+) intervals to t = ([\d.]+) s; per interval ([\d.]+) us stepping, "
+                     r"([\d.]+) us waiting for the clock and peers, ([\d.]+) us exchanging")
+
+
+def env_for(setup, port, ip="127.0.0.1"):
+    return {"HOME": os.environ.get("HOME", "/root"), "PATH": "/usr/bin:/bin:/usr/sbin:/sbin",
+            "ROS_IP": ip, "ROS_MASTER_URI": "http://%s:%d" % (ip, port), "ROS_HOME": "/tmp/avsp_bench_ros",
+            "ROSCONSOLE_STDOUT_LINE_BUFFERED": "1"}
+
+
+def stop(p):
+    if p.poll() is None:
+        try:
+            os.killpg(p.pid, signal.SIGINT)
+            p.wait(timeout=20)
+        except Exception:  # noqa: BLE001
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+
+
+def run_layout(setup, parts, duration, terrain, port, timeout):
+    """One run on this host: (real-time factor, {partition: (stepping us, waiting us)})."""
+    with tempfile.NamedTemporaryFile("w", suffix=".launch", delete=False) as f:
+        f.write(launch_xml(parts, duration, terrain))
+        path = f.name
+    log = tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
+    env = env_for(setup, port)
+    launch = subprocess.Popen(["bash", "-c", ". %s && exec roslaunch -p %d %s" % (setup, port, path)], env=env,
+                              stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    names = ",".join(v[0] for p in parts for v in p)
+    try:
+        probe = subprocess.run(["bash", "-c", ". %s && exec python3 -c '%s' %s 1.0 %g %g" %
+                                (setup, PROBE.replace("'", "'\\''"), names, duration, timeout)],
+                               env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True,
+                               timeout=timeout + 60)
+        launch.wait(timeout=60)
+    finally:
+        stop(launch)
+    log.seek(0)
+    text = log.read()
+    log.close()
+    os.remove(log.name)
+    os.remove(path)
+    m = re.search(r"RTF ([\w.]+)", probe.stdout)
+    rtf = float(m.group(1)) if m else float("nan")
+    waits = {}
+    for w in WAIT_RE.finditer(text):
+        waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)))
+    if rtf != rtf or (len(parts) > 1 and len(waits) < len(parts)):
+        sys.stderr.write("run failed:\n%s\n%s\n" % (probe.stdout[-2000:], text[-4000:]))
+    return rtf, waits
+
+
+COURSE = ('    <param name="course_cell_size" value="0.1"/>\n')
+FLAT = ('    <param name="flat_soil" value="gravel"/>\n    <param name="flat_size" value="40.0"/>\n')
+
+
+def rtf_table(setup, counts, duration):
+    print("Real-time factor vs vehicles, default course, deformable soil on, sensors off "
+          "(%g s of sim time from t = 1 s)" % duration)
+    print("| vehicles | 1 partition | 2 partitions | speed-up | 2 partitions: stepping/waiting/exchange, us per interval |")
+    print("|---:|---:|---:|---:|---|")
+    sys.stdout.flush()
+    port = 11600
+    for n in counts:
+        vehicles = [("v%02d" % k, MODELS[k % 4], 400.0, 20.0 + 5.5 * k) for k in range(n)]
+        port += 1
+        one, _ = run_layout(setup, [vehicles], duration, COURSE, port, 600.0)
+        port += 1
+        two, waits = run_layout(setup, balanced(vehicles, 2), duration, COURSE, port, 600.0)
+        detail = ", ".join("%s %.0f/%.0f/%.0f" % (p, *waits[p]) for p in sorted(waits))
+        print("| %d | %.2fx | %.2fx | %.2f | %s |" % (n, one, two, two / one if one > 0 else float("nan"), detail))
+        sys.stdout.flush()
+
+
+def sync_loopback(setup, duration):
+    parts = [[("a", "fed_alpha", -10.0, -5.0)], [("b", "fed_alpha", -10.0, 5.0)]]
+    rtf, waits = run_layout(setup, parts, duration, FLAT, 11690, 300.0)
+    return rtf, waits
+
+
+def sync_veth(setup, duration):
+    """p2 in a second network namespace joined by a veth pair (root)."""
+    if os.geteuid() != 0:
+        return None, "needs root"
+    k = os.getpid() % 200 + 20
+    ns_a, ns_b = "avsp_ba%d" % os.getpid(), "avsp_bb%d" % os.getpid()
+    veth_a, veth_b = "avba%d" % (os.getpid() % 100000), "avbb%d" % (os.getpid() % 100000)
+    ip_a, ip_b = "10.232.%d.1" % k, "10.232.%d.2" % k
+    port = 11700 + k
+
+    def inside(ns):
+        return ["nsenter", "--net=/run/netns/" + ns]
+    procs = []
+    path = None
+    try:
+        for cmd in (["ip", "netns", "add", ns_a], ["ip", "netns", "add", ns_b],
+                    ["ip", "link", "add", veth_a, "type", "veth", "peer", "name", veth_b],
+                    ["ip", "link", "set", veth_a, "netns", ns_a], ["ip", "link", "set", veth_b, "netns", ns_b],
+                    inside(ns_a) + ["ip", "addr", "add", ip_a + "/24", "dev", veth_a],
+                    inside(ns_b) + ["ip", "addr", "add", ip_b + "/24", "dev", veth_b],
+                    inside(ns_a) + ["ip", "link", "set", veth_a, "up"],
+                    inside(ns_b) + ["ip", "link", "set", veth_b, "up"],
+                    inside(ns_a) + ["ip", "link", "set", "lo", "up"],
+                    inside(ns_b) + ["ip", "link", "set", "lo", "up"]):
+            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        parts = [[("a", "fed_alpha", -10.0, -5.0)], [("b", "fed_alpha", -10.0, 5.0)]]
+        with tempfile.NamedTemporaryFile("w", suffix=".launch", delete=False) as f:
+            f.write(launch_xml(parts, duration, FLAT, host_split=True))
+            path = f.name
+        master = "http://%s:%d" % (ip_a, port)
+        logs = []
+
+        def on_host(ns, ip, script):
+            env = env_for(setup, port, ip)
+            env["ROS_MASTER_URI"] = master
+            log = tempfile.NamedTemporaryFile("w+", suffix=".log", delete=False)
+            logs.append(log)
+            p = subprocess.Popen(inside(ns) + ["bash", "-c", ". %s && %s" % (setup, script)], env=env, stdout=log,
+                                 stderr=subprocess.STDOUT, start_new_session=True)
+            procs.append(p)
+            return p
+        on_host(ns_a, ip_a, "exec roscore -p %d" % port)
+        time.sleep(2.0)
+        on_host(ns_a, ip_a, "exec roslaunch --wait %s host_a:=true host_b:=false" % path)
+        on_host(ns_b, ip_b, "exec roslaunch --wait %s host_a:=false host_b:=true" % path)
+        env = env_for(setup, port, ip_a)
+        env["ROS_MASTER_URI"] = master
+        probe = subprocess.run(inside(ns_a) + ["bash", "-c", ". %s && exec python3 -c '%s' a,b 1.0 %g 300" %
+                                               (setup, PROBE.replace("'", "'\\''"), duration)],
+                               env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True,
+                               timeout=400)
+        time.sleep(1.0)
+        for p in reversed(procs):
+            stop(p)
+        waits = {}
+        for log in logs:
+            log.seek(0)
+            for w in WAIT_RE.finditer(log.read()):
+                waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)))
+        m = re.search(r"RTF ([\w.]+)", probe.stdout)
+        return (float(m.group(1)) if m else float("nan")), waits
+    finally:
+        for p in reversed(procs):
+            stop(p)
+        if path:
+            os.remove(path)
+        for ns in (ns_a, ns_b):
+            subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def print_sync(name, result):
+    rtf, waits = result
+    if rtf is None:
+        print("| %s | (%s) | | |" % (name, waits))
+        return
+    if len(waits) < 2:
+        print("| %s | (no timing in the partitions' logs) | | |" % name)
+        return
+    wait = min(w for _, w, _ in waits.values())
+    step = max(s for s, _, _ in waits.values())
+    exch = max(e for _, _, e in waits.values())
+    print("| %s | %.0f | %.0f | %.0f | %.2fx |" % (name, wait, exch, step, rtf))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--vehicles", default="4,8,16,32,64")
+    ap.add_argument("--duration", type=float, default=10.0)
+    ap.add_argument("--veth", action="store_true")
+    ap.add_argument("--sync-only", action="store_true")
+    ap.add_argument("--rtf-only", action="store_true")
+    args = ap.parse_args()
+    devel = os.environ.get("CMAKE_PREFIX_PATH", "").split(":")[0]
+    setup = os.path.join(devel, "setup.sh")
+    if not os.path.exists(setup):
+        sys.stderr.write("source the workspace first (. build/avsp/devel/setup.sh)\n")
+        return 2
+    if not args.sync_only:
+        rtf_table(setup, [int(v) for v in args.vehicles.split(",")], args.duration)
+    if not args.rtf_only:
+        print("\nLockstep synchronisation, 2 partitions x 1 fed_alpha on flat gravel, 10 ms intervals (%g s)"
+              % args.duration)
+        print("| link | sync wait, us/interval | exchange, us/interval | stepping, us/interval | real-time factor |")
+        print("|---|---:|---:|---:|---:|")
+        print_sync("loopback", sync_loopback(setup, args.duration))
+        if args.veth:
+            print_sync("veth (two network namespaces)", sync_veth(setup, args.duration))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
