@@ -423,6 +423,28 @@ TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_publish_clock:=true _lockstep_period:=0.015", lockstep("car"));
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~lockstep_period"), std::string::npos) << out;
+
+  // Peers: only for a partition, never itself, each once.
+  const auto peers = [](std::vector<std::string> names) {
+    return [names](ros::NodeHandle& nh, const std::string& ns) {
+      XmlRpc::XmlRpcValue list;
+      for (std::size_t k = 0; k < names.size(); ++k)
+        list[static_cast<int>(k)] = names[k];
+      nh.setParam(ns + "/peers", list);
+    };
+  };
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "", peers({ "p2" }));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~peers needs a ~partition"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=p1", peers({ "p2", "p1" }));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~peers[1] 'p1' is this partition"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=p1", peers({ "p2", "p2" }));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~peers[1] 'p2' is listed twice"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=p1", peers({ "a/b" }));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~peers[0] 'a/b' must be a plain name"), std::string::npos) << out;
 }
 
 // A lockstep vehicle whose controller never answers stops the run after ~lockstep_timeout with
