@@ -19,6 +19,7 @@
 
 usage: . build/avsp/devel/setup.sh && python3 avsp_dynamics/bench/bench_partitions.py
        [--vehicles 4,8,16,32,64] [--duration 10] [--veth] [--sync-only] [--rtf-only]
+(AVSP_BENCH_KEEP_LOGS=1 keeps each run's roslaunch log and prints its path.)
 """
 import argparse
 import os
@@ -150,7 +151,10 @@ def run_layout(setup, parts, duration, terrain, port, timeout):
     log.seek(0)
     text = log.read()
     log.close()
-    os.remove(log.name)
+    if os.environ.get("AVSP_BENCH_KEEP_LOGS"):
+        print("(log kept: %s)" % log.name)
+    else:
+        os.remove(log.name)
     os.remove(path)
     m = re.search(r"RTF ([\w.]+)", probe.stdout)
     rtf = float(m.group(1)) if m else float("nan")

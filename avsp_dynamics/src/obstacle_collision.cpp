@@ -96,6 +96,7 @@ void ObstacleCollision::clearAgents()
     dGeomDestroy(g);
   agent_geoms_.clear();
   agent_geom_bodies_.clear();
+  agent_ranges_.clear();
   if (agent_space_)
     dSpaceDestroy(agent_space_);
   agent_space_ = nullptr;
@@ -108,8 +109,13 @@ void ObstacleCollision::setAgents(const std::vector<AgentCollisionBody>& agents)
     return;
   agent_space_ = dSimpleSpaceCreate(nullptr);
   for (const AgentCollisionBody& a : agents)
+  {
+    AgentRange range;
+    range.begin = agent_geoms_.size();
+    range.body = a.body;
     for (const CollisionBox& b : a.boxes)
     {
+      range.reach = std::max(range.reach, b.pose.translation().norm() + 0.5 * b.size.norm());
       const dGeomID g = dCreateBox(agent_space_, b.size.x(), b.size.y(), b.size.z());
       dGeomSetBody(g, a.body);
       dGeomSetOffsetPosition(g, b.pose.translation().x(), b.pose.translation().y(), b.pose.translation().z());
@@ -118,6 +124,9 @@ void ObstacleCollision::setAgents(const std::vector<AgentCollisionBody>& agents)
       agent_geoms_.push_back(g);
       agent_geom_bodies_.push_back(a.body);
     }
+    range.end = agent_geoms_.size();
+    agent_ranges_.push_back(range);
+  }
 }
 
 void ObstacleCollision::clearObstacles()
@@ -248,6 +257,18 @@ void ObstacleCollision::addVehicle(const std::vector<CollisionBox>& boxes, const
     dGeomSetOffsetPosition(g, offset.x(), offset.y(), offset.z());
     setRotation(g, b.pose.linear(), true);
   }
+  // Bounding sphere round the chassis origin: its boxes, and each wheel where it is now plus
+  // 0.5 m of suspension travel.
+  v.centre = bodies.chassis;
+  for (const CollisionBox& b : boxes)
+    v.reach = std::max(v.reach, (b.pose.translation() - bodies.chassis_com).norm() + 0.5 * b.size.norm());
+  const dReal* c = dBodyGetPosition(bodies.chassis);
+  for (const CollisionWheel& w : bodies.wheels)
+  {
+    const dReal* p = dBodyGetPosition(w.body);
+    const double d = std::sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) + (p[2] - c[2]) * (p[2] - c[2]));
+    v.reach = std::max(v.reach, d + std::hypot(w.radius, 0.5 * w.width) + 0.5);
+  }
   for (const CollisionWheel& w : bodies.wheels)
   {
     const dGeomID g = dCreateCylinder(v.space, w.radius, w.width);
@@ -273,6 +294,14 @@ const CollisionReport& ObstacleCollision::report(std::size_t vehicle) const
   if (vehicle >= vehicles_.size())
     throw std::out_of_range("ObstacleCollision::report: no vehicle " + std::to_string(vehicle));
   return vehicles_[vehicle].report;
+}
+
+bool ObstacleCollision::near(dBodyID a, double reach_a, dBodyID b, double reach_b)
+{
+  const dReal* p = dBodyGetPosition(a);
+  const dReal* q = dBodyGetPosition(b);
+  const double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2], r = reach_a + reach_b;
+  return dx * dx + dy * dy + dz * dz <= r * r;
 }
 
 void ObstacleCollision::nearCallback(void* data, dGeomID o1, dGeomID o2)
@@ -323,17 +352,22 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     v.report = CollisionReport();
   hits_.clear();
   joints_.clear();
+  // Vehicles and agents (or partitions' proxies) far apart are skipped on their bounding
+  // spheres: with tens of vehicles the pairs, not the contacts, are the cost.
   for (std::size_t i = 0; i < vehicles_.size(); ++i)
   {
+    const VehicleGeoms& vi = vehicles_[i];
     if (obstacle_space_)
-      dSpaceCollide2(reinterpret_cast<dGeomID>(vehicles_[i].space), reinterpret_cast<dGeomID>(obstacle_space_),
-                     this, &ObstacleCollision::nearCallback);
-    if (agent_space_)
-      dSpaceCollide2(reinterpret_cast<dGeomID>(vehicles_[i].space), reinterpret_cast<dGeomID>(agent_space_), this,
+      dSpaceCollide2(reinterpret_cast<dGeomID>(vi.space), reinterpret_cast<dGeomID>(obstacle_space_), this,
                      &ObstacleCollision::nearCallback);
+    for (const AgentRange& a : agent_ranges_)
+      if (near(vi.centre, vi.reach, a.body, a.reach))
+        for (std::size_t g = a.begin; g < a.end; ++g)
+          dSpaceCollide2(reinterpret_cast<dGeomID>(vi.space), agent_geoms_[g], this, &ObstacleCollision::nearCallback);
     for (std::size_t j = i + 1; j < vehicles_.size(); ++j)
-      dSpaceCollide2(reinterpret_cast<dGeomID>(vehicles_[i].space), reinterpret_cast<dGeomID>(vehicles_[j].space),
-                     this, &ObstacleCollision::nearCallback);
+      if (near(vi.centre, vi.reach, vehicles_[j].centre, vehicles_[j].reach))
+        dSpaceCollide2(reinterpret_cast<dGeomID>(vi.space), reinterpret_cast<dGeomID>(vehicles_[j].space), this,
+                       &ObstacleCollision::nearCallback);
   }
   if (hits_.empty())
     return;

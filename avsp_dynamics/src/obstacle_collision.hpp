@@ -145,7 +145,18 @@ private:
     std::vector<double> masses;   ///< kg, mass of each geom's body
     double mass = 0.0;            ///< kg, whole vehicle
     CollisionReport report;
+    dBodyID centre = nullptr;     ///< the chassis: the centre of the bounding sphere
+    double reach = 0.0;           ///< m, bounding sphere radius round it (suspension travel included)
   };
+  /// An agent's (or proxy's) geoms [begin, end) in agent_geoms_ and its bounding sphere.
+  struct AgentRange
+  {
+    std::size_t begin = 0, end = 0;
+    dBodyID body = nullptr;
+    double reach = 0.0;  ///< m
+  };
+  /// Whether two bounding spheres (centres on the bodies) can touch.
+  static bool near(dBodyID a, double reach_a, dBodyID b, double reach_b);
   /// Hit::vehicle_b of a contact with an obstacle, with an agent.
   static constexpr std::int32_t kObstacle = -1, kAgent = -2;
   /// One contact point found this step: `a` is a vehicle geom, `b` a vehicle, obstacle or agent geom.
@@ -182,6 +193,7 @@ private:
   dSpaceID agent_space_ = nullptr;
   std::vector<dGeomID> agent_geoms_;
   std::vector<dBodyID> agent_geom_bodies_;  ///< body of each agent geom
+  std::vector<AgentRange> agent_ranges_;    ///< per agent body
   // Per-step scratch, kept between steps so their capacity is reused (no allocation per step
   // once warmed up).
   std::vector<Hit> hits_;
