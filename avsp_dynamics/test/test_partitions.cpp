@@ -6,6 +6,7 @@
 // - A partition killed mid-run stops the clock within its timeout, naming the partition.
 // - Two vehicles in two partitions driven head-on collide through their proxies: neither
 //   passes through the other.
+// - A malformed exchange from a peer stops the partition with exit 1 naming the topic.
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -22,6 +23,8 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/PartitionExchange.h>
+#include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <avsp_dynamics/vehicle_model.hpp>
 #include <gtest/gtest.h>
@@ -310,6 +313,97 @@ TEST(PartitionKill, AKilledPartitionStopsTheClockNamingIt)
   EXPECT_EQ(text.str().find("partition(s) p1"), std::string::npos) << text.str();
   std::printf("[ partitions ] p2 killed at t = %.2f s; the clock stopped %.2f s (wall) later\n", last_clock,
               stopped_after);
+}
+TEST(PartitionBadExchange, AMalformedExchangeStopsThePartitionNamingTheTopic)
+{
+  // This node is the clock and a fake peer "p2" of a real partition "p1" (run as a child so
+  // its exit status and message can be read).
+  ros::NodeHandle nh, pnh("~");
+  std::string config_dir, soils_file;
+  ASSERT_TRUE(pnh.getParam("config_dir", config_dir));
+  ASSERT_TRUE(pnh.getParam("soils_file", soils_file));
+  XmlRpc::XmlRpcValue vehicles, v, peers;
+  v["name"] = std::string("solo");
+  v["model"] = std::string("fed_alpha");
+  v["x"] = 0.0;
+  v["y"] = 0.0;
+  v["yaw"] = 0.0;
+  vehicles[0] = v;
+  peers[0] = std::string("p2");
+  const std::string ns = "/bad_p1";
+  nh.setParam(ns + "/vehicles", vehicles);
+  nh.setParam(ns + "/peers", peers);
+  nh.setParam(ns + "/partition", std::string("p1"));
+  nh.setParam(ns + "/publish_clock", false);
+  nh.setParam(ns + "/config_dir", config_dir);
+  nh.setParam(ns + "/soils_file", soils_file);
+  nh.setParam(ns + "/flat_soil", std::string("gravel"));
+  nh.setParam(ns + "/flat_size", 30.0);
+  nh.setParam(ns + "/lockstep_timeout", 20.0);
+  ros::Publisher clock = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ros::Publisher exchange = nh.advertise<avsp_msgs::PartitionExchange>("/lockstep/exchange/p2", 10);
+  bool done0 = false;
+  std::size_t exchanges = 0;
+  ros::Subscriber done_sub = nh.subscribe<avsp_msgs::StepDone>(
+      "/lockstep/done", 10, [&](const avsp_msgs::StepDone::ConstPtr& m) { done0 |= m->header.stamp.isZero(); });
+  ros::Subscriber exchange_sub = nh.subscribe<avsp_msgs::PartitionExchange>(
+      "/lockstep/exchange/p1", 10, [&](const avsp_msgs::PartitionExchange::ConstPtr&) { ++exchanges; });
+  const std::string log = "/tmp/avsp_bad_exchange_" + std::to_string(getpid()) + ".log";
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0)
+  {
+    const std::string cmd = std::string(DYNAMICS_NODE_PATH) + " __name:=bad_p1 > " + log + " 2>&1";
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Tick 0 until p1 reports it (it waits for this node to subscribe to its exchange first).
+  ros::WallTime tick = ros::WallTime::now();
+  const bool started = spinUntil(
+      [&] {
+        if (ros::WallTime::now() > tick)
+        {
+          rosgraph_msgs::Clock c;
+          clock.publish(c);
+          tick = ros::WallTime::now() + ros::WallDuration(0.1);
+        }
+        return done0 && exchanges > 0 && exchange.getNumSubscribers() > 0;
+      },
+      60.0);
+  // The fake peer's exchange of t = 0 with 2 soil points but 3 values before (6 needed).
+  avsp_msgs::PartitionExchange bad;
+  bad.partition = "p2";
+  bad.soil_points = { 0, 1 };
+  bad.soil_before = { 0.f, 0.f, 0.f };
+  bad.soil_after = { 0.f, 0.f, 0.f, 0.f, 0.f, 0.f };
+  exchange.publish(bad);
+  rosgraph_msgs::Clock c;
+  c.clock = ros::Time(0.01);
+  clock.publish(c);
+  int status = 0;
+  pid_t finished = 0;
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(30.0);
+  while ((finished = waitpid(child, &status, WNOHANG)) == 0 && ros::WallTime::now() < deadline)
+  {
+    ros::spinOnce();
+    ros::WallDuration(0.01).sleep();
+  }
+  if (finished == 0)
+  {
+    kill(child, SIGKILL);
+    waitpid(child, &status, 0);
+  }
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::remove(log.c_str());
+  ASSERT_TRUE(started) << "p1 did not report t = 0: " << text.str();
+  ASSERT_NE(finished, 0) << "p1 still ran 30 s after the bad exchange: " << text.str();
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1) << text.str();
+  EXPECT_NE(text.str().find("bad exchange on /lockstep/exchange/p2: soil_before and soil_after must hold 3 values "
+                            "per soil_points entry"),
+            std::string::npos)
+      << text.str();
 }
 }  // namespace
 
