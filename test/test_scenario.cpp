@@ -739,6 +739,8 @@ TEST(Scenario, BadPartitionsAreNamed)
   EXPECT_ERROR(errorOf(n), "partitions[1].name", "duplicate partition 'a'");
   n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second], machine: far}, {name: b, vehicles: [third, ext]}]");
   EXPECT_ERROR(errorOf(n), "partitions[0].machine", "unknown machine 'far'");
+  n["partitions"] = YAML::Load("[{name: sensors, vehicles: [lead, second]}, {name: b, vehicles: [third, ext]}]");
+  EXPECT_ERROR(errorOf(n), "partitions[0].name", "'sensors' is sensors_node's name");
   n["partitions"] = YAML::Load("[{name: a/b, vehicles: [lead, second]}, {name: b, vehicles: [third, ext]}]");
   EXPECT_ERROR(errorOf(n), "partitions[0].name", "not a valid name");
   n["partitions"] = YAML::Load("[{name: a, vehicles: []}, {name: b, vehicles: [lead, second, third, ext]}]");
@@ -771,8 +773,11 @@ TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
   EXPECT_EQ(xml.find("name=\"dynamics\""), std::string::npos);  // no single dynamics_node
   EXPECT_NE(xml.find("type=\"lockstep_clock\" name=\"clock\" required=\"true\""), std::string::npos);
   const YAML::Node parts = rosparamOf(xml, "clock", "partitions");
-  ASSERT_EQ(parts.size(), 2u);
+  ASSERT_EQ(parts.size(), 3u);
   EXPECT_EQ(parts[0].as<std::string>(), "north");
+  EXPECT_EQ(parts[2].as<std::string>(), "sensors");  // sensors_node holds the clock too
+  EXPECT_EQ(paramOf(xml, "sensors", "lockstep_partition"), "sensors");
+  EXPECT_EQ(paramOf(xml, "sensors", "lockstep_interval"), "0.01");
   EXPECT_EQ(paramOf(xml, "clock", "real_time_factor"), "1.0");
   EXPECT_EQ(paramOf(xml, "clock", "sync_interval"), "0.01");
   EXPECT_NE(xml.find("name=\"dynamics_north\" required=\"true\" machine=\"hostb\""), std::string::npos);

@@ -439,7 +439,14 @@ private:
       if (!(*tick_ > reported + 0.5 * h))
       {
         if (tick_repeated_)
+        {
           reportDone(reported);  // the clock asks again: our report may have been lost
+          // At time 0 a node that waits for our odometry (sensors_node in the lockstep) may
+          // have connected after it went out: send it again (later the connections stand).
+          if (reported == 0.0)
+            for (const auto& v : vehicles_)
+              v->odom_pub.publish(v->last_odom);
+        }
         tick_repeated_ = false;
         continue;
       }

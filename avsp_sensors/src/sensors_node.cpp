@@ -14,6 +14,7 @@
 // odometry only, not on when messages arrive. The vehicles' streams are merged in stamp order
 // (StateSynchronizer) so that every vehicle's sensors see the others at the same time; the
 // callbacks only queue states, the main loop senses the times that are complete.
+#include <cmath>
 #include <cstdarg>
 #include <cstdint>
 #include <cstdio>
@@ -28,12 +29,14 @@
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/SaveMap.h>
+#include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
 #include <ros/callback_queue.h>
 #include <ros/package.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <avsp_msgs/node_params.hpp>
@@ -115,6 +118,7 @@ struct VehicleIo
   std::unique_ptr<as::VehicleSensors> sensors;
   std::vector<as::BodyBox> boxes;
   std::string odom_topic, base_frame;
+  double last_stamp = -1.0;  ///< s, the last state queued (an equal stamp is a re-send)
   std::string lidar_frame, radar_frame, gps_frame, imu_frame, mag_frame;
   std::vector<std::string> range_frames;
   ros::Subscriber odom_sub;
@@ -180,6 +184,19 @@ public:
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &SensorsNode::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &SensorsNode::onToppled, this);
     environment_sub_ = nh_.subscribe("/environment", 10, &SensorsNode::onEnvironment, this);
+    // Lockstep with a partitioned run: report each clock interval sensed, so lockstep_clock
+    // waits for the sensors as for the dynamics partitions (the sensors never fall behind by
+    // more than one interval, however costly a sweep or frame).
+    pnh_.param<std::string>("lockstep_partition", lockstep_partition_, "");
+    if (!lockstep_partition_.empty())
+    {
+      std::string why;
+      if (!ros::names::validate(lockstep_partition_, why) || lockstep_partition_.find('/') != std::string::npos)
+        throw StartupError("parameter ~lockstep_partition '" + lockstep_partition_ + "' must be a plain name (no '/')");
+      lockstep_interval_ = boundedParam(pnh_, "lockstep_interval", 0.01, 1e-4, 10.0);
+      done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
+      tick_sub_ = nh_.subscribe("/clock", 100, &SensorsNode::onTick, this, ros::TransportHints().tcpNoDelay());
+    }
     ROS_INFO("sensors_node: %zu vehicle(s) and %zu agent(s) on %s (%zu objects), world frame '%s', %u ray-casting "
              "thread(s)%s",
              vehicles_.size(), agents_.size(), source_.c_str(), objects_.size(), world_frame_.c_str(), threads_,
@@ -549,9 +566,12 @@ private:
                         v.odom_topic.c_str(), why.c_str());
       return;
     }
+    if (state.time == v.last_stamp)
+      return;  // sent again (dynamics_node re-sends time 0 until its lockstep peers answer)
     switch (sync_->push(v.index, state))
     {
       case as::StateSynchronizer::Push::kQueued:
+        v.last_stamp = state.time;
         break;
       case as::StateSynchronizer::Push::kNotAfterLast:
         warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s is not after the previous one",
@@ -692,10 +712,35 @@ public:
       scene_->setBodies(std::move(bodies));
       for (std::size_t k = 0; k < batch->vehicles.size(); ++k)
         sense(*vehicles_[batch->vehicles[k]], batch->states[k]);
+      if (!lockstep_partition_.empty())
+      {
+        // Every interval end up to this time is sensed.
+        const double end = std::floor(batch->time / lockstep_interval_ + 1e-6) * lockstep_interval_;
+        if (!reported_ || end > *reported_ + 0.5 * lockstep_interval_)
+        {
+          reported_ = end;
+          reportDone();
+        }
+      }
     }
   }
 
 private:
+  void reportDone()
+  {
+    avsp_msgs::StepDone d;
+    d.header.stamp = ros::Time(*reported_);
+    d.partition = lockstep_partition_;
+    done_pub_.publish(d);
+  }
+
+  /// A tick the clock sends again (it is waiting): our report may have been lost.
+  void onTick(const rosgraph_msgs::Clock::ConstPtr& c)
+  {
+    if (reported_ && c->clock.toSec() <= *reported_ + 0.5 * lockstep_interval_)
+      reportDone();
+  }
+
   void sense(VehicleIo& v, const as::VehicleState& state)
   {
     as::SuiteOutput out;
@@ -822,6 +867,11 @@ private:
   std::vector<geometry_msgs::TransformStamped> static_frames_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Subscriber ruts_sub_, toppled_sub_, environment_sub_;
+  std::string lockstep_partition_;   ///< ~lockstep_partition ("" = not in the lockstep)
+  double lockstep_interval_ = 0.01;  ///< s, lockstep_clock's ~sync_interval
+  std::optional<double> reported_;   ///< last interval end reported sensed, s
+  ros::Publisher done_pub_;
+  ros::Subscriber tick_sub_;
 };
 }  // namespace
 

@@ -14,6 +14,8 @@ namespace
 {
 /// s: lockstep_clock's interval with partitions (each partition's exchange period).
 constexpr double kSyncInterval = 0.01;
+/// lockstep_clock's name for sensors_node (scenario partitions may not use it).
+const std::string kSensorsPartition = "sensors";
 /// s (wall): a partition or peer silent this long stops the run.
 constexpr double kPartitionTimeout = 30.0;
 /// s: the controllers' period (20 Hz), the dynamics' barrier and the radio's batches.
@@ -261,6 +263,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     std::string list;
     for (const PartitionSpec& p : s.partitions)
       list += (list.empty() ? "" : ", ") + quoted(p.name);
+    list += ", " + quoted(kSensorsPartition);  // the sensors hold the clock too
     w.open("avsp_dynamics", "lockstep_clock", "clock", true);
     w.rosparam("partitions", "[" + list + "]");
     w.param("sync_interval", kSyncInterval);
@@ -340,6 +343,11 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
       w.rosparam("vehicle_sensors/" + v.name, flowYaml(v.sensors, false));
   if (has_agents)
     w.rosparam("agents", agents);
+  if (!s.partitions.empty())
+  {
+    w.param("lockstep_partition", kSensorsPartition);
+    w.param("lockstep_interval", kSyncInterval);
+  }
   w.close();
 
   // Sky and weather.

@@ -985,6 +985,8 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
           p.name = toString(ctx, pr.required("name"), pr.key("name"));
           if (!isRosName(p.name))
             ctx.fail(pr.key("name"), "'" + p.name + "' is not a valid name (a letter, then letters, digits, _)");
+          if (p.name == "sensors")
+            ctx.fail(pr.key("name"), "'sensors' is sensors_node's name in the lockstep");
           if (!partition_names.insert(p.name).second)
             ctx.fail(pr.key("name"), "duplicate partition '" + p.name + "'");
           const YAML::Node pv = pr.required("vehicles");
