@@ -183,8 +183,16 @@ PointDeformation& DeformableTerrain::touch(std::size_t i, std::size_t j)
   }
   if (tracking_ && !before_[t])
   {
-    // The first write to this tile in the interval: keep the tile as it was.
-    before_[t] = std::make_unique<Tile>(*tile);
+    // The first write to this tile in the interval: keep the tile as it was (in a buffer
+    // from the last interval's, so a steady run allocates nothing).
+    if (spare_tiles_.empty())
+      before_[t] = std::make_unique<Tile>(*tile);
+    else
+    {
+      before_[t] = std::move(spare_tiles_.back());
+      spare_tiles_.pop_back();
+      *before_[t] = *tile;
+    }
     changed_tiles_.push_back(t);
   }
   return (*tile)[(j % kTileSize) * kTileSize + i % kTileSize];
@@ -195,6 +203,7 @@ void DeformableTerrain::setChangeTracking(bool on)
   tracking_ = on;
   before_.clear();
   changed_tiles_.clear();
+  spare_tiles_.clear();
   if (on)
     before_.resize(tiles_.size());
 }
@@ -228,7 +237,7 @@ std::vector<PointChange> DeformableTerrain::takeChanges()
         c.after = now[k];
         changes.push_back(c);
       }
-    before_[t].reset();
+    spare_tiles_.push_back(std::move(before_[t]));
   }
   changed_tiles_.clear();
   return changes;

@@ -315,6 +315,7 @@ private:
   bool tracking_ = false;
   std::vector<std::unique_ptr<Tile>> before_;  ///< same indexing as tiles_, null = unchanged
   std::vector<std::size_t> changed_tiles_;     ///< tiles with a before_ copy, in first-change order
+  std::vector<std::unique_ptr<Tile>> spare_tiles_;  ///< before_ buffers of past intervals, for reuse
 };
 
 /**
