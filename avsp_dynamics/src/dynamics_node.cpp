@@ -200,6 +200,13 @@ public:
     pnh_.param("publish_clock", publish_clock_, true);
     pnh_.param("wait_for_command", wait_for_command_, false);
     pnh_.param<std::string>("partition", partition_, "");
+    sync_interval_ = boundedParam(pnh_, "sync_interval", 0.01, options.step, 10.0);
+    {
+      const double steps = sync_interval_ / options.step;
+      if (std::fabs(steps - std::round(steps)) > 1e-6 * steps)
+        throw StartupError("parameter ~sync_interval " + std::to_string(sync_interval_) +
+                           " s must be a whole number of ~step");
+    }
     if (!partition_.empty())
     {
       std::string why;
@@ -450,29 +457,38 @@ private:
         tick_repeated_ = false;
         continue;
       }
+      // Interval by interval up to the tick (the clock may be ~lookahead intervals ahead of
+      // the slowest partition): the peers exchange at every interval's end, so the result
+      // does not depend on how far ahead the clock is.
       const double target = *tick_;
-      const double exchanged_before = exchanging;
-      if (!peers_.empty() && !applyPeerExchanges(reported, exchanging))
-        return false;
-      const ros::WallTime begin = ros::WallTime::now();
-      waiting += (begin - mark).toSec() - (exchanging - exchanged_before);
-      while (ros::ok() && world_->time() + 0.5 * h < target)
+      while (ros::ok() && reported + 0.5 * h < target)
       {
-        step();
-        if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
+        const double end =
+            std::min(target, sync_interval_ * (std::floor(reported / sync_interval_ + 1e-6) + 1.0));
+        const double exchanged_before = exchanging;
+        if (!peers_.empty() && !applyPeerExchanges(reported, exchanging))
           return false;
+        const ros::WallTime begin = ros::WallTime::now();
+        waiting += (begin - mark).toSec() - (exchanging - exchanged_before);
+        while (ros::ok() && world_->time() + 0.5 * h < end)
+        {
+          step();
+          if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
+            return false;
+        }
+        reported = end;
+        const ros::WallTime stepped = ros::WallTime::now();
+        stepping += (stepped - begin).toSec();
+        if (!peers_.empty())
+          publishExchange(reported);
+        reportDone(reported);
+        mark = ros::WallTime::now();
+        exchanging += (mark - stepped).toSec();
+        ++intervals;
+        if (intervals % 1000 == 0)
+          log_times();
+        queue->callAvailable();  // peers' exchanges and ticks that came in meanwhile
       }
-      reported = target;
-      const ros::WallTime stepped = ros::WallTime::now();
-      stepping += (stepped - begin).toSec();
-      if (!peers_.empty())
-        publishExchange(reported);
-      reportDone(reported);
-      mark = ros::WallTime::now();
-      exchanging += (mark - stepped).toSec();
-      ++intervals;
-      if (intervals % 1000 == 0)
-        log_times();
     }
     return !failed_;
   }
@@ -1188,6 +1204,7 @@ private:
   bool wait_for_command_ = false;
   std::uint64_t lockstep_every_ = 0;  ///< steps between barriers (0: no lockstep)
   std::string partition_;             ///< this process's partition name ("" = the only one)
+  double sync_interval_ = 0.01;       ///< s, lockstep_clock's interval: the peers exchange at its multiples
   std::optional<double> tick_;        ///< latest /clock tick (partition), s
   bool tick_repeated_ = false;        ///< the clock re-sent a tick already reached
   ros::Publisher done_pub_;

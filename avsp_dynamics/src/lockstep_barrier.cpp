@@ -15,9 +15,11 @@ namespace
 constexpr double kTimeTolerance = 1e-9;
 }  // namespace
 
-LockstepBarrier::LockstepBarrier(const std::vector<std::string>& partitions, double interval)
-  : names_(partitions), interval_(interval)
+LockstepBarrier::LockstepBarrier(const std::vector<std::string>& partitions, double interval, unsigned lookahead)
+  : names_(partitions), interval_(interval), lookahead_(lookahead)
 {
+  if (lookahead < 1)
+    throw std::invalid_argument("lookahead: must be >= 1 (got " + std::to_string(lookahead) + ")");
   if (partitions.empty())
     throw std::invalid_argument("partitions: at least one is needed");
   if (!std::isfinite(interval) || !(interval > 0.0))
@@ -44,9 +46,15 @@ LockstepBarrier::Report LockstepBarrier::done(const std::string& partition, doub
   return Report::kAccepted;
 }
 
+double LockstepBarrier::needed() const
+{
+  const std::uint64_t behind = lookahead_ - 1;
+  return step_ >= behind ? static_cast<double>(step_ - behind) * interval_ : 0.0;
+}
+
 bool LockstepBarrier::complete() const
 {
-  const double now = time() - kTimeTolerance;
+  const double now = needed() - kTimeTolerance;
   for (const auto& [name, reached] : reached_)
     if (reached < now)
       return false;
@@ -64,7 +72,7 @@ double LockstepBarrier::advance()
 std::vector<std::string> LockstepBarrier::waitingFor() const
 {
   std::vector<std::string> out;
-  const double now = time() - kTimeTolerance;
+  const double now = needed() - kTimeTolerance;
   for (const std::string& name : names_)
     if (reached_.at(name) < now)
       out.push_back(name);

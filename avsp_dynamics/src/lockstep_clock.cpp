@@ -58,9 +58,10 @@ public:
     startup_timeout_ = boundedParam(pnh, "startup_timeout", 300.0, 0.01, 36000.0);
     real_time_factor_ = boundedParam(pnh, "real_time_factor", 0.0, 0.0, 1000.0);
     duration_ = boundedParam(pnh, "duration", 0.0, 0.0, 1e9);
+    lookahead_ = static_cast<unsigned>(avsp::msgs::boundedIntParam(pnh, "lookahead", 2, 1, 1000));
     try
     {
-      barrier_ = std::make_unique<avsp::dynamics::LockstepBarrier>(names, interval);
+      barrier_ = std::make_unique<avsp::dynamics::LockstepBarrier>(names, interval, lookahead_);
     }
     catch (const std::invalid_argument& e)
     {
@@ -68,8 +69,9 @@ public:
     }
     clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
     done_sub_ = nh.subscribe("/lockstep/done", 1000, &LockstepClock::onDone, this, ros::TransportHints().tcpNoDelay());
-    ROS_INFO("lockstep_clock: %zu partition(s) [%s], sync interval %g s, timeout %g s, real_time_factor %g",
-             names.size(), joined(names).c_str(), interval, timeout_, real_time_factor_);
+    ROS_INFO("lockstep_clock: %zu partition(s) [%s], sync interval %g s, lookahead %u, timeout %g s, "
+             "real_time_factor %g",
+             names.size(), joined(names).c_str(), interval, lookahead_, timeout_, real_time_factor_);
   }
 
   /// Runs until shutdown or ~duration; false after a partition timed out.
@@ -94,14 +96,14 @@ public:
           resend = now;
         }
         // Time 0 waits for the partitions to load their worlds and for the run's start.
-        const bool starting = barrier_->time() == 0.0;
+        const bool starting = barrier_->needed() == 0.0;
         const double limit = starting ? startup_timeout_ : timeout_;
         if ((now - progress).toSec() > limit)
         {
           ROS_FATAL("lockstep_clock: partition(s) %s did not report t = %.3f s within ~%s %g s (wall); "
                     "stopping the run",
-                    joined(barrier_->waitingFor()).c_str(), barrier_->time(), starting ? "startup_timeout" : "timeout",
-                    limit);
+                    joined(barrier_->waitingFor()).c_str(), barrier_->needed(),
+                    starting ? "startup_timeout" : "timeout", limit);
           ros::shutdown();
           return false;
         }
@@ -166,6 +168,7 @@ private:
   }
 
   std::unique_ptr<avsp::dynamics::LockstepBarrier> barrier_;
+  unsigned lookahead_ = 2;
   double timeout_ = 10.0, startup_timeout_ = 300.0, real_time_factor_ = 0.0, duration_ = 0.0;
   ros::Publisher clock_pub_;
   ros::Subscriber done_sub_;

@@ -83,3 +83,31 @@ TEST(LockstepBarrier, RefusesUnknownAheadAndBadSetups)
   }
 }
 }  // namespace
+
+TEST(LockstepBarrier, LookaheadLetsTheTimeRunThatManyIntervalsAheadOfTheSlowest)
+{
+  // Lookahead 2: the time may move to k + 1 once every partition has reported k - 1.
+  LockstepBarrier b({ "p1", "p2" }, 0.01, 2);
+  EXPECT_DOUBLE_EQ(b.needed(), 0.0);
+  EXPECT_FALSE(b.complete());  // nobody has reported 0 yet
+  b.done("p1", 0.0);
+  b.done("p2", 0.0);
+  ASSERT_TRUE(b.complete());
+  b.advance();  // 0.01
+  EXPECT_DOUBLE_EQ(b.needed(), 0.0);
+  EXPECT_TRUE(b.complete());  // 0.01 -> 0.02 needs only 0.00
+  b.advance();  // 0.02
+  EXPECT_DOUBLE_EQ(b.needed(), 0.01);
+  EXPECT_FALSE(b.complete());
+  EXPECT_EQ(b.waitingFor(), (std::vector<std::string>{ "p1", "p2" }));
+  b.done("p1", 0.02);
+  EXPECT_EQ(b.waitingFor(), (std::vector<std::string>{ "p2" }));
+  b.done("p2", 0.01);
+  EXPECT_TRUE(b.complete());
+  b.advance();  // 0.03: p2 at 0.01 is two intervals behind, the most lookahead 2 allows
+  EXPECT_FALSE(b.complete());
+  EXPECT_EQ(b.waitingFor(), (std::vector<std::string>{ "p2" }));
+  EXPECT_THROW(b.advance(), std::logic_error);
+  EXPECT_EQ(b.done("p1", 0.04), LockstepBarrier::Report::kAhead);
+  EXPECT_THROW(LockstepBarrier({ "p1" }, 0.01, 0), std::invalid_argument);
+}

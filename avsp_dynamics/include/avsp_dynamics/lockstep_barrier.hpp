@@ -20,9 +20,13 @@ public:
   /**
    * @param partitions names, non-empty, unique, each non-empty
    * @param interval s of sim time per advance, > 0 and finite
+   * @param lookahead intervals the time may run ahead of the slowest partition's report, >= 1:
+   *        with 1 the time moves from k to k + 1 once every partition reported k; with L once
+   *        every partition reported k + 1 - L (the partitions then synchronise among themselves
+   *        at every interval, dynamics_node's peers, and the clock's round trip is hidden)
    * @throw std::invalid_argument naming what is wrong
    */
-  LockstepBarrier(const std::vector<std::string>& partitions, double interval);
+  LockstepBarrier(const std::vector<std::string>& partitions, double interval, unsigned lookahead = 1);
 
   /// What done() made of a report.
   enum class Report
@@ -37,7 +41,8 @@ public:
   /// nothing (a repeated report).
   Report done(const std::string& partition, double time);
 
-  /// Every partition has reported the current time.
+  /// Every partition has reported the time the next advance needs (the current time with
+  /// lookahead 1; lookahead - 1 intervals before it otherwise).
   bool complete() const;
 
   /// The current time: step k × interval (no accumulated rounding).
@@ -48,13 +53,16 @@ public:
   /// Moves to the next interval. @throw std::logic_error unless complete()
   double advance();
 
-  /// Partitions that have not reported the current time, in the order given.
+  /// Partitions that have not reported what the next advance needs, in the order given.
   std::vector<std::string> waitingFor() const;
+  /// The time every partition must have reported before the next advance (s).
+  double needed() const;
 
 private:
   std::vector<std::string> names_;
   std::map<std::string, double> reached_;  ///< latest time each partition reported
   double interval_;
+  unsigned lookahead_ = 1;
   std::uint64_t step_ = 0;
 };
 }  // namespace dynamics
