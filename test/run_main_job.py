@@ -9,7 +9,10 @@ of bad scenario files. Writes a JUnit XML result with one test case per check:
 - run_ends: the run ends by itself (run_recorder, required, exits at `duration` s of sim time)
   within the wall-clock limit;
 - results: summary.json, trajectories.png, ruts.png and gaps.png exist, written by this run,
-  and summary.json has every vehicle of the scenario.
+  and summary.json has every vehicle of the scenario;
+- partitions_same_trajectories: the same scenario with `partitions: 2` (two dynamics_node
+  processes behind lockstep_clock, the sensors in the lockstep) for 10 s writes the same
+  trajectories.csv rows as the single-process run up to 9.9 s.
 
 When run_recorder is not built (a tree without it), run_ends and results are replaced by
 clock_reaches_duration: /clock reaches the duration (then the run is stopped).
@@ -94,6 +97,64 @@ def clock_reaches(duration, env, limit):
         return False
 
 
+def trajectory_rows(path, until):
+    """{(vehicle, t): row} of trajectories.csv for t < until."""
+    rows = {}
+    with open(path) as f:
+        header = f.readline()
+        for line in f:
+            cells = line.strip().split(",")
+            if len(cells) > 2 and float(cells[1]) < until:
+                rows[(cells[0], cells[1])] = line.strip()
+    return header, rows
+
+
+def partitioned_case(scenario, reference, env, port, tmp, launch_file, limit):
+    """The scenario with `partitions: 2` for 10 s: its trajectories must equal the single-process
+    run's over those 10 s, row for row (issue 7: same answer, any layout)."""
+    with open(scenario) as f:
+        doc = yaml.safe_load(f)
+    doc["partitions"] = 2
+    path = os.path.join(tmp, "partitioned.yaml")
+    with open(path, "w") as f:
+        yaml.safe_dump(doc, f)
+    out = os.path.join(tmp, "results", "partitioned")
+    env2 = dict(env, ROS_MASTER_URI="http://127.0.0.1:%d" % (port + 1))
+    start = time.time()
+    launch = subprocess.Popen(["roslaunch", "-p", str(port + 1), launch_file, "scenario:=" + path, "duration:=10",
+                               "real_time_factor:=0", "output_dir:=" + out], env=env2, preexec_fn=os.setsid)
+    try:
+        rc = launch.wait(timeout=limit)
+    except subprocess.TimeoutExpired:
+        rc = None
+    finally:
+        if launch.poll() is None:
+            os.killpg(launch.pid, signal.SIGINT)
+            try:
+                launch.wait(timeout=40)
+            except subprocess.TimeoutExpired:
+                os.killpg(launch.pid, signal.SIGKILL)
+                launch.wait()
+    print("run_main_job: partitioned run %.1f s wall for 10 s of sim time" % (time.time() - start))
+    if rc != 0:
+        return ["the partitioned run did not end cleanly (%s)" % ("timeout" if rc is None else "exit %d" % rc)]
+    try:
+        _h, mine = trajectory_rows(os.path.join(out, "trajectories.csv"), 9.95)
+        _h, ref = trajectory_rows(reference, 9.95)
+    except Exception as e:  # noqa: BLE001
+        return ["trajectories unreadable: %s" % e]
+    msgs = []
+    if len(ref) < 4 * 99:
+        msgs.append("the reference run has only %d rows before t = 9.95 s" % len(ref))
+    differ = [k for k in ref if mine.get(k) != ref[k]]
+    if differ:
+        k = sorted(differ)[0]
+        msgs.append("%d of %d trajectory rows differ between 1 and 2 partitions; first %s: %s vs %s"
+                    % (len(differ), len(ref), k, ref[k], mine.get(k)))
+    print("run_main_job: partitioned run: %d trajectory rows compared, %d differ" % (len(ref), len(differ)))
+    return msgs
+
+
 def main(argv):
     if len(argv) < 3:
         sys.stderr.write(__doc__)
@@ -168,6 +229,10 @@ def main(argv):
             except Exception as e:  # noqa: BLE001 - any reason is a failure to report
                 msgs.append("summary.json unreadable: %s" % e)
             cases.append(("results", msgs))
+            if duration >= 10.0:
+                cases.append(("partitions_same_trajectories",
+                              partitioned_case(scenario, os.path.join(out, "trajectories.csv"), env, port, tmp,
+                                               launch_file, limit)))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
