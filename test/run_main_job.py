@@ -97,6 +97,29 @@ def clock_reaches(duration, env, limit):
         return False
 
 
+def stop_launch(launch):
+    """Stops a roslaunch started in its own process group: SIGINT, SIGKILL after 40 s."""
+    if launch.poll() is None:
+        os.killpg(launch.pid, signal.SIGINT)
+        try:
+            launch.wait(timeout=40)
+        except subprocess.TimeoutExpired:
+            os.killpg(launch.pid, signal.SIGKILL)
+            launch.wait()
+
+
+def run_launch(args, env, limit):
+    """roslaunch with `args` in its own process group: its exit code, or None if it did not end
+    within `limit` s (wall; then it is stopped)."""
+    launch = subprocess.Popen(["roslaunch"] + args, env=env, preexec_fn=os.setsid)
+    try:
+        return launch.wait(timeout=limit)
+    except subprocess.TimeoutExpired:
+        return None
+    finally:
+        stop_launch(launch)
+
+
 def trajectory_rows(path, until):
     """{(vehicle, t): row} of trajectories.csv for t < until."""
     rows = {}
@@ -121,20 +144,8 @@ def partitioned_case(scenario, reference, env, port, tmp, launch_file, limit):
     out = os.path.join(tmp, "results", "partitioned")
     env2 = dict(env, ROS_MASTER_URI="http://127.0.0.1:%d" % (port + 1))
     start = time.time()
-    launch = subprocess.Popen(["roslaunch", "-p", str(port + 1), launch_file, "scenario:=" + path, "duration:=10",
-                               "real_time_factor:=0", "output_dir:=" + out], env=env2, preexec_fn=os.setsid)
-    try:
-        rc = launch.wait(timeout=limit)
-    except subprocess.TimeoutExpired:
-        rc = None
-    finally:
-        if launch.poll() is None:
-            os.killpg(launch.pid, signal.SIGINT)
-            try:
-                launch.wait(timeout=40)
-            except subprocess.TimeoutExpired:
-                os.killpg(launch.pid, signal.SIGKILL)
-                launch.wait()
+    rc = run_launch(["-p", str(port + 1), launch_file, "scenario:=" + path, "duration:=10", "real_time_factor:=0",
+                     "output_dir:=" + out], env2, limit)
     print("run_main_job: partitioned run %.1f s wall for 10 s of sim time" % (time.time() - start))
     if rc != 0:
         return ["the partitioned run did not end cleanly (%s)" % ("timeout" if rc is None else "exit %d" % rc)]
@@ -195,13 +206,7 @@ def main(argv):
                 ok = clock_reaches(duration, env, limit)
                 cases.append(("clock_reaches_duration", [] if ok else ["/clock did not reach %g s" % duration]))
         finally:
-            if launch.poll() is None:
-                os.killpg(launch.pid, signal.SIGINT)
-                try:
-                    launch.wait(timeout=40)
-                except subprocess.TimeoutExpired:
-                    os.killpg(launch.pid, signal.SIGKILL)
-                    launch.wait()
+            stop_launch(launch)
         print("run_main_job: %.1f s wall for %g s of sim time" % (time.time() - start, duration))
         cases.append(("generated_launch", [] if os.path.isfile(generated) else ["no " + generated]))
         if recorder:

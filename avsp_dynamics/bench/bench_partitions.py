@@ -30,6 +30,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
+from netns_pair import create, delete, inside  # noqa: E402
+
 MODELS = ["m113", "mrzr", "tracer_x", "fed_alpha"]
 COST = {"m113": 11.0, "mrzr": 5.0, "tracer_x": 5.0, "fed_alpha": 5.0}  # 1 + wheels + road wheels
 
@@ -203,22 +206,12 @@ def sync_veth(setup, duration):
     veth_a, veth_b = "avba%d" % (os.getpid() % 100000), "avbb%d" % (os.getpid() % 100000)
     ip_a, ip_b = "10.232.%d.1" % k, "10.232.%d.2" % k
     port = 11700 + k
-
-    def inside(ns):
-        return ["nsenter", "--net=/run/netns/" + ns]
     procs = []
     path = None
     try:
-        for cmd in (["ip", "netns", "add", ns_a], ["ip", "netns", "add", ns_b],
-                    ["ip", "link", "add", veth_a, "type", "veth", "peer", "name", veth_b],
-                    ["ip", "link", "set", veth_a, "netns", ns_a], ["ip", "link", "set", veth_b, "netns", ns_b],
-                    inside(ns_a) + ["ip", "addr", "add", ip_a + "/24", "dev", veth_a],
-                    inside(ns_b) + ["ip", "addr", "add", ip_b + "/24", "dev", veth_b],
-                    inside(ns_a) + ["ip", "link", "set", veth_a, "up"],
-                    inside(ns_b) + ["ip", "link", "set", veth_b, "up"],
-                    inside(ns_a) + ["ip", "link", "set", "lo", "up"],
-                    inside(ns_b) + ["ip", "link", "set", "lo", "up"]):
-            subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        failed = create(ns_a, ns_b, veth_a, veth_b, ip_a, ip_b)
+        if failed:
+            return None, "network set-up failed: " + failed
         parts = [[("a", "fed_alpha", -10.0, -5.0)], [("b", "fed_alpha", -10.0, 5.0)]]
         with tempfile.NamedTemporaryFile("w", suffix=".launch", delete=False) as f:
             f.write(launch_xml(parts, duration, FLAT, host_split=True))
@@ -260,8 +253,7 @@ def sync_veth(setup, duration):
             stop(p)
         if path:
             os.remove(path)
-        for ns in (ns_a, ns_b):
-            subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        delete(ns_a, ns_b)
 
 
 def print_sync(name, result):

@@ -17,6 +17,8 @@ import sys
 import time
 from xml.sax.saxutils import escape
 
+from netns_pair import create, delete, inside
+
 
 def write_failure(result, message):
     os.makedirs(os.path.dirname(os.path.abspath(result)), exist_ok=True)
@@ -43,11 +45,6 @@ def main(argv):
         write_failure(result, "two_hosts.py needs root to create network namespaces (run the tests as root)")
         return 0
     k = os.getpid() % 200 + 20
-
-    def inside(ns):
-        # Enter only the network namespace (util-linux nsenter): `ip netns exec` also remounts
-        # / as a slave mount, which fails where / is not a mount point (a chroot).
-        return ["nsenter", "--net=/run/netns/" + ns]
     ns_a, ns_b = "avsp_a%d" % os.getpid(), "avsp_b%d" % os.getpid()
     veth_a, veth_b = "avspa%d" % (os.getpid() % 100000), "avspb%d" % (os.getpid() % 100000)
     ip_a, ip_b = "10.231.%d.1" % k, "10.231.%d.2" % k
@@ -56,19 +53,10 @@ def main(argv):
     procs = []
     log = []
     try:
-        for cmd in (["ip", "netns", "add", ns_a], ["ip", "netns", "add", ns_b],
-                    ["ip", "link", "add", veth_a, "type", "veth", "peer", "name", veth_b],
-                    ["ip", "link", "set", veth_a, "netns", ns_a], ["ip", "link", "set", veth_b, "netns", ns_b],
-                    inside(ns_a) + ["ip", "addr", "add", ip_a + "/24", "dev", veth_a],
-                    inside(ns_b) + ["ip", "addr", "add", ip_b + "/24", "dev", veth_b],
-                    inside(ns_a) + ["ip", "link", "set", veth_a, "up"],
-                    inside(ns_b) + ["ip", "link", "set", veth_b, "up"],
-                    inside(ns_a) + ["ip", "link", "set", "lo", "up"],
-                    inside(ns_b) + ["ip", "link", "set", "lo", "up"]):
-            r = run(cmd)
-            if r.returncode != 0:
-                write_failure(result, "network set-up failed: %s: %s" % (" ".join(cmd), r.stdout))
-                return 0
+        failed = create(ns_a, ns_b, veth_a, veth_b, ip_a, ip_b)
+        if failed:
+            write_failure(result, "network set-up failed: " + failed)
+            return 0
         def on_host(ns, ip, script, name):
             env = {"HOME": os.environ.get("HOME", "/root"), "PATH": "/usr/bin:/bin:/usr/sbin:/sbin",
                    "ROS_IP": ip, "ROS_MASTER_URI": master, "ROS_HOME": "/tmp/avsp_two_hosts_%s" % name}
@@ -139,8 +127,7 @@ def main(argv):
                 os.remove(path)
             except OSError:
                 pass
-        for ns in (ns_a, ns_b):
-            subprocess.run(["ip", "netns", "del", ns], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        delete(ns_a, ns_b)
 
 
 if __name__ == "__main__":
