@@ -5,7 +5,10 @@
 // ~grace s once registered), then sends each vehicle in
 // ~vehicles one full-brake command on <v>/avt_341/cmd_vel (latched), waits for /clock to move
 // and exits. So sensors, controllers and the recorder all see the run from sim time 0, however
-// long their start-up took.
+// long their start-up took. Before the commands it also waits (up to ~connect_timeout) until
+// every node subscribed to a vehicle's odometry is connected to its publisher: a subscriber
+// registered at the master may still be forming its connection, and at real-time factor 0
+// it would miss the first samples.
 #include <algorithm>
 #include <set>
 #include <string>
@@ -13,6 +16,8 @@
 
 #include <geometry_msgs/Twist.h>
 #include <ros/master.h>
+#include <ros/network.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -56,6 +61,73 @@ bool activeNodes(std::set<std::string>& out, std::set<std::string>& registered)
     }
   return true;
 }
+/// Outgoing connections a node's publishers hold on `topic` (its getBusInfo), or -1 if unknown.
+int connectionsOf(const std::string& node, const std::string& topic)
+{
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false))
+    return -1;
+  std::string host;
+  std::uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port))
+    return -1;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue bus_args, bus;
+  bus_args[0] = ros::this_node::getName();
+  if (!client.execute("getBusInfo", bus_args, bus) || bus.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      bus.size() < 3 || bus[2].getType() != XmlRpc::XmlRpcValue::TypeArray)
+    return -1;
+  int count = 0;
+  // Each entry: [id, peer, direction "o"/"i", transport, topic, connected, ...].
+  for (int k = 0; k < bus[2].size(); ++k)
+  {
+    XmlRpc::XmlRpcValue& c = bus[2][k];
+    if (c.getType() != XmlRpc::XmlRpcValue::TypeArray || c.size() < 5 ||
+        c[2].getType() != XmlRpc::XmlRpcValue::TypeString || c[4].getType() != XmlRpc::XmlRpcValue::TypeString)
+      continue;
+    const bool connected = c.size() < 6 || c[5].getType() != XmlRpc::XmlRpcValue::TypeBoolean || static_cast<bool>(c[5]);
+    if (static_cast<std::string>(c[2]) == "o" && static_cast<std::string>(c[4]) == topic && connected)
+      ++count;
+  }
+  return count;
+}
+
+/// Topics (of `topics`) whose publishers do not yet hold a connection to every subscriber the
+/// master lists (a node subscribed to its own topic needs none); empty when all are connected.
+/// A publisher whose connections cannot be read counts as connected.
+std::vector<std::string> unconnected(const std::vector<std::string>& topics)
+{
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  if (!ros::master::execute("getSystemState", args, result, payload, false) || payload.size() < 2)
+    return {};
+  auto nodesOf = [&payload](int kind, const std::string& topic) {
+    std::set<std::string> out;
+    for (int t = 0; t < payload[kind].size(); ++t)
+      if (static_cast<std::string>(payload[kind][t][0]) == topic)
+        for (int n = 0; n < payload[kind][t][1].size(); ++n)
+          out.insert(static_cast<std::string>(payload[kind][t][1][n]));
+    return out;
+  };
+  std::vector<std::string> out;
+  for (const std::string& topic : topics)
+  {
+    const std::set<std::string> subscribers = nodesOf(1, topic);
+    for (const std::string& p : nodesOf(0, topic))
+    {
+      const int have = connectionsOf(p, topic);
+      const int need = static_cast<int>(subscribers.size() - subscribers.count(p));
+      if (have >= 0 && have < need)
+      {
+        out.push_back(topic);
+        break;
+      }
+    }
+  }
+  return out;
+}
 }  // namespace
 
 int main(int argc, char** argv)
@@ -63,13 +135,16 @@ int main(int argc, char** argv)
   ros::init(argc, argv, "start_gate");
   ros::NodeHandle nh, pnh("~");
   std::vector<std::string> vehicles, nodes;
-  double timeout = 300.0, grace = 10.0;
+  double timeout = 300.0, grace = 10.0, connect_timeout = 10.0;
   try
   {
     vehicles = stringList(pnh, "vehicles");
     nodes = stringList(pnh, "nodes");
     pnh.param("timeout", timeout, 300.0);
     pnh.param("grace", grace, 10.0);
+    pnh.param("connect_timeout", connect_timeout, 10.0);
+    if (!(connect_timeout >= 0.0))
+      throw std::runtime_error("parameter ~connect_timeout: must be >= 0 (wall s)");
     if (!(timeout > 0.0))
       throw std::runtime_error("parameter ~timeout: must be > 0 (wall s)");
   }
@@ -114,6 +189,25 @@ int main(int argc, char** argv)
       return 1;
     }
     ros::WallDuration(0.1).sleep();
+  }
+  if (!ros::ok())
+    return 0;
+  std::vector<std::string> odometry;
+  for (const std::string& v : vehicles)
+    odometry.push_back("/" + v + "/avt_341/odometry");
+  const ros::WallTime connecting = ros::WallTime::now();
+  for (std::vector<std::string> left = unconnected(odometry); !left.empty() && ros::ok(); left = unconnected(odometry))
+  {
+    if ((ros::WallTime::now() - connecting).toSec() > connect_timeout)
+    {
+      std::string list;
+      for (const std::string& t : left)
+        list += " " + t;
+      ROS_WARN("start_gate: going on after %.0f s (wall) with subscribers not yet connected on:%s", connect_timeout,
+               list.c_str());
+      break;
+    }
+    ros::WallDuration(0.05).sleep();
   }
   if (!ros::ok())
     return 0;
