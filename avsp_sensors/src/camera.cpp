@@ -562,7 +562,10 @@ CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials,
     return colour * sky_scale;
   };
 
-  parallelFor(static_cast<std::size_t>(c.height), threads, [&](std::size_t row_begin, std::size_t row_end) {
+  // Rows are handed out a few at a time to whichever thread is free: their costs differ by an
+  // order of magnitude (sky, grazing rays near the horizon, ground with shadow rays), so a
+  // fixed half-and-half split left one thread idle. Each pixel depends on its ray alone.
+  parallelForDynamic(static_cast<std::size_t>(c.height), threads, 4, [&](std::size_t row_begin, std::size_t row_end) {
     for (std::size_t row = row_begin; row < row_end; ++row)
       for (std::size_t col = 0; col < static_cast<std::size_t>(c.width); ++col)
       {
@@ -627,7 +630,7 @@ CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials,
             shadow.origin = hit.point + 5e-3 * normal;
             shadow.direction = sun;
             shadow.max_range = c.shadow_range;
-            lit = !scene.cast(shadow).hit();
+            lit = !scene.occluded(shadow);
           }
           if (lit)
             sun_on = sky.sun_normal * cos_sun;

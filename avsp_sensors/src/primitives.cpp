@@ -330,6 +330,19 @@ std::uint32_t PrimitiveBvh::build(std::uint32_t begin, std::uint32_t end, std::v
 bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
                              double t_max, PrimitiveHit& hit, std::uint32_t skip_id) const
 {
+  return traverse(origin, direction, t_min, t_max, hit, skip_id, false);
+}
+
+bool PrimitiveBvh::occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
+                            double t_max, std::uint32_t skip_id) const
+{
+  PrimitiveHit hit;
+  return traverse(origin, direction, t_min, t_max, hit, skip_id, true);
+}
+
+bool PrimitiveBvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
+                            double t_max, PrimitiveHit& hit, std::uint32_t skip_id, bool any) const
+{
   if (nodes_.empty())
     return false;
   const double inv[3] = { 1.0 / direction.x(), 1.0 / direction.y(), 1.0 / direction.z() };
@@ -353,15 +366,31 @@ bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3
   };
   double best = t_max;
   bool found = false;
+  // Each entry keeps where the ray enters its box: a node pushed before `best` shrank below that
+  // entry holds nothing nearer (float boxes are rounded outwards, so no primitive in it starts
+  // before the entry) and is dropped when popped. Strictly farther only, so ties still reach
+  // the lower-index rule.
+  // (Two arrays, not an array of {node, t} pairs: the compiler read such a pair's padded node
+  // field as 8 bytes after a 4-byte store, a store-forwarding stall on every pop.)
   std::uint32_t stack[kMaxDepth + 2];
+  double stack_t[kMaxDepth + 2];
   int top = 0;
   double t_enter = 0.0;
   if (!boxEntry(nodes_[0], best, t_enter))
     return false;
-  stack[top++] = 0;
+  auto push = [&](std::uint32_t node, double t) {
+    stack[top] = node;
+    stack_t[top] = t;
+    ++top;
+  };
+  push(0, t_enter);
   while (top > 0)
   {
-    const Node& nd = nodes_[stack[--top]];
+    --top;
+    if (stack_t[top] > best)
+      continue;
+    const std::uint32_t node = stack[top];
+    const Node& nd = nodes_[node];
     if (nd.count > 0)
     {
       for (std::uint32_t k = nd.first; k < nd.first + nd.count; ++k)
@@ -377,11 +406,13 @@ bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3
           hit = h;
           hit.index = p;
           found = true;
+          if (any)
+            return true;
         }
       }
       continue;
     }
-    const std::uint32_t left = static_cast<std::uint32_t>(&nd - nodes_.data()) + 1, right = nd.first;
+    const std::uint32_t left = node + 1, right = nd.first;
     double tl = 0.0, tr = 0.0;
     const bool hl = boxEntry(nodes_[left], best, tl), hr = boxEntry(nodes_[right], best, tr);
     // Push the farther child first so the nearer one is searched first and shrinks `best`.
@@ -389,19 +420,19 @@ bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3
     {
       if (tl <= tr)
       {
-        stack[top++] = right;
-        stack[top++] = left;
+        push(right, tr);
+        push(left, tl);
       }
       else
       {
-        stack[top++] = left;
-        stack[top++] = right;
+        push(left, tl);
+        push(right, tr);
       }
     }
     else if (hl)
-      stack[top++] = left;
+      push(left, tl);
     else if (hr)
-      stack[top++] = right;
+      push(right, tr);
   }
   return found;
 }

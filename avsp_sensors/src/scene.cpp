@@ -142,6 +142,16 @@ float Scene::terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vect
   return soil_reflectivity_[soil_map_[pj * terrain_.columns() + pi]];
 }
 
+namespace
+{
+/// The checks of Scene::validateRay without building a message.
+bool rayValid(const Ray& ray)
+{
+  return ray.origin.allFinite() && ray.direction.allFinite() && std::abs(ray.direction.squaredNorm() - 1.0) <= 2e-6 &&
+         ray.max_range >= 0.0 && std::isfinite(ray.max_range);
+}
+}  // namespace
+
 void Scene::validateRay(const Ray& ray, const char* context)
 {
   if (!ray.origin.allFinite())
@@ -159,12 +169,29 @@ RayHit Scene::cast(const Ray& ray) const
   return castUnchecked(ray);
 }
 
+bool Scene::occluded(const Ray& ray) const
+{
+  validateRay(ray, "Scene::occluded");
+  // cast() finds a hit iff the terrain is hit within max_range or a solid is entered in
+  // (0, max_range] (solids are searched up to the terrain hit, but a terrain hit is a hit).
+  // The terrain first: a shadow ray the ground blocks ends there without a look at the BVH (a
+  // ray along the ground would cross many of its boxes), and one that clears the ground leaves
+  // the height range after a few coarse blocks.
+  TerrainHit th;
+  return terrain_.intersect(ray.origin, ray.direction, ray.max_range, th) ||
+         objects_.occluded(ray.origin, ray.direction, 0.0, ray.max_range) ||
+         body_bvh_.occluded(ray.origin, ray.direction, 0.0, ray.max_range, ray.ignore_body);
+}
+
 void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsigned threads) const
 {
   for (std::size_t k = 0; k < rays.size(); ++k)
-    validateRay(rays[k], ("Scene::cast: rays[" + std::to_string(k) + "]").c_str());
+    if (!rayValid(rays[k]))  // the message (a string per ray) only for the ray that fails
+      validateRay(rays[k], ("Scene::cast: rays[" + std::to_string(k) + "]").c_str());
   hits.resize(rays.size());
-  parallelFor(rays.size(), threads, [&](std::size_t begin, std::size_t end) {
+  // Chunks handed out as threads come free: rays differ in cost by orders of magnitude (a
+  // steep ray hits at once, a grazing one crosses the course), so a fixed split idles a thread.
+  parallelForDynamic(rays.size(), threads, 1024, [&](std::size_t begin, std::size_t end) {
     for (std::size_t k = begin; k < end; ++k)
       hits[k] = castUnchecked(rays[k]);
   });

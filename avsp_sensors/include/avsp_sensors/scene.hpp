@@ -130,6 +130,14 @@ public:
   RayHit cast(const Ray& ray) const;
 
   /**
+   * @brief Whether the ray meets anything within its max_range: cast(ray).hit() without the
+   *        search for the nearest hit and its details (shadow rays). The terrain is tested
+   *        first, then the solids; the first one found ends the search.
+   * @throw std::invalid_argument as cast()
+   */
+  bool occluded(const Ray& ray) const;
+
+  /**
    * @brief hits[k] = cast(rays[k]) on `threads` threads (0 = all cores). Results do not depend
    *        on the thread count.
    * @throw std::invalid_argument naming the first bad ray (before any casting)
