@@ -139,7 +139,9 @@ public:
 
   /**
    * @brief hits[k] = cast(rays[k]) on `threads` threads (0 = all cores). Results do not depend
-   *        on the thread count.
+   *        on the thread count. Consecutive rays sharing an origin and a vertical half-plane
+   *        (lidar columns) are cast faster: each starts its terrain traversal where a less
+   *        steep one met the ground (same hits).
    * @throw std::invalid_argument naming the first bad ray (before any casting)
    */
   void cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsigned threads) const;
@@ -149,6 +151,9 @@ public:
 
 private:
   RayHit castUnchecked(const Ray& ray) const;
+  /// With the terrain traversal starting at t_clear (HeightField::intersectFrom); sets
+  /// terrain_reach to the terrain hit's range, or max_range when the terrain is not hit.
+  RayHit castUnchecked(const Ray& ray, double t_clear, double& terrain_reach) const;
   float terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vector3d& p) const;
 
   HeightField terrain_;
