@@ -404,20 +404,15 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
       return lo;
     return std::min(static_cast<std::int64_t>(p), hi - 1);
   };
-  // The mip levels as flat arrays (index L - 1), read once per ray instead of through the
-  // vectors on every step.
-  const float* level_max[kMaxLevels];
-  std::size_t level_tiles_x[kMaxLevels];
-  for (int L = 0; L < top_level; ++L)
-  {
-    level_max[L] = mips_[L].max.data();
-    level_tiles_x[L] = mips_[L].tiles_x;
-  }
+  // The levels read in place (a per-ray copy of their pointers cost more than it saved once
+  // coherent rays came down to a few steps each).
+  const Level* const levels = mips_.data();
   const float* const heights = heights_.data();
   const std::size_t columns = columns_;
   // Stored maximum of block (bi, bj) of level L >= 1.
   auto mip = [&](int L, std::int64_t bi, std::int64_t bj) -> double {
-    return level_max[L - 1][Level::index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj), level_tiles_x[L - 1])];
+    const Level& l = levels[L - 1];
+    return l.max.data()[l.index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj))];
   };
   // How far the ray can drop while crossing a block of level L: at most its diagonal times the
   // ray's slope (0 for rays going up). Used only to choose levels, never to skip.

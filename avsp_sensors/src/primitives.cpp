@@ -366,30 +366,15 @@ bool PrimitiveBvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d
   };
   double best = t_max;
   bool found = false;
-  // Each entry keeps where the ray enters its box: a node pushed before `best` shrank below that
-  // entry holds nothing nearer (float boxes are rounded outwards, so no primitive in it starts
-  // before the entry) and is dropped when popped. Strictly farther only, so ties still reach
-  // the lower-index rule.
-  // (Two arrays, not an array of {node, t} pairs: the compiler read such a pair's padded node
-  // field as 8 bytes after a 4-byte store, a store-forwarding stall on every pop.)
   std::uint32_t stack[kMaxDepth + 2];
-  double stack_t[kMaxDepth + 2];
   int top = 0;
   double t_enter = 0.0;
   if (!boxEntry(nodes_[0], best, t_enter))
     return false;
-  auto push = [&](std::uint32_t node, double t) {
-    stack[top] = node;
-    stack_t[top] = t;
-    ++top;
-  };
-  push(0, t_enter);
+  stack[top++] = 0;
   while (top > 0)
   {
-    --top;
-    if (stack_t[top] > best)
-      continue;
-    const std::uint32_t node = stack[top];
+    const std::uint32_t node = stack[--top];
     const Node& nd = nodes_[node];
     if (nd.count > 0)
     {
@@ -420,19 +405,19 @@ bool PrimitiveBvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d
     {
       if (tl <= tr)
       {
-        push(right, tr);
-        push(left, tl);
+        stack[top++] = right;
+        stack[top++] = left;
       }
       else
       {
-        push(left, tl);
-        push(right, tr);
+        stack[top++] = left;
+        stack[top++] = right;
       }
     }
     else if (hl)
-      push(left, tl);
+      stack[top++] = left;
     else if (hr)
-      push(right, tr);
+      stack[top++] = right;
   }
   return found;
 }
