@@ -202,8 +202,8 @@ double horizontal(const Eigen::Vector3d& d)
 
 /**
  * Whether rays a and b lie in one vertical half-plane (same origin bit for bit, horizontal
- * directions parallel to 1e-12, not vertical) with clearly different slopes: +1 when b climbs
- * more steeply than a, -1 when less, 0 when they are not such a pair.
+ * directions parallel to 1e-12, not vertical) with clearly different slopes dz / horizontal:
+ * +1 when b points higher than a, -1 when lower, 0 when they are not such a pair.
  */
 int fanStep(const Ray& a, const Ray& b)
 {
@@ -234,10 +234,10 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
   // steep ray hits at once, a grazing one crosses the course), so a fixed split idles a thread.
   //
   // Coherence: consecutive rays from one origin in one vertical half-plane (a lidar column)
-  // form a fan. Over a height field, a ray of the fan cannot meet the ground before a less
-  // steep one did: up to that one's terrain hit (or, if it has none, its whole range) the
-  // less steep ray stays above the ground, and the steeper one above it. So a fan is cast from
-  // its least steep ray up, each ray's terrain traversal starting where the one below it met
+  // form a fan. Over a height field, a ray of the fan cannot meet the ground before a lower
+  // one did: up to that one's terrain hit (or, if it has none, its whole range) the lower ray
+  // stays above the ground, and the higher one above it. So a fan is cast from its lowest
+  // ray up, each ray's terrain traversal starting where the one below it met
   // the ground (HeightField::intersectFrom), which skips the approach from the sensor. Each
   // hit is the one a single cast() gives, bit for bit; fans are found within a chunk only,
   // and chunk bounds are fixed multiples of the grain, so nothing depends on the schedule.
@@ -252,7 +252,7 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
       double s_clear = 0.0;  // m, horizontal: the ground is not met before it in this fan
       for (std::size_t m = 0; m < r - k; ++m)
       {
-        const std::size_t idx = order >= 0 ? k + m : r - 1 - m;  // least steep first
+        const std::size_t idx = order >= 0 ? k + m : r - 1 - m;  // lowest first
         const Ray& ray = rays[idx];
         const double h = horizontal(ray.direction);
         double reach = 0.0;

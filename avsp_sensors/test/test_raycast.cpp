@@ -1,6 +1,7 @@
 // Ray caster against analytic geometry: heightfields that are exact planes and saddles,
 // spheres, cylinders and boxes, grazing and corner rays, rays from below the ground,
 // max-range misses, mip refresh after a height patch, and a brute-force cell-by-cell oracle.
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -11,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "avsp_sensors/height_field.hpp"
+#include "avsp_sensors/parallel.hpp"
 #include "avsp_sensors/scene.hpp"
 #include "avsp_terrain/deformable_terrain.hpp"
 #include "avsp_terrain/elevation_grid.hpp"
@@ -806,6 +808,34 @@ TEST(Scene, OccludedAgreesWithCast)
   Ray bad;
   bad.max_range = -1.0;
   EXPECT_THROW(scene.occluded(bad), std::invalid_argument);
+}
+
+TEST(Parallel, DynamicChunksCoverEveryItemOnceAndRethrow)
+{
+  // parallelForDynamic: every item in exactly one call, calls are the fixed grain-sized chunks
+  // [k g, (k + 1) g) whatever the thread count, and an exception reaches the caller.
+  for (const std::size_t n : { std::size_t{ 1 }, std::size_t{ 7 }, std::size_t{ 1000 }, std::size_t{ 4097 } })
+    for (const std::size_t grain : { std::size_t{ 1 }, std::size_t{ 4 }, std::size_t{ 1024 } })
+      for (const unsigned threads : { 1u, 2u, 3u, 8u })
+      {
+        std::vector<std::atomic<int>> seen(n);
+        std::atomic<bool> aligned{ true };
+        parallelForDynamic(n, threads, grain, [&](std::size_t b, std::size_t e) {
+          if (threads > 1 && n > grain && (b % grain != 0 || (e != b + grain && e != n)))
+            aligned = false;
+          for (std::size_t k = b; k < e; ++k)
+            ++seen[k];
+        });
+        for (std::size_t k = 0; k < n; ++k)
+          ASSERT_EQ(seen[k].load(), 1) << n << " " << grain << " " << threads << " " << k;
+        EXPECT_TRUE(aligned.load()) << n << " " << grain << " " << threads;
+      }
+  EXPECT_THROW(parallelForDynamic(100, 2, 3,
+                                  [](std::size_t b, std::size_t) {
+                                    if (b >= 60)
+                                      throw std::runtime_error("chunk failed");
+                                  }),
+               std::runtime_error);
 }
 
 TEST(Scene, BadRaysAndGridsThrowNamingTheField)

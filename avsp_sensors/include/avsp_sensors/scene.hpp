@@ -140,8 +140,8 @@ public:
   /**
    * @brief hits[k] = cast(rays[k]) on `threads` threads (0 = all cores). Results do not depend
    *        on the thread count. Consecutive rays sharing an origin and a vertical half-plane
-   *        (lidar columns) are cast faster: each starts its terrain traversal where a less
-   *        steep one met the ground (same hits).
+   *        (lidar columns) are cast faster: each starts its terrain traversal where a lower
+   *        one met the ground (same hits).
    * @throw std::invalid_argument naming the first bad ray (before any casting)
    */
   void cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsigned threads) const;
