@@ -104,7 +104,7 @@ float HeightField::mipMax(std::size_t level, std::size_t bi, std::size_t bj) con
     return std::max(std::max(s[0], s[1]), std::max(s[columns_], s[columns_ + 1]));
   }
   const Level& l = mips_[level - 1];
-  return l.max[bj * l.nx + bi];
+  return l.max[l.index(bi, bj)];
 }
 
 std::size_t HeightField::bytes() const
@@ -165,7 +165,10 @@ void HeightField::buildMips()
     Level l;
     l.nx = nx;
     l.ny = ny;
-    l.max.assign(nx * ny, 0.f);
+    l.tiles_x = (nx + Level::kTile - 1) / Level::kTile;
+    // Padding entries of partial tiles are never read; -inf keeps them harmless anyway.
+    l.max.assign(l.tiles_x * ((ny + Level::kTile - 1) / Level::kTile) * Level::kTile * Level::kTile,
+                 -std::numeric_limits<float>::infinity());
     mips_.push_back(std::move(l));
   } while (nx > 1 || ny > 1);
   refreshMips(0, 0, cells_x_ - 1, cells_y_ - 1);
@@ -177,7 +180,7 @@ void HeightField::refreshMips(std::size_t ci0, std::size_t cj0, std::size_t ci1,
   Level& first = mips_[0];
   for (std::size_t bj = bj0; bj <= bj1; ++bj)
     for (std::size_t bi = bi0; bi <= bi1; ++bi)
-      first.max[bj * first.nx + bi] = blockMaxFromHeights(bi, bj);
+      first.max[first.index(bi, bj)] = blockMaxFromHeights(bi, bj);
   for (std::size_t L = 1; L < mips_.size(); ++L)
   {
     const Level& child = mips_[L - 1];
@@ -192,8 +195,8 @@ void HeightField::refreshMips(std::size_t ci0, std::size_t cj0, std::size_t ci1,
         float m = -std::numeric_limits<float>::infinity();
         for (std::size_t cj = 2 * bj; cj <= std::min(2 * bj + 1, child.ny - 1); ++cj)
           for (std::size_t ci = 2 * bi; ci <= std::min(2 * bi + 1, child.nx - 1); ++ci)
-            m = std::max(m, child.max[cj * child.nx + ci]);
-        parent.max[bj * parent.nx + bi] = m;
+            m = std::max(m, child.max[child.index(ci, cj)]);
+        parent.max[parent.index(bi, bj)] = m;
       }
   }
   // The lowest height bounds rays from below (see intersect()); it only needs to be a lower
@@ -326,6 +329,12 @@ bool HeightField::cellHit(std::size_t ci, std::size_t cj, const Eigen::Vector3d&
 
 bool HeightField::intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, TerrainHit& hit) const
 {
+  return intersectFrom(o, d, 0.0, t_max, hit);
+}
+
+bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_clear, double t_max,
+                                TerrainHit& hit) const
+{
   if (!(t_max >= 0.0))
     return false;
   // Ray in grid units: X = (x - origin_x) / dx, so cell boundaries are the integers.
@@ -371,12 +380,23 @@ bool HeightField::intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, 
     return false;
 
   const int top_level = static_cast<int>(mips_.size());
-  double t = t0;
+  // Where the ray may first meet the surface, as far as the caller knows (t_clear), and where
+  // the exact cell tests start from: t0, the same with or without t_clear.
+  const double t_first = t0;
+  double t = std::max(t0, t_clear);
+  if (t > t1)
+    return false;
   const bool px = DX > 0.0, py = DY > 0.0;
-  // Reciprocals: one multiply per face instead of a division in the inner loop (+-inf for a
-  // ray parallel to the faces, which then never exits through them).
+  const bool move_x = DX != 0.0, move_y = DY != 0.0;
+  // Reciprocals: one multiply per face instead of a division in the inner loop.
   const double iX = 1.0 / DX, iY = 1.0 / DY;
+  // The traversal works in blocks of the current level: block b of level L spans cells
+  // [b << L, (b + 1) << L); the ray leaves it through face (b + exit) << L and steps to b + step.
+  const std::int64_t exit_x = px ? 1 : 0, exit_y = py ? 1 : 0;
+  const std::int64_t step_x = px ? 1 : -1, step_y = py ? 1 : -1;
   const auto ncx = static_cast<std::int64_t>(cells_x_), ncy = static_cast<std::int64_t>(cells_y_);
+  const double oz = o.z(), dz = d.z();
+  const bool rising = dz >= 0.0;
   // Level-0 cell holding the ray at t, kept inside [lo, hi) so that rounding of the position
   // cannot put it in a block the traversal has not reached (or has left).
   auto cellOf = [](double p, std::int64_t lo, std::int64_t hi) {
@@ -384,26 +404,15 @@ bool HeightField::intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, 
       return lo;
     return std::min(static_cast<std::int64_t>(p), hi - 1);
   };
-  std::int64_t ci = cellOf(X0 + t * DX, 0, ncx);
-  std::int64_t cj = cellOf(Y0 + t * DY, 0, ncy);
-  // The mip levels as flat arrays (index L - 1), read once per ray instead of through the
-  // vectors on every step.
-  const float* level_max[kMaxLevels];
-  std::size_t level_nx[kMaxLevels];
-  for (int L = 0; L < top_level; ++L)
-  {
-    level_max[L] = mips_[L].max.data();
-    level_nx[L] = mips_[L].nx;
-  }
-  // Largest block maximum around (ci, cj) at `level` (0: the cell's corners).
-  auto blockMax = [&](int level, std::int64_t i, std::int64_t j) -> double {
-    if (level == 0)
-    {
-      const float* s = heights_.data() + static_cast<std::size_t>(j) * columns_ + static_cast<std::size_t>(i);
-      return std::max(std::max(s[0], s[1]), std::max(s[columns_], s[columns_ + 1]));
-    }
-    return level_max[level - 1][static_cast<std::size_t>(j >> level) * level_nx[level - 1] +
-                                static_cast<std::size_t>(i >> level)];
+  // The levels read in place (a per-ray copy of their pointers cost more than it saved once
+  // coherent rays came down to a few steps each).
+  const Level* const levels = mips_.data();
+  const float* const heights = heights_.data();
+  const std::size_t columns = columns_;
+  // Stored maximum of block (bi, bj) of level L >= 1.
+  auto mip = [&](int L, std::int64_t bi, std::int64_t bj) -> double {
+    const Level& l = levels[L - 1];
+    return l.max.data()[l.index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj))];
   };
   // How far the ray can drop while crossing a block of level L: at most its diagonal times the
   // ray's slope (0 for rays going up). Used only to choose levels, never to skip.
@@ -411,80 +420,101 @@ bool HeightField::intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, 
   const double drop_per_cell = d.z() >= 0.0      ? 0.0
                                : horizontal > 0.0 ? std::sqrt(dx_ * dx_ + dy_ * dy_) * (-d.z()) / horizontal
                                                   : kInf;
-  auto clears = [&](int L, std::int64_t i, std::int64_t j, double z) {
-    return blockMax(L, i, j) + kSkipMargin + drop_per_cell * static_cast<double>(std::int64_t{ 1 } << L) < z;
+  // Whether block (bi, bj) of level L >= 1 lies wholly below the ray, which is at height z now.
+  auto clears = [&](int L, std::int64_t bi, std::int64_t bj, double z) {
+    return mip(L, bi, bj) + kSkipMargin + drop_per_cell * static_cast<double>(std::int64_t{ 1 } << L) < z;
   };
   // Start at the coarsest block around the start that the ray is likely to clear: a coarser one
   // reaches the ray (or the ray drops to it while crossing), so testing it would only lead to
   // descending through it.
   int level = 0;
+  std::int64_t bi = cellOf(X0 + t * DX, 0, ncx);
+  std::int64_t bj = cellOf(Y0 + t * DY, 0, ncy);
   {
-    const double z_start = o.z() + t * d.z();
-    while (level < top_level && clears(level + 1, ci, cj, z_start))
+    const double z_start = oz + t * dz;
+    while (level < top_level && clears(level + 1, bi >> 1, bj >> 1, z_start))
+    {
       ++level;
+      bi >>= 1;
+      bj >>= 1;
+    }
   }
   for (;;)
   {
-    // Block of the current level that contains cell (ci, cj), and the ray's exit from it.
-    const std::int64_t bi = ci >> level, bj = cj >> level;
-    const std::int64_t x_lo = bi << level, x_hi = std::min((bi + 1) << level, ncx);
-    const std::int64_t y_lo = bj << level, y_hi = std::min((bj + 1) << level, ncy);
-    const double tx = DX != 0.0 ? (static_cast<double>(px ? x_hi : x_lo) - X0) * iX : kInf;
-    const double ty = DY != 0.0 ? (static_cast<double>(py ? y_hi : y_lo) - Y0) * iY : kInf;
+    // The ray's exit from block (bi, bj) of the current level. A face beyond the grid's edge
+    // (the last block of a level may be partial) is never reached: t1 ends the ray there.
+    const double tx = move_x ? (static_cast<double>((bi + exit_x) << level) - X0) * iX : kInf;
+    const double ty = move_y ? (static_cast<double>((bj + exit_y) << level) - Y0) * iY : kInf;
     // Rounding can leave the current position on the block's exit face: step across it.
     if (tx <= t || ty <= t)
     {
       if (tx <= t)
-        ci = px ? x_hi : x_lo - 1;
+        bi += step_x;
       if (ty <= t)
-        cj = py ? y_hi : y_lo - 1;
-      if (ci < 0 || ci >= ncx || cj < 0 || cj >= ncy)
+        bj += step_y;
+      if (bi < 0 || bj < 0 || (bi << level) >= ncx || (bj << level) >= ncy)
         return false;
       continue;
     }
     const double t_out = std::min(std::min(tx, ty), t1);
-    const double z_low = d.z() >= 0.0 ? o.z() + t * d.z() : o.z() + t_out * d.z();
+    const double z_low = rising ? oz + t * dz : oz + t_out * dz;
     if (level > 0)
     {
-      if (z_low <= level_max[level - 1][static_cast<std::size_t>(bj) * level_nx[level - 1] +
-                                        static_cast<std::size_t>(bi)] +
-                       kSkipMargin)
+      if (z_low <= mip(level, bi, bj) + kSkipMargin)
       {
         // The ray may dip into this block: look at its children, starting with the one the
-        // ray is in now.
+        // ray is in now (the lower one when the upper would lie beyond the grid).
         --level;
-        ci = cellOf(X0 + t * DX, x_lo, x_hi);
-        cj = cellOf(Y0 + t * DY, y_lo, y_hi);
+        const std::int64_t mid_x = (2 * bi + 1) << level, mid_y = (2 * bj + 1) << level;
+        bi = 2 * bi + (mid_x < ncx && X0 + t * DX >= static_cast<double>(mid_x) ? 1 : 0);
+        bj = 2 * bj + (mid_y < ncy && Y0 + t * DY >= static_cast<double>(mid_y) ? 1 : 0);
         continue;
       }
     }
     else
     {
-      const float* s = heights_.data() + static_cast<std::size_t>(cj) * columns_ + static_cast<std::size_t>(ci);
-      const float cell_max = std::max(std::max(s[0], s[1]), std::max(s[columns_], s[columns_ + 1]));
-      if (z_low <= cell_max + kSkipMargin &&
-          cellHit(static_cast<std::size_t>(ci), static_cast<std::size_t>(cj), o, d, g, t, t_out, hit))
-        return true;
+      const float* s = heights + static_cast<std::size_t>(bj) * columns + static_cast<std::size_t>(bi);
+      const float cell_max = std::max(std::max(s[0], s[1]), std::max(s[columns], s[columns + 1]));
+      if (z_low <= cell_max + kSkipMargin)
+      {
+        // The exact test runs over the cell's whole stretch of the ray, from where the ray
+        // enters it (or starts), not from where the traversal came in: the hit then depends on
+        // the ray and the cell alone, whatever path (coarse levels, a t_clear start) led here.
+        double t_in = t_first;
+        if (move_x)
+          t_in = std::max(t_in, (static_cast<double>(bi + 1 - exit_x) - X0) * iX);
+        if (move_y)
+          t_in = std::max(t_in, (static_cast<double>(bj + 1 - exit_y) - Y0) * iY);
+        if (cellHit(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj), o, d, g, std::min(t_in, t_out), t_out,
+                    hit))
+          return true;
+      }
     }
     // Past this block (skipped, or tested without a hit): into the neighbour it exits to.
     if (t_out >= t1)
       return false;
     t = t_out;
-    const bool cross_x = tx <= ty, cross_y = ty <= tx;
-    const std::int64_t ni = cross_x ? (px ? x_hi : x_lo - 1) : cellOf(X0 + t * DX, x_lo, x_hi);
-    const std::int64_t nj = cross_y ? (py ? y_hi : y_lo - 1) : cellOf(Y0 + t * DY, y_lo, y_hi);
-    if (ni < 0 || ni >= ncx || nj < 0 || nj >= ncy)
+    std::int64_t from_i = bi, from_j = bj;
+    if (tx <= ty)
+      bi += step_x;
+    if (ty <= tx)
+      bj += step_y;
+    if (bi < 0 || bj < 0 || (bi << level) >= ncx || (bj << level) >= ncy)
       return false;
     // Go up while the step also left the parent block and the new parent lies wholly below the
     // ray here: a parent the ray was already inside dips to the ray somewhere, and one that
     // reaches the ray's height cannot be skipped, so testing either would only send the
     // traversal straight back down.
-    const double z_now = o.z() + t * d.z();
-    while (level < top_level && (((ni ^ ci) >> (level + 1)) != 0 || ((nj ^ cj) >> (level + 1)) != 0) &&
-           clears(level + 1, ni, nj, z_now))
+    const double z_now = oz + t * dz;
+    while (level < top_level && ((bi >> 1) != (from_i >> 1) || (bj >> 1) != (from_j >> 1)) &&
+           clears(level + 1, bi >> 1, bj >> 1, z_now))
+    {
       ++level;
-    ci = ni;
-    cj = nj;
+      bi >>= 1;
+      bj >>= 1;
+      from_i >>= 1;
+      from_j >>= 1;
+    }
   }
 }
 

@@ -186,7 +186,9 @@ LidarScan Lidar::scan(const Scene& scene, const LidarScanRequest& req) const
   const double inv_n = 1.0 / static_cast<double>(ns);
 
   std::vector<PulseResult> results(nch * ncol);
-  parallelFor(ncol, req.threads, [&](std::size_t col_begin, std::size_t col_end) {
+  // Columns handed out in small chunks as threads come free (their costs differ with what
+  // they face); every pulse depends on its index alone, so the schedule does not show.
+  parallelForDynamic(ncol, req.threads, 16, [&](std::size_t col_begin, std::size_t col_end) {
     std::vector<SubHit> subs;
     subs.reserve(ns + 1);
     for (std::size_t col = col_begin; col < col_end; ++col)

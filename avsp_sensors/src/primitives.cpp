@@ -330,6 +330,19 @@ std::uint32_t PrimitiveBvh::build(std::uint32_t begin, std::uint32_t end, std::v
 bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
                              double t_max, PrimitiveHit& hit, std::uint32_t skip_id) const
 {
+  return traverse(origin, direction, t_min, t_max, hit, skip_id, false);
+}
+
+bool PrimitiveBvh::occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
+                            double t_max, std::uint32_t skip_id) const
+{
+  PrimitiveHit hit;
+  return traverse(origin, direction, t_min, t_max, hit, skip_id, true);
+}
+
+bool PrimitiveBvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
+                            double t_max, PrimitiveHit& hit, std::uint32_t skip_id, bool any) const
+{
   if (nodes_.empty())
     return false;
   const double inv[3] = { 1.0 / direction.x(), 1.0 / direction.y(), 1.0 / direction.z() };
@@ -361,7 +374,8 @@ bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3
   stack[top++] = 0;
   while (top > 0)
   {
-    const Node& nd = nodes_[stack[--top]];
+    const std::uint32_t node = stack[--top];
+    const Node& nd = nodes_[node];
     if (nd.count > 0)
     {
       for (std::uint32_t k = nd.first; k < nd.first + nd.count; ++k)
@@ -377,11 +391,13 @@ bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3
           hit = h;
           hit.index = p;
           found = true;
+          if (any)
+            return true;
         }
       }
       continue;
     }
-    const std::uint32_t left = static_cast<std::uint32_t>(&nd - nodes_.data()) + 1, right = nd.first;
+    const std::uint32_t left = node + 1, right = nd.first;
     double tl = 0.0, tr = 0.0;
     const bool hl = boxEntry(nodes_[left], best, tl), hr = boxEntry(nodes_[right], best, tr);
     // Push the farther child first so the nearer one is searched first and shrinks `best`.

@@ -142,6 +142,25 @@ float Scene::terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vect
   return soil_reflectivity_[soil_map_[pj * terrain_.columns() + pi]];
 }
 
+namespace
+{
+/// Rays of a batch are cast on threads in chunks of this many (fans never span two chunks).
+constexpr std::size_t kBatchGrain = 1024;
+/// Two rays of a fan differ in slope (dz / horizontal) by more than this: far above rounding,
+/// far below any two lidar channels (0.1 deg apart: 1.7e-3).
+constexpr double kFanSlopeMargin = 1e-6;
+/// m: a fan's next ray starts this much before the previous one's hit, for the rounding of
+/// that hit (the start only saves steps; the cell it falls in is still tested whole).
+constexpr double kFanBackOff = 1e-6;
+
+/// The checks of Scene::validateRay without building a message.
+bool rayValid(const Ray& ray)
+{
+  return ray.origin.allFinite() && ray.direction.allFinite() && std::abs(ray.direction.squaredNorm() - 1.0) <= 2e-6 &&
+         ray.max_range >= 0.0 && std::isfinite(ray.max_range);
+}
+}  // namespace
+
 void Scene::validateRay(const Ray& ray, const char* context)
 {
   if (!ray.origin.allFinite())
@@ -159,24 +178,108 @@ RayHit Scene::cast(const Ray& ray) const
   return castUnchecked(ray);
 }
 
+bool Scene::occluded(const Ray& ray) const
+{
+  validateRay(ray, "Scene::occluded");
+  // cast() finds a hit iff the terrain is hit within max_range or a solid is entered in
+  // (0, max_range] (solids are searched up to the terrain hit, but a terrain hit is a hit).
+  // The terrain first: a shadow ray the ground blocks ends there without a look at the BVH (a
+  // ray along the ground would cross many of its boxes), and one that clears the ground leaves
+  // the height range after a few coarse blocks.
+  TerrainHit th;
+  return terrain_.intersect(ray.origin, ray.direction, ray.max_range, th) ||
+         objects_.occluded(ray.origin, ray.direction, 0.0, ray.max_range) ||
+         body_bvh_.occluded(ray.origin, ray.direction, 0.0, ray.max_range, ray.ignore_body);
+}
+
+namespace
+{
+/// Horizontal length of a direction.
+double horizontal(const Eigen::Vector3d& d)
+{
+  return std::sqrt(d.x() * d.x() + d.y() * d.y());
+}
+
+/**
+ * Whether rays a and b lie in one vertical half-plane (same origin bit for bit, horizontal
+ * directions parallel to 1e-12, not vertical) with clearly different slopes dz / horizontal:
+ * +1 when b points higher than a, -1 when lower, 0 when they are not such a pair.
+ */
+int fanStep(const Ray& a, const Ray& b)
+{
+  if (a.origin != b.origin)
+    return 0;
+  const Eigen::Vector3d &da = a.direction, &db = b.direction;
+  const double ha = horizontal(da), hb = horizontal(db);
+  if (!(ha > 0.0 && hb > 0.0))
+    return 0;
+  if (std::abs(da.x() * db.y() - da.y() * db.x()) > 1e-12 * ha * hb || da.x() * db.x() + da.y() * db.y() <= 0.0)
+    return 0;
+  const double sa = da.z() / ha, sb = db.z() / hb;
+  if (sb > sa + kFanSlopeMargin)
+    return 1;
+  if (sb < sa - kFanSlopeMargin)
+    return -1;
+  return 0;
+}
+}  // namespace
+
 void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsigned threads) const
 {
   for (std::size_t k = 0; k < rays.size(); ++k)
-    validateRay(rays[k], ("Scene::cast: rays[" + std::to_string(k) + "]").c_str());
+    if (!rayValid(rays[k]))  // the message (a string per ray) only for the ray that fails
+      validateRay(rays[k], ("Scene::cast: rays[" + std::to_string(k) + "]").c_str());
   hits.resize(rays.size());
-  parallelFor(rays.size(), threads, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t k = begin; k < end; ++k)
-      hits[k] = castUnchecked(rays[k]);
+  // Chunks handed out as threads come free: rays differ in cost by orders of magnitude (a
+  // steep ray hits at once, a grazing one crosses the course), so a fixed split idles a thread.
+  //
+  // Coherence: consecutive rays from one origin in one vertical half-plane (a lidar column)
+  // form a fan. Over a height field, a ray of the fan cannot meet the ground before a lower
+  // one did: up to that one's terrain hit (or, if it has none, its whole range) the lower ray
+  // stays above the ground, and the higher one above it. So a fan is cast from its lowest
+  // ray up, each ray's terrain traversal starting where the one below it met
+  // the ground (HeightField::intersectFrom), which skips the approach from the sensor. Each
+  // hit is the one a single cast() gives, bit for bit; fans are found within a chunk only,
+  // and chunk bounds are fixed multiples of the grain, so nothing depends on the schedule.
+  parallelForDynamic(rays.size(), threads, kBatchGrain, [&](std::size_t begin, std::size_t end) {
+    std::size_t k = begin;
+    while (k < end)
+    {
+      std::size_t r = k + 1;
+      const int order = r < end ? fanStep(rays[k], rays[r]) : 0;
+      while (order != 0 && r < end && fanStep(rays[r - 1], rays[r]) == order)
+        ++r;
+      double s_clear = 0.0;  // m, horizontal: the ground is not met before it in this fan
+      for (std::size_t m = 0; m < r - k; ++m)
+      {
+        const std::size_t idx = order >= 0 ? k + m : r - 1 - m;  // lowest first
+        const Ray& ray = rays[idx];
+        const double h = horizontal(ray.direction);
+        double reach = 0.0;
+        const double t_clear = m > 0 ? std::max(0.0, s_clear / h - kFanBackOff) : 0.0;
+        hits[idx] = castUnchecked(ray, t_clear, reach);
+        s_clear = reach * h;
+      }
+      k = r;
+    }
   });
 }
 
 RayHit Scene::castUnchecked(const Ray& ray) const
 {
+  double reach = 0.0;
+  return castUnchecked(ray, 0.0, reach);
+}
+
+RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reach) const
+{
   RayHit out;
   double best = ray.max_range;
   TerrainHit th;
-  if (terrain_.intersect(ray.origin, ray.direction, best, th))
+  terrain_reach = ray.max_range;
+  if (terrain_.intersectFrom(ray.origin, ray.direction, t_clear, best, th))
   {
+    terrain_reach = th.t;
     best = th.t;
     out.kind = HitKind::kTerrain;
     out.range = th.t;

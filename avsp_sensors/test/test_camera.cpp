@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include "avsp_sensors/camera.hpp"
@@ -732,6 +733,33 @@ TEST(Camera, SrgbEncodingMatchesTheTransferFunction)
   }
   EXPECT_EQ(encodeSrgb(-1.f), 0);
   EXPECT_EQ(encodeSrgb(7.f), 255);
+}
+
+TEST(Camera, SrgbEncodingStepsExactlyAtTheThresholds)
+{
+  // Each code k >= 1 begins at the linear value of (k - 0.5) / 255 through the inverse transfer
+  // function, rounded to float: just below it the code is k - 1, at it k. Checked at every
+  // threshold and on a dense sweep against a binary search over the thresholds.
+  std::vector<float> t;
+  for (int k = 1; k <= 255; ++k)
+  {
+    const double s = (k - 0.5) / 255.0;
+    t.push_back(static_cast<float>(s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4)));
+  }
+  auto reference = [&](float x) { return static_cast<int>(std::upper_bound(t.begin(), t.end(), x) - t.begin()); };
+  for (int k = 1; k <= 255; ++k)
+  {
+    const float at = t[k - 1];
+    EXPECT_EQ(encodeSrgb(at), k) << k;
+    EXPECT_EQ(encodeSrgb(std::nextafter(at, 0.f)), k - 1) << k;
+  }
+  for (int n = 0; n <= 2000000; ++n)
+  {
+    const float x = static_cast<float>(1.001 * n / 2000000.0);
+    ASSERT_EQ(encodeSrgb(x), reference(x)) << x;
+  }
+  EXPECT_EQ(encodeSrgb(0.f), 0);
+  EXPECT_EQ(encodeSrgb(std::numeric_limits<float>::quiet_NaN()), 255);
 }
 
 TEST(Camera, RainStreaksAndSnowflakesAreSeededAndOnlyInRgb)

@@ -1,6 +1,7 @@
 // Ray caster against analytic geometry: heightfields that are exact planes and saddles,
 // spheres, cylinders and boxes, grazing and corner rays, rays from below the ground,
 // max-range misses, mip refresh after a height patch, and a brute-force cell-by-cell oracle.
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -11,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "avsp_sensors/height_field.hpp"
+#include "avsp_sensors/parallel.hpp"
 #include "avsp_sensors/scene.hpp"
 #include "avsp_terrain/deformable_terrain.hpp"
 #include "avsp_terrain/elevation_grid.hpp"
@@ -638,6 +640,202 @@ TEST(Scene, BatchesGiveTheSameHitsOnAnyThreadCount)
     ASSERT_EQ(one[k].range, three[k].range);
     ASSERT_EQ(one[k].point, three[k].point);
   }
+}
+
+TEST(HeightField, StartingPastAKnownClearStretchGivesTheSameHitBitForBit)
+{
+  // intersectFrom(t_clear) promises intersect()'s hit whenever the ray does not meet the
+  // surface before t_clear: each cell is solved over its whole stretch of the ray, however the
+  // traversal reached it. Checked with t_clear anywhere in [0, first hit], including inside
+  // the cell that is hit, on steep random terrain.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<float> h(129 * 97);
+  for (auto& v : h)
+    v = static_cast<float>(0.5 * U(rng));
+  const HeightField f(-3.0, 2.0, 0.1, 0.12, 129, 97, h);
+  int checked = 0, inside_hit_cell = 0;
+  for (int n = 0; n < 4000; ++n)
+  {
+    const Vector3d o(-3.0 + 12.8 * (U(rng) + 1.0) / 2.0, 2.0 + 11.5 * (U(rng) + 1.0) / 2.0, 0.6 + 0.5 * (U(rng) + 1.0));
+    const Vector3d d = unit(U(rng), U(rng), -0.05 - 0.5 * std::abs(U(rng)));
+    TerrainHit ref;
+    if (!f.intersect(o, d, 40.0, ref))
+      continue;
+    for (const double frac : { 0.0, 0.3, 0.9, 0.999, 1.0 })
+    {
+      TerrainHit got;
+      const double t_clear = frac * ref.t;
+      ASSERT_TRUE(f.intersectFrom(o, d, t_clear, 40.0, got)) << n << " " << frac;
+      ASSERT_EQ(got.t, ref.t) << n << " " << frac;
+      ASSERT_EQ(got.point, ref.point);
+      ASSERT_EQ(got.normal, ref.normal);
+      ASSERT_EQ(got.i, ref.i);
+      ASSERT_EQ(got.j, ref.j);
+      ++checked;
+      // Whether t_clear fell inside the cell that is hit (the start is then mid-cell).
+      const Vector3d p = o + t_clear * d;
+      inside_hit_cell += frac > 0.0 && static_cast<std::size_t>((p.x() + 3.0) / 0.1) == ref.i &&
+                         static_cast<std::size_t>((p.y() - 2.0) / 0.12) == ref.j;
+    }
+  }
+  EXPECT_GT(checked, 10000);
+  EXPECT_GT(inside_hit_cell, 1000);
+  // A promise broken (t_clear past the hit) loses that hit: the start is really used.
+  const Vector3d o(3.0, 7.0, 1.5), d = unit(1.0, 0.3, -0.4);
+  TerrainHit ref, got;
+  ASSERT_TRUE(f.intersect(o, d, 40.0, ref));
+  EXPECT_FALSE(f.intersectFrom(o, d, ref.t + 2.0, ref.t + 2.1, got) && got.t == ref.t);
+}
+
+TEST(Scene, LidarFansInABatchGiveTheHitsOfSingleCasts)
+{
+  // A batch casts consecutive rays from one origin in one vertical half-plane (a lidar column)
+  // from the lowest up, each starting its terrain traversal where the one below met the
+  // ground. The hits must be those of single casts, bit for bit, on any thread count: fans in
+  // both channel orders, fans cut by rays that do not belong (other origin, other azimuth, equal
+  // slope), objects in the way, channels above the horizon, and a fan whose lowest ray misses.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<float> h(301 * 301);
+  for (std::size_t j = 0; j < 301; ++j)
+    for (std::size_t i = 0; i < 301; ++i)
+      h[j * 301 + i] = static_cast<float>(0.8 * std::sin(0.21 * i) * std::cos(0.17 * j) + 0.05 * U(rng) +
+                                          (i > 200 && i < 210 ? 3.0 : 0.0));  // a wall-like ridge
+  Scene scene(HeightField(-15, -15, 0.1, 0.1, 301, 301, h));
+  std::vector<Primitive> prims;
+  for (int k = 0; k < 12; ++k)
+  {
+    Primitive p;
+    p.shape = static_cast<Shape>(k % 3);
+    p.centre = Vector3d(12 * U(rng), 12 * U(rng), 1.0);
+    p.half_extents = Vector3d(0.3, 0.4, 1.0);
+    p.id = static_cast<std::uint32_t>(k);
+    prims.push_back(p);
+  }
+  scene.setStaticPrimitives(prims);
+  std::vector<Ray> rays;
+  for (int p = 0; p < 6; ++p)
+  {
+    const Vector3d o(8 * U(rng), 8 * U(rng), 2.5 + U(rng));
+    for (int a = 0; a < 60; ++a)
+    {
+      const double az = 2 * kPi * a / 60 + 0.01 * U(rng);
+      const bool up = a % 2 == 0;
+      for (int c = 0; c < 32; ++c)
+      {
+        const int cc = up ? c : 31 - c;
+        double el = (4.0 - 30.0 * cc / 31.0) * kPi / 180.0;
+        if (a % 7 == 3 && c == 10)
+          el = (4.0 - 30.0 * (cc + (up ? -1 : 1)) / 31.0) * kPi / 180.0;  // repeats a slope: cuts the fan
+        Ray r;
+        r.origin = o;
+        r.direction = Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+        r.max_range = a % 11 == 5 ? 3.0 : 40.0;  // short: the lowest rays may miss
+        if (a % 5 == 1 && c == 20)
+          r.origin.x() += 1e-9;  // another origin: cuts the fan
+        if (a % 13 == 2 && c == 15)
+          r.direction = unit(U(rng), U(rng), -0.2);  // another azimuth
+        rays.push_back(r);
+      }
+    }
+  }
+  std::vector<RayHit> one, two, three;
+  scene.cast(rays, one, 1);
+  scene.cast(rays, two, 2);
+  scene.cast(rays, three, 3);
+  int terrain = 0, objects = 0, misses = 0;
+  for (std::size_t k = 0; k < rays.size(); ++k)
+  {
+    const RayHit single = scene.cast(rays[k]);
+    for (const auto* batch : { &one, &two, &three })
+    {
+      const RayHit& b = (*batch)[k];
+      ASSERT_EQ(b.kind, single.kind) << k;
+      ASSERT_EQ(b.range, single.range) << k;
+      ASSERT_EQ(b.point, single.point) << k;
+      ASSERT_EQ(b.normal, single.normal) << k;
+      ASSERT_EQ(b.id, single.id) << k;
+    }
+    terrain += single.kind == HitKind::kTerrain;
+    objects += single.kind == HitKind::kObject;
+    misses += single.kind == HitKind::kNone;
+  }
+  EXPECT_GT(terrain, 5000);
+  EXPECT_GT(objects, 50);
+  EXPECT_GT(misses, 500);
+}
+
+TEST(Scene, OccludedAgreesWithCast)
+{
+  // Shadow rays ask only whether anything is in the way: the answer must be cast()'s.
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  std::vector<float> h(201 * 201);
+  for (auto& v : h)
+    v = static_cast<float>(0.4 * U(rng));
+  Scene scene(HeightField(-10, -10, 0.1, 0.1, 201, 201, h));
+  std::vector<Primitive> prims;
+  for (int k = 0; k < 40; ++k)
+  {
+    Primitive p;
+    p.shape = static_cast<Shape>(k % 3);
+    p.centre = Vector3d(9 * U(rng), 9 * U(rng), 1.0 + U(rng));
+    p.half_extents = Vector3d(0.3, 0.5, 0.8);
+    p.id = static_cast<std::uint32_t>(k);
+    prims.push_back(p);
+  }
+  scene.setStaticPrimitives(prims);
+  Body body;
+  body.primitive.centre = Vector3d(0, 0, 1.5);
+  body.primitive.half_extents = Vector3d(2, 1, 0.8);
+  body.primitive.id = 77;
+  scene.setBodies({ body });
+  int blocked = 0, open = 0;
+  for (int n = 0; n < 20000; ++n)
+  {
+    Ray r;
+    r.origin = Vector3d(9 * U(rng), 9 * U(rng), 0.6 + 1.5 * (U(rng) + 1.0));
+    r.direction = unit(U(rng), U(rng), 0.4 * U(rng));
+    r.max_range = 2.0 + 10.0 * (U(rng) + 1.0);
+    r.ignore_body = n % 3 == 0 ? 77u : PrimitiveBvh::kNoId;
+    const bool expect = scene.cast(r).hit();
+    ASSERT_EQ(scene.occluded(r), expect) << n;
+    (expect ? blocked : open)++;
+  }
+  EXPECT_GT(blocked, 3000);
+  EXPECT_GT(open, 3000);
+  Ray bad;
+  bad.max_range = -1.0;
+  EXPECT_THROW(scene.occluded(bad), std::invalid_argument);
+}
+
+TEST(Parallel, DynamicChunksCoverEveryItemOnceAndRethrow)
+{
+  // parallelForDynamic: every item in exactly one call, calls are the fixed grain-sized chunks
+  // [k g, (k + 1) g) whatever the thread count, and an exception reaches the caller.
+  for (const std::size_t n : { std::size_t{ 1 }, std::size_t{ 7 }, std::size_t{ 1000 }, std::size_t{ 4097 } })
+    for (const std::size_t grain : { std::size_t{ 1 }, std::size_t{ 4 }, std::size_t{ 1024 } })
+      for (const unsigned threads : { 1u, 2u, 3u, 8u })
+      {
+        std::vector<std::atomic<int>> seen(n);
+        std::atomic<bool> aligned{ true };
+        parallelForDynamic(n, threads, grain, [&](std::size_t b, std::size_t e) {
+          if (threads > 1 && n > grain && (b % grain != 0 || (e != b + grain && e != n)))
+            aligned = false;
+          for (std::size_t k = b; k < e; ++k)
+            ++seen[k];
+        });
+        for (std::size_t k = 0; k < n; ++k)
+          ASSERT_EQ(seen[k].load(), 1) << n << " " << grain << " " << threads << " " << k;
+        EXPECT_TRUE(aligned.load()) << n << " " << grain << " " << threads;
+      }
+  EXPECT_THROW(parallelForDynamic(100, 2, 3,
+                                  [](std::size_t b, std::size_t) {
+                                    if (b >= 60)
+                                      throw std::runtime_error("chunk failed");
+                                  }),
+               std::runtime_error);
 }
 
 TEST(Scene, BadRaysAndGridsThrowNamingTheField)

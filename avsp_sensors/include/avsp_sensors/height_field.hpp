@@ -8,6 +8,7 @@
  */
 #include <cstddef>
 #include <cstdint>
+#include <new>
 #include <vector>
 
 #include <Eigen/Core>
@@ -44,8 +45,8 @@ struct TerrainHit
  *
  * Mip-map: level 0 is the cells themselves (their maximum is computed from the corners on the
  * fly, which the exact test loads anyway); level L >= 1 stores, per block of 2^L x 2^L cells,
- * the largest corner height in it. A ray skips a whole block when it stays above the block's
- * maximum for the whole of its passage through it. Memory: 4 B per grid point for the heights
+ * the largest corner height in it (stored in cache-line tiles of 4 x 4 blocks). A ray skips
+ * a whole block when it stays above the block's maximum for the whole of its passage through it. Memory: 4 B per grid point for the heights
  * plus about 4/3 B per grid point for the mip levels.
  *
  * Rays whose origin is below the surface hit at t = 0 (they start inside the ground): no ray
@@ -95,6 +96,18 @@ public:
    */
   bool intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_max, TerrainHit& hit) const;
 
+  /**
+   * @brief intersect() for a ray the caller knows does not meet the surface before t_clear (m):
+   *        the traversal starts there instead of at the origin. The result is intersect()'s,
+   *        bit for bit (each cell is solved over its whole stretch of the ray, wherever the
+   *        traversal entered it), as long as the promise holds; a t_clear past the true first
+   *        crossing loses that crossing. Used for coherent rays (Scene::cast on a batch: a
+   *        lidar column's channels share a vertical plane, so a channel above another one
+   *        cannot meet the ground before the one below it did).
+   */
+  bool intersectFrom(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_clear, double t_max,
+                     TerrainHit& hit) const;
+
   /// Height of grid point (i, j), m. @throw std::out_of_range outside the grid
   double pointHeight(std::size_t i, std::size_t j) const;
   /// Bilinear height at map (x, y), m; false outside the grid (h unchanged).
@@ -126,10 +139,37 @@ private:
   /// More levels than any grid of 2^31 points per side needs.
   static constexpr int kMaxLevels = 40;
 
+  /// Storage aligned to a 64-byte cache line, so that each mip tile is exactly one line.
+  template <class T>
+  struct CacheLineAllocator
+  {
+    using value_type = T;
+    CacheLineAllocator() = default;
+    template <class U>
+    CacheLineAllocator(const CacheLineAllocator<U>&)
+    {
+    }
+    T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t(64))); }
+    void deallocate(T* p, std::size_t) { ::operator delete(p, std::align_val_t(64)); }
+    bool operator==(const CacheLineAllocator&) const { return true; }
+    bool operator!=(const CacheLineAllocator&) const { return false; }
+  };
+
+  /// One mip level, stored in tiles of kTile x kTile blocks (one 64-byte cache line each), row-
+  /// major within a tile and tiles row-major: a ray's next block, across x or y, is then
+  /// mostly in the line it already loaded, where a row-major level (thousands of blocks wide
+  /// at level 1) costs a cache miss per step across y.
   struct Level
   {
+    static constexpr std::size_t kTile = 4;
     std::size_t nx = 0, ny = 0;
-    std::vector<float> max;
+    std::size_t tiles_x = 0;  ///< tiles per row
+    std::vector<float, CacheLineAllocator<float>> max;  ///< tiles_x * ceil(ny / kTile) tiles of kTile^2 entries
+    static std::size_t index(std::size_t bi, std::size_t bj, std::size_t tiles_x)
+    {
+      return ((bj / kTile) * tiles_x + bi / kTile) * (kTile * kTile) + (bj % kTile) * kTile + bi % kTile;
+    }
+    std::size_t index(std::size_t bi, std::size_t bj) const { return index(bi, bj, tiles_x); }
   };
 
   void buildMips();

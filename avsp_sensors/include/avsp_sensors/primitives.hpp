@@ -88,6 +88,13 @@ public:
   bool intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min, double t_max,
                  PrimitiveHit& hit, std::uint32_t skip_id = kNoId) const;
 
+  /**
+   * @brief Whether any primitive (other than skip_id's) is entered with t in (t_min, t_max]:
+   *        intersect()'s answer without the search for the nearest (shadow rays).
+   */
+  bool occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min, double t_max,
+                std::uint32_t skip_id = kNoId) const;
+
   const std::vector<Primitive>& primitives() const { return primitives_; }
   std::size_t nodeCount() const { return nodes_.size(); }
 
@@ -99,6 +106,9 @@ private:
     std::uint32_t count;  ///< leaf: primitive count (> 0); inner: 0 (left child is this + 1)
   };
   static constexpr int kMaxDepth = 48;
+  /// intersect() (any = false) or occluded() (any = true: stop at the first entry found).
+  bool traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min, double t_max,
+                PrimitiveHit& hit, std::uint32_t skip_id, bool any) const;
   std::uint32_t build(std::uint32_t begin, std::uint32_t end, std::vector<Eigen::Vector3d>& lo,
                       std::vector<Eigen::Vector3d>& hi, std::vector<Eigen::Vector3d>& centre, int depth);
 

@@ -130,8 +130,18 @@ public:
   RayHit cast(const Ray& ray) const;
 
   /**
+   * @brief Whether the ray meets anything within its max_range: cast(ray).hit() without the
+   *        search for the nearest hit and its details (shadow rays). The terrain is tested
+   *        first, then the solids; the first one found ends the search.
+   * @throw std::invalid_argument as cast()
+   */
+  bool occluded(const Ray& ray) const;
+
+  /**
    * @brief hits[k] = cast(rays[k]) on `threads` threads (0 = all cores). Results do not depend
-   *        on the thread count.
+   *        on the thread count. Consecutive rays sharing an origin and a vertical half-plane
+   *        (lidar columns) are cast faster: each starts its terrain traversal where a lower
+   *        one met the ground (same hits).
    * @throw std::invalid_argument naming the first bad ray (before any casting)
    */
   void cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsigned threads) const;
@@ -141,6 +151,9 @@ public:
 
 private:
   RayHit castUnchecked(const Ray& ray) const;
+  /// With the terrain traversal starting at t_clear (HeightField::intersectFrom); sets
+  /// terrain_reach to the terrain hit's range, or max_range when the terrain is not hit.
+  RayHit castUnchecked(const Ray& ray, double t_clear, double& terrain_reach) const;
   float terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vector3d& p) const;
 
   HeightField terrain_;
