@@ -311,14 +311,17 @@ double DeformableTerrain::pointHeight(std::size_t i, std::size_t j) const
 
 std::optional<double> DeformableTerrain::height(double x, double y) const
 {
-  const auto cell = base_.cellAt(x, y);
-  if (!cell)
+  // Inline lookups (the running gear's ground normal asks four heights per contact per step):
+  // the same cell, (u, v) and corner arithmetic as cellAt() and pointHeight(), bit for bit.
+  std::size_t i = 0, j = 0;
+  double u = 0.0, v = 0.0;
+  if (!base_.cellOf(x, y, i, j, u, v))
     return std::nullopt;
-  const double u = (x - base_.originX()) / base_.dx() - cell->i;
-  const double v = (y - base_.originY()) / base_.dy() - cell->j;
-  const std::size_t i = cell->i, j = cell->j;
-  double h00 = base_.pointHeight(i, j), h10 = base_.pointHeight(i + 1, j);
-  double h01 = base_.pointHeight(i, j + 1), h11 = base_.pointHeight(i + 1, j + 1);
+  const std::size_t columns = base_.columns();
+  const float* south = base_.pointHeights().data() + j * columns + i;
+  const float* north = south + columns;
+  double h00 = south[0], h10 = south[1];
+  double h01 = north[0], h11 = north[1];
   if (allocated_tiles_ > 0)
   {
     const std::size_t ti = i % kTileSize, tj = j % kTileSize;
@@ -340,10 +343,15 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
     }
     else
     {
-      h00 = pointHeight(i, j);
-      h10 = pointHeight(i + 1, j);
-      h01 = pointHeight(i, j + 1);
-      h11 = pointHeight(i + 1, j + 1);
+      // As pointHeight(): base - z_p - (z_f - z_n), untouched points at their base height.
+      const auto lower = [&](double& h, std::size_t a, std::size_t b) {
+        if (const PointDeformation* d = find(a, b))
+          h = h - d->plastic - d->displaced;
+      };
+      lower(h00, i, j);
+      lower(h10, i + 1, j);
+      lower(h01, i, j + 1);
+      lower(h11, i + 1, j + 1);
     }
   }
   return ElevationGrid::bilinear(h00, h10, h01, h11, u, v);
@@ -663,6 +671,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
     const double py_sa = py * sa, py_ca = py * ca;
     const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
     const std::uint8_t* soil_row = soil_map_.empty() ? nullptr : soil_map_.data() + j * base_.columns();
+    const float* base_row = base_.pointHeights().data() + j * base_.columns();  // (i, j) is in the grid
     std::size_t tile_column = tiles_x_;  // none yet
     const Tile* tile = nullptr;
     for (std::size_t i = i0; i <= i1; ++i)
@@ -680,7 +689,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         tile = tiles_[tile_row + tile_column].get();
       }
       const PointDeformation state = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
-      const double base_z = base_.pointHeight(i, j);
+      const double base_z = base_row[i];
       const double surface = base_z - state.plastic - state.displaced;
       if (fp.wheel)
       {
@@ -821,10 +830,21 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   if (!deform)
     return;
   const double slip_speed = std::hypot(fp.v_theoretical - fp.v_long, fp.v_lat);  // v_r of T4
+  // loaded_ runs row by row: its points change tile every few points, so touch() (allocation,
+  // change tracking) once per run of one tile and index the tile directly.
+  std::size_t tile_index = tiles_.size();  // none yet
+  Tile* tile = nullptr;
   for (LoadedPoint& p : loaded_)
   {
     const ContactSoil& soil = contact_soils_[p.soil];
-    PointDeformation& state = touch(p.i, p.j);
+    const std::size_t t = tileIndex(p.i, p.j);
+    if (t != tile_index)
+    {
+      touch(p.i, p.j);
+      tile_index = t;
+      tile = tiles_[t].get();
+    }
+    PointDeformation& state = (*tile)[(p.j % kTileSize) * kTileSize + p.i % kTileSize];
     const float sigma_before = state.sigma_max;
     const double sigma_max = std::max<double>(p.sigma, sigma_before);
     double flow = soil.b2 * p.sigma * slip_speed * dt;
