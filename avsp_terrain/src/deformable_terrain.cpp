@@ -509,10 +509,7 @@ void DeformableTerrain::spreadFlow()
   const double area = base_.dx() * base_.dy();
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
   double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
-  // Offsets in the window of the 8 neighbours, and their weights, in a fixed order.
-  const long w = static_cast<long>(width);
-  const std::array<long, 8> offsets{ -w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1 };
-  constexpr std::array<double, 8> kWeights{ M_SQRT1_2, 1.0, M_SQRT1_2, 1.0, 1.0, M_SQRT1_2, 1.0, M_SQRT1_2 };
+  const long w = static_cast<long>(width);  // a window row
   for (const LoadedPoint& p : loaded_)
   {
     if (!(p.flow_volume > 0.0))
@@ -523,8 +520,18 @@ void DeformableTerrain::spreadFlow()
     {
       // Per unit weight: volume (m^3) and height (m) at a neighbour; two divisions per point.
       const double volume = p.flow_volume / kInteriorTotal, height = volume / area;
-      for (int k = 0; k < 8; ++k)
-        centre[offsets[k]] += height * kWeights[k];
+      // The 8 neighbours in a fixed order, weights 1/sqrt(2) diagonally and 1 (x 1.0: exact) along.
+      const double diagonal = height * M_SQRT1_2;
+      double* south = centre - w;
+      double* north = centre + w;
+      south[-1] += diagonal;
+      south[0] += height;
+      south[1] += diagonal;
+      centre[-1] += height;
+      centre[1] += height;
+      north[-1] += diagonal;
+      north[0] += height;
+      north[1] += diagonal;
       arrived += volume * kInteriorTotal;
       continue;
     }
@@ -768,9 +775,16 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   const double lateral_slip = (1.0 - std::abs(out.slip)) * std::tan(out.slip_angle);
   const double slip_magnitude = std::hypot(out.slip, lateral_slip);
   // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one
-  // per change of soil or strip length along the loop for the half-strip factor.
-  int strip_soil = -1;
-  double strip_half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, strip_scale = 0.0;
+  // per soil and strip length for the half-strip factor, kept in a small cache: a footprint's
+  // rows alternate between a few strip lengths (interior, and the shorter ones at its edges).
+  struct StripConstants
+  {
+    int soil = -1;
+    double half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, scale = 0.0;
+  };
+  std::array<StripConstants, 4> strips{};
+  std::size_t strip_next = 0;
+  const StripConstants* strip = nullptr;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
   // Bekker points instead resist by compaction: a wheel's rim pushes back with
@@ -800,19 +814,31 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     if (slip_magnitude > 0.0)
     {
       const double half = 0.5 * (p.x1 - p.x0);
-      if (p.soil != strip_soil || half != strip_half)
+      if (!strip || p.soil != strip->soil || half != strip->half)
       {
-        const double k = soil.shear_modulus;
-        strip_soil = p.soil;
-        strip_half = half;
-        inv_k = 1.0 / k;
-        half_factor = std::exp(slip_magnitude * half * inv_k);
-        inv_half_factor = 1.0 / half_factor;
-        strip_scale = k / (slip_magnitude * 2.0 * half);
+        strip = nullptr;
+        for (const StripConstants& c : strips)
+          if (c.soil == p.soil && c.half == half)
+            strip = &c;
+        if (!strip)
+        {
+          StripConstants& c = strips[strip_next];
+          strip_next = (strip_next + 1) % strips.size();
+          const double k = soil.shear_modulus;
+          c.soil = p.soil;
+          c.half = half;
+          c.inv_k = 1.0 / k;
+          c.half_factor = std::exp(slip_magnitude * half * c.inv_k);
+          c.inv_half_factor = 1.0 / c.half_factor;
+          c.scale = k / (slip_magnitude * 2.0 * half);
+          strip = &c;
+        }
       }
+      const double inv_k = strip->inv_k;
       const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
-      const double e0 = p.x0 > 0.0 ? e_mid * half_factor : 1.0;
-      const double mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip_scale, e0, e_mid * inv_half_factor);
+      const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
+      const double mean =
+          meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0, e_mid * strip->inv_half_factor);
       const double tau = strength * mean;
       out.longitudinal_force += fp.travel * (out.slip / slip_magnitude) * tau * area * p.weight;
       out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area * p.weight;
