@@ -74,6 +74,14 @@ ContactSoil::ContactSoil(const SoilParameters& soil) : model_(soil.model)
     rho_.push_back(rho);
     z_p_.push_back(h0 * (1.0 - rho0 / rho));
   }
+  // rho = alpha + beta sigma on each segment of the curve, as stressForPenetration() solves on it.
+  beta_.assign(sigma_.size(), 0.0);
+  alpha_.assign(sigma_.size(), 0.0);
+  for (std::size_t k = 1; k < sigma_.size(); ++k)
+  {
+    beta_[k] = (rho_[k] - rho_[k - 1]) / (sigma_[k] - sigma_[k - 1]);
+    alpha_[k] = rho_[k - 1] - beta_[k] * sigma_[k - 1];
+  }
 }
 
 double ContactSoil::extraSinkage(double plastic, double deformation, double sigma_max, double sigma) const
@@ -119,8 +127,7 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
   {
     // rho = alpha + beta sigma on [sigma_{k-1}, sigma_k]: (C + d sigma)(alpha + beta sigma) = h0 rho0.
     const double lo = std::max(sigma_[k - 1], sigma_max), hi = sigma_[k];
-    const double beta = (rho_[k] - rho_[k - 1]) / (sigma_[k] - sigma_[k - 1]);
-    const double alpha = rho_[k - 1] - beta * sigma_[k - 1];
+    const double beta = beta_[k], alpha = alpha_[k];
     const double qa = d * beta, qb = d * alpha + c * beta, qc = c * alpha - h0 * rho0;
     if (qa > 0.0)
     {

@@ -311,14 +311,17 @@ double DeformableTerrain::pointHeight(std::size_t i, std::size_t j) const
 
 std::optional<double> DeformableTerrain::height(double x, double y) const
 {
-  const auto cell = base_.cellAt(x, y);
-  if (!cell)
+  // Inline lookups (the running gear's ground normal asks four heights per contact per step):
+  // the same cell, (u, v) and corner arithmetic as cellAt() and pointHeight(), bit for bit.
+  std::size_t i = 0, j = 0;
+  double u = 0.0, v = 0.0;
+  if (!base_.cellOf(x, y, i, j, u, v))
     return std::nullopt;
-  const double u = (x - base_.originX()) / base_.dx() - cell->i;
-  const double v = (y - base_.originY()) / base_.dy() - cell->j;
-  const std::size_t i = cell->i, j = cell->j;
-  double h00 = base_.pointHeight(i, j), h10 = base_.pointHeight(i + 1, j);
-  double h01 = base_.pointHeight(i, j + 1), h11 = base_.pointHeight(i + 1, j + 1);
+  const std::size_t columns = base_.columns();
+  const float* south = base_.pointHeights().data() + j * columns + i;
+  const float* north = south + columns;
+  double h00 = south[0], h10 = south[1];
+  double h01 = north[0], h11 = north[1];
   if (allocated_tiles_ > 0)
   {
     const std::size_t ti = i % kTileSize, tj = j % kTileSize;
@@ -340,10 +343,15 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
     }
     else
     {
-      h00 = pointHeight(i, j);
-      h10 = pointHeight(i + 1, j);
-      h01 = pointHeight(i, j + 1);
-      h11 = pointHeight(i + 1, j + 1);
+      // As pointHeight(): base - z_p - (z_f - z_n), untouched points at their base height.
+      const auto lower = [&](double& h, std::size_t a, std::size_t b) {
+        if (const PointDeformation* d = find(a, b))
+          h = h - d->plastic - d->displaced;
+      };
+      lower(h00, i, j);
+      lower(h10, i + 1, j);
+      lower(h01, i, j + 1);
+      lower(h11, i + 1, j + 1);
     }
   }
   return ElevationGrid::bilinear(h00, h10, h01, h11, u, v);
@@ -501,10 +509,7 @@ void DeformableTerrain::spreadFlow()
   const double area = base_.dx() * base_.dy();
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
   double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
-  // Offsets in the window of the 8 neighbours, and their weights, in a fixed order.
-  const long w = static_cast<long>(width);
-  const std::array<long, 8> offsets{ -w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1 };
-  constexpr std::array<double, 8> kWeights{ M_SQRT1_2, 1.0, M_SQRT1_2, 1.0, 1.0, M_SQRT1_2, 1.0, M_SQRT1_2 };
+  const long w = static_cast<long>(width);  // a window row
   for (const LoadedPoint& p : loaded_)
   {
     if (!(p.flow_volume > 0.0))
@@ -515,8 +520,18 @@ void DeformableTerrain::spreadFlow()
     {
       // Per unit weight: volume (m^3) and height (m) at a neighbour; two divisions per point.
       const double volume = p.flow_volume / kInteriorTotal, height = volume / area;
-      for (int k = 0; k < 8; ++k)
-        centre[offsets[k]] += height * kWeights[k];
+      // The 8 neighbours in a fixed order, weights 1/sqrt(2) diagonally and 1 (x 1.0: exact) along.
+      const double diagonal = height * M_SQRT1_2;
+      double* south = centre - w;
+      double* north = centre + w;
+      south[-1] += diagonal;
+      south[0] += height;
+      south[1] += diagonal;
+      centre[-1] += height;
+      centre[1] += height;
+      north[-1] += diagonal;
+      north[0] += height;
+      north[1] += diagonal;
       arrived += volume * kInteriorTotal;
       continue;
     }
@@ -663,6 +678,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
     const double py_sa = py * sa, py_ca = py * ca;
     const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
     const std::uint8_t* soil_row = soil_map_.empty() ? nullptr : soil_map_.data() + j * base_.columns();
+    const float* base_row = base_.pointHeights().data() + j * base_.columns();  // (i, j) is in the grid
     std::size_t tile_column = tiles_x_;  // none yet
     const Tile* tile = nullptr;
     for (std::size_t i = i0; i <= i1; ++i)
@@ -680,7 +696,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         tile = tiles_[tile_row + tile_column].get();
       }
       const PointDeformation state = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
-      const double base_z = base_.pointHeight(i, j);
+      const double base_z = base_row[i];
       const double surface = base_z - state.plastic - state.displaced;
       if (fp.wheel)
       {
@@ -759,9 +775,16 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   const double lateral_slip = (1.0 - std::abs(out.slip)) * std::tan(out.slip_angle);
   const double slip_magnitude = std::hypot(out.slip, lateral_slip);
   // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one
-  // per change of soil or strip length along the loop for the half-strip factor.
-  int strip_soil = -1;
-  double strip_half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, strip_scale = 0.0;
+  // per soil and strip length for the half-strip factor, kept in a small cache: a footprint's
+  // rows alternate between a few strip lengths (interior, and the shorter ones at its edges).
+  struct StripConstants
+  {
+    int soil = -1;
+    double half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, scale = 0.0;
+  };
+  std::array<StripConstants, 4> strips{};
+  std::size_t strip_next = 0;
+  const StripConstants* strip = nullptr;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
   // Bekker points instead resist by compaction: a wheel's rim pushes back with
@@ -791,19 +814,31 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     if (slip_magnitude > 0.0)
     {
       const double half = 0.5 * (p.x1 - p.x0);
-      if (p.soil != strip_soil || half != strip_half)
+      if (!strip || p.soil != strip->soil || half != strip->half)
       {
-        const double k = soil.shear_modulus;
-        strip_soil = p.soil;
-        strip_half = half;
-        inv_k = 1.0 / k;
-        half_factor = std::exp(slip_magnitude * half * inv_k);
-        inv_half_factor = 1.0 / half_factor;
-        strip_scale = k / (slip_magnitude * 2.0 * half);
+        strip = nullptr;
+        for (const StripConstants& c : strips)
+          if (c.soil == p.soil && c.half == half)
+            strip = &c;
+        if (!strip)
+        {
+          StripConstants& c = strips[strip_next];
+          strip_next = (strip_next + 1) % strips.size();
+          const double k = soil.shear_modulus;
+          c.soil = p.soil;
+          c.half = half;
+          c.inv_k = 1.0 / k;
+          c.half_factor = std::exp(slip_magnitude * half * c.inv_k);
+          c.inv_half_factor = 1.0 / c.half_factor;
+          c.scale = k / (slip_magnitude * 2.0 * half);
+          strip = &c;
+        }
       }
+      const double inv_k = strip->inv_k;
       const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
-      const double e0 = p.x0 > 0.0 ? e_mid * half_factor : 1.0;
-      const double mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip_scale, e0, e_mid * inv_half_factor);
+      const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
+      const double mean =
+          meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0, e_mid * strip->inv_half_factor);
       const double tau = strength * mean;
       out.longitudinal_force += fp.travel * (out.slip / slip_magnitude) * tau * area * p.weight;
       out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area * p.weight;
@@ -821,10 +856,21 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   if (!deform)
     return;
   const double slip_speed = std::hypot(fp.v_theoretical - fp.v_long, fp.v_lat);  // v_r of T4
+  // loaded_ runs row by row: its points change tile every few points, so touch() (allocation,
+  // change tracking) once per run of one tile and index the tile directly.
+  std::size_t tile_index = tiles_.size();  // none yet
+  Tile* tile = nullptr;
   for (LoadedPoint& p : loaded_)
   {
     const ContactSoil& soil = contact_soils_[p.soil];
-    PointDeformation& state = touch(p.i, p.j);
+    const std::size_t t = tileIndex(p.i, p.j);
+    if (t != tile_index)
+    {
+      touch(p.i, p.j);
+      tile_index = t;
+      tile = tiles_[t].get();
+    }
+    PointDeformation& state = (*tile)[(p.j % kTileSize) * kTileSize + p.i % kTileSize];
     const float sigma_before = state.sigma_max;
     const double sigma_max = std::max<double>(p.sigma, sigma_before);
     double flow = soil.b2 * p.sigma * slip_speed * dt;

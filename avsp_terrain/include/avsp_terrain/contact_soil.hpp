@@ -112,6 +112,9 @@ private:
   std::vector<double> sigma_;  ///< compression curve breakpoints, Pa, sigma_[0] = 0
   std::vector<double> rho_;    ///< kg/m^3 at the breakpoints
   std::vector<double> z_p_;    ///< m, T2 at the breakpoints (what plasticSinkage() gives there)
+  /// Segment k of the curve ([sigma_{k-1}, sigma_k], k >= 1) as rho = alpha_[k] + beta_[k] sigma
+  /// (kg/m^3, kg/m^3/Pa), computed once instead of per loaded point.
+  std::vector<double> beta_, alpha_;
 };
 
 }  // namespace terrain

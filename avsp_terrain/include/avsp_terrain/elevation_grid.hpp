@@ -111,6 +111,16 @@ public:
   /// Height of grid point (i, j), m. @throw std::out_of_range outside the grid.
   double pointHeight(std::size_t i, std::size_t j) const;
 
+  /**
+   * @brief Fast path of cellAt() for inner loops: cell (i, j) under (x, y) and the fractional
+   *        position (u, v) in [0, 1] inside it, exactly as height() locates it; inlined, no
+   *        std::optional. Outputs are left unchanged when it returns false (outside, or NaN).
+   */
+  bool cellOf(double x, double y, std::size_t& i, std::size_t& j, double& u, double& v) const
+  {
+    return locate(x, y, i, j, u, v);
+  }
+
   /// Heights of all grid points, m, row-major (index j * columns + i): for writing the grid
   /// out without copying it point by point.
   const std::vector<float>& pointHeights() const { return heights_; }
