@@ -8,8 +8,9 @@
    command; ~command_timeout set long). Obstacles are off so that no start pose needs a
    clearance check. With 2 partitions the vehicles are split by cost as scenario `partitions: 2`
    does, and the partitions are peers (proxies and soil exchange on). The real-time factor is
-   sim time / wall time between /clock = 1 s and the end (`--duration`, default 10 s): start-up
-   (each partition builds the course) is not counted.
+   sim time / wall time between /clock = 1 s and the end (`--duration`, default 10 s), as
+   lockstep_clock measures it (nothing else subscribes to /clock meanwhile): start-up (each
+   partition builds the course) is not counted.
 2. Lockstep synchronisation overhead: two partitions with one fed_alpha each on flat gravel;
    per 10 ms interval the wall time a partition spends waiting for the clock and its peer (from
    its own log). The faster partition's wait also holds the load difference, so the figure is
@@ -49,6 +50,9 @@ def balanced(vehicles, count):
     return [[vehicles[i] for i in range(len(vehicles)) if home[i] == p] for p in range(count)]
 
 
+SYNC_INTERVAL = [0.01]  # s, --sync-interval
+
+
 def node_xml(name, vehicles, partition, peers, terrain, machine_attr=""):
     vlist = ", ".join("{name: %s, model: %s, x: %.1f, y: %.1f, yaw: 0.0}" % (n, m, x, y)
                       for n, m, x, y in vehicles)
@@ -56,13 +60,14 @@ def node_xml(name, vehicles, partition, peers, terrain, machine_attr=""):
     return ('  <node pkg="avsp_dynamics" type="dynamics_node" name="%s" required="true" output="screen"%s>\n'
             '    <rosparam param="vehicles">[%s]</rosparam>\n'
             '    <param name="partition" value="%s"/>\n%s'
+            '    <param name="sync_interval" value="%g"/>\n'
             '    <param name="publish_clock" value="false"/>\n'
             '    <param name="wait_for_command" value="true"/>\n'
             '    <param name="command_timeout" value="3600.0"/>\n'
             '    <param name="obstacles" value="false"/>\n'
             '    <param name="config_dir" value="$(find avsp)/config/vehicles"/>\n'
             '    <param name="soils_file" value="$(find avsp)/config/soils.yaml"/>\n%s'
-            '  </node>\n' % (name, machine_attr, vlist, partition, peers_xml, terrain))
+            '  </node>\n' % (name, machine_attr, vlist, partition, peers_xml, SYNC_INTERVAL[0], terrain))
 
 
 def launch_xml(parts, duration, terrain, host_split=False):
@@ -72,7 +77,8 @@ def launch_xml(parts, duration, terrain, host_split=False):
     a = ['  <node pkg="avsp_dynamics" type="lockstep_clock" name="clock" required="true" output="screen">\n'
          '    <rosparam param="partitions">[%s]</rosparam>\n'
          '    <param name="duration" value="%g"/>\n    <param name="timeout" value="60.0"/>\n'
-         '  </node>\n' % (", ".join(names), duration)]
+         '    <param name="sync_interval" value="%g"/>\n'
+         '  </node>\n' % (", ".join(names), duration, SYNC_INTERVAL[0])]
     b = []
     for k, vehicles in enumerate(parts):
         peers = [n for n in names if n != names[k]]
@@ -98,19 +104,15 @@ rospy.init_node("bench_probe", disable_signals=True)
 pubs = [rospy.Publisher("/%s/cmd_drive" % n, DriveCommand, queue_size=1, latch=True) for n in names]
 for p in pubs:
     c = DriveCommand(); c.throttle = 0.4; p.publish(c)
-marks = {}
-def on_clock(m):
-    t = m.clock.to_sec()
-    if "a" not in marks and t >= start_at: marks["a"] = (time.time(), t)
-    if "b" not in marks and t >= end_at - 1e-6: marks["b"] = (time.time(), t)
-rospy.Subscriber("/clock", Clock, on_clock, queue_size=1000)
+# Stay until the run has started (the latched commands delivered), then leave the clock alone:
+# lockstep_clock measures the pace itself (a subscriber at 100 Hz would take CPU from the run).
+started = []
+sub = rospy.Subscriber("/clock", Clock, lambda m: started.append(1) if m.clock.to_sec() > 0.0 else None)
 deadline = time.time() + float(sys.argv[4])
-while time.time() < deadline and "b" not in marks:
-    time.sleep(0.01)
-if "a" in marks and "b" in marks:
-    print("RTF %.6f" % ((marks["b"][1] - marks["a"][1]) / (marks["b"][0] - marks["a"][0])))
-else:
-    print("RTF nan")
+while time.time() < deadline and not started:
+    time.sleep(0.05)
+sub.unregister()
+print("STARTED" if started else "NOT STARTED")
 '''
 
 WAIT_RE = re.compile(r"partition '(\w+)': (\d+) intervals to t = ([\d.]+) s; per interval ([\d.]+) us stepping, "
@@ -148,7 +150,7 @@ def run_layout(setup, parts, duration, terrain, port, timeout):
                                 (setup, PROBE.replace("'", "'\\''"), names, duration, timeout)],
                                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True,
                                timeout=timeout + 60)
-        launch.wait(timeout=60)
+        launch.wait(timeout=timeout)
     finally:
         stop(launch)
     log.seek(0)
@@ -159,7 +161,7 @@ def run_layout(setup, parts, duration, terrain, port, timeout):
     else:
         os.remove(log.name)
     os.remove(path)
-    m = re.search(r"RTF ([\w.]+)", probe.stdout)
+    m = re.search(r"from t = 1 s: [\d.]+ s wall, real-time factor ([\d.]+)", text)
     rtf = float(m.group(1)) if m else float("nan")
     waits = {}
     for w in WAIT_RE.finditer(text):
@@ -175,7 +177,7 @@ FLAT = ('    <param name="flat_soil" value="gravel"/>\n    <param name="flat_siz
 
 def rtf_table(setup, counts, duration):
     print("Real-time factor vs vehicles, default course, deformable soil on, sensors off "
-          "(%g s of sim time from t = 1 s)" % duration)
+          "(%g s of sim time from t = 1 s, sync interval %g s)" % (duration, SYNC_INTERVAL[0]))
     print("| vehicles | 1 partition | 2 partitions | speed-up | 2 partitions: stepping/waiting/exchange, us per interval |")
     print("|---:|---:|---:|---:|---|")
     sys.stdout.flush()
@@ -238,6 +240,7 @@ def sync_veth(setup, duration):
                                                (setup, PROBE.replace("'", "'\\''"), duration)],
                                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True,
                                timeout=400)
+        procs[1].wait(timeout=300)  # host A's roslaunch ends with the clock (required)
         time.sleep(1.0)
         for p in reversed(procs):
             stop(p)
@@ -246,7 +249,11 @@ def sync_veth(setup, duration):
             log.seek(0)
             for w in WAIT_RE.finditer(log.read()):
                 waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)))
-        m = re.search(r"RTF ([\w.]+)", probe.stdout)
+        text = ""
+        for log in logs:
+            log.seek(0)
+            text += log.read()
+        m = re.search(r"from t = 1 s: [\d.]+ s wall, real-time factor ([\d.]+)", text)
         return (float(m.group(1)) if m else float("nan")), waits
     finally:
         for p in reversed(procs):
@@ -277,7 +284,9 @@ def main():
     ap.add_argument("--veth", action="store_true")
     ap.add_argument("--sync-only", action="store_true")
     ap.add_argument("--rtf-only", action="store_true")
+    ap.add_argument("--sync-interval", type=float, default=0.01, help="s, lockstep_clock's interval")
     args = ap.parse_args()
+    SYNC_INTERVAL[0] = args.sync_interval
     devel = os.environ.get("CMAKE_PREFIX_PATH", "").split(":")[0]
     setup = os.path.join(devel, "setup.sh")
     if not os.path.exists(setup):

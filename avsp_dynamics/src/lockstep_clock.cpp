@@ -82,7 +82,7 @@ public:
     ros::WallTime progress = ros::WallTime::now();  // when the clock last moved
     ros::WallTime resend = progress;
     std::uint64_t overruns = 0;
-    std::optional<ros::WallTime> wall_start;
+    std::optional<ros::WallTime> wall_start, since_one;
     while (ros::ok())
     {
       queue->callAvailable(ros::WallDuration(0.001));
@@ -109,9 +109,13 @@ public:
         }
         continue;
       }
+      if (!since_one && barrier_->time() >= 1.0 - 1e-9)
+        since_one = now;  // the pace is measured from t = 1 s: start-up is not simulated time
       if (duration_ > 0.0 && barrier_->time() >= duration_ - 1e-9)
       {
-        ROS_INFO("lockstep_clock: ~duration %g s reached", duration_);
+        const double wall = since_one ? (now - *since_one).toSec() : 0.0;
+        ROS_INFO("lockstep_clock: ~duration %g s reached; from t = 1 s: %.3f s wall, real-time factor %.3f",
+                 duration_, wall, wall > 0.0 ? (barrier_->time() - 1.0) / wall : 0.0);
         return true;
       }
       if (real_time_factor_ > 0.0)
