@@ -52,8 +52,10 @@
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <avsp_msgs/drive_command_conversions.hpp>
+#include <geometry_msgs/Pose.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Twist.h>
+#include <geometry_msgs/Vector3.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/callback_queue.h>
 #include <ros/package.h>
@@ -97,6 +99,29 @@ double numberOf(XmlRpc::XmlRpcValue& entry, const std::string& key, double fallb
   if (!std::isfinite(value))
     throw StartupError(where + "." + key + " must be finite");
   return value;
+}
+
+geometry_msgs::Pose poseMsg(const Eigen::Isometry3d& pose)
+{
+  const Eigen::Quaterniond q(pose.linear());
+  geometry_msgs::Pose m;
+  m.position.x = pose.translation().x();
+  m.position.y = pose.translation().y();
+  m.position.z = pose.translation().z();
+  m.orientation.w = q.w();
+  m.orientation.x = q.x();
+  m.orientation.y = q.y();
+  m.orientation.z = q.z();
+  return m;
+}
+
+geometry_msgs::Vector3 vectorMsg(const Eigen::Vector3d& v)
+{
+  geometry_msgs::Vector3 m;
+  m.x = v.x();
+  m.y = v.y();
+  m.z = v.z();
+  return m;
 }
 
 struct VehicleSpec
@@ -733,20 +758,9 @@ private:
       avsp_msgs::ProxyVehicle pv;
       pv.name = v->name;
       pv.model = v->model_name;
-      const Eigen::Quaterniond q(s.pose.linear());
-      pv.pose.position.x = s.pose.translation().x();
-      pv.pose.position.y = s.pose.translation().y();
-      pv.pose.position.z = s.pose.translation().z();
-      pv.pose.orientation.w = q.w();
-      pv.pose.orientation.x = q.x();
-      pv.pose.orientation.y = q.y();
-      pv.pose.orientation.z = q.z();
-      pv.velocity.linear.x = s.linear_velocity.x();
-      pv.velocity.linear.y = s.linear_velocity.y();
-      pv.velocity.linear.z = s.linear_velocity.z();
-      pv.velocity.angular.x = s.angular_velocity.x();
-      pv.velocity.angular.y = s.angular_velocity.y();
-      pv.velocity.angular.z = s.angular_velocity.z();
+      pv.pose = poseMsg(s.pose);
+      pv.velocity.linear = vectorMsg(s.linear_velocity);
+      pv.velocity.angular = vectorMsg(s.angular_velocity);
       m.vehicles.push_back(pv);
     }
     const std::size_t columns = terrain_->base().columns();
@@ -760,15 +774,22 @@ private:
       m.soil_before.insert(m.soil_before.end(), { c.before.plastic, c.before.displaced, c.before.sigma_max });
       m.soil_after.insert(m.soil_after.end(), { c.after.plastic, c.after.displaced, c.after.sigma_max });
     }
-    auto fallen = std::stable_partition(exchange_standing_.begin(), exchange_standing_.end(),
-                                        [this](std::uint32_t id) { return !objects_.get(id).toppled; });
-    for (auto it = fallen; it != exchange_standing_.end(); ++it)
+    for (std::uint32_t id : takeFallen(exchange_standing_))
     {
-      m.toppled_ids.push_back(*it);
-      m.toppled_directions.push_back(objects_.get(*it).fall_direction);
+      m.toppled_ids.push_back(id);
+      m.toppled_directions.push_back(objects_.get(id).fall_direction);
     }
-    exchange_standing_.erase(fallen, exchange_standing_.end());
     exchange_pub_.publish(m);
+  }
+
+  /// The objects of `standing` that have toppled since, in their order; removed from it.
+  std::vector<std::uint32_t> takeFallen(std::vector<std::uint32_t>& standing) const
+  {
+    auto fallen = std::stable_partition(standing.begin(), standing.end(),
+                                        [this](std::uint32_t id) { return !objects_.get(id).toppled; });
+    std::vector<std::uint32_t> out(fallen, standing.end());
+    standing.erase(fallen, standing.end());
+    return out;
   }
 
   void reportDone(double t)
@@ -1004,25 +1025,13 @@ private:
     {
       VehicleIo* v = vehicles_[k].get();
       const ad::VehicleState& s = world_->state(v->id);
-      const Eigen::Quaterniond q(s.pose.linear());
-      const Eigen::Vector3d w_body = s.pose.linear().transpose() * s.angular_velocity;
       nav_msgs::Odometry odom;
       odom.header.stamp = t;
       odom.header.frame_id = "odom";  // identity child of map: the simulator knows ground truth
       odom.child_frame_id = v->name + "/base_link";
-      odom.pose.pose.position.x = s.pose.translation().x();
-      odom.pose.pose.position.y = s.pose.translation().y();
-      odom.pose.pose.position.z = s.pose.translation().z();
-      odom.pose.pose.orientation.w = q.w();
-      odom.pose.pose.orientation.x = q.x();
-      odom.pose.pose.orientation.y = q.y();
-      odom.pose.pose.orientation.z = q.z();
-      odom.twist.twist.linear.x = s.body_velocity.x();
-      odom.twist.twist.linear.y = s.body_velocity.y();
-      odom.twist.twist.linear.z = s.body_velocity.z();
-      odom.twist.twist.angular.x = w_body.x();
-      odom.twist.twist.angular.y = w_body.y();
-      odom.twist.twist.angular.z = w_body.z();
+      odom.pose.pose = poseMsg(s.pose);
+      odom.twist.twist.linear = vectorMsg(s.body_velocity);
+      odom.twist.twist.angular = vectorMsg(s.pose.linear().transpose() * s.angular_velocity);
       v->odom_pub.publish(odom);
       v->last_odom = odom;
 
@@ -1125,11 +1134,9 @@ private:
   /// named is the one nearest the object (the collision does not say who pushed).
   void publishToppled()
   {
-    auto fallen = std::stable_partition(standing_.begin(), standing_.end(),
-                                        [this](std::uint32_t id) { return !objects_.get(id).toppled; });
-    for (auto it = fallen; it != standing_.end(); ++it)
+    for (std::uint32_t id : takeFallen(standing_))
     {
-      const at::TerrainObject& o = objects_.get(*it);
+      const at::TerrainObject& o = objects_.get(id);
       avsp_msgs::ObjectToppled msg;
       msg.header.stamp = stamp();
       msg.header.frame_id = "map";
@@ -1148,7 +1155,6 @@ private:
       toppled_pub_.publish(msg);
       ROS_INFO("dynamics_node: %s toppled object %u at (%.1f, %.1f)", msg.vehicle.c_str(), o.id, o.x, o.y);
     }
-    standing_.erase(fallen, standing_.end());
   }
 
   /// The grid points under each vehicle's wheels since the last call, as one TerrainPatch per
