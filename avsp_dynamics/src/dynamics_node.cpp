@@ -31,6 +31,15 @@
 // velocities) and their soil changes are copied exactly, so all partitions drive on the same
 // ruts. Without contacts between partitions' vehicles, or two partitions' wheels on the same
 // soil point in one interval, any layout gives the same trajectories bit for bit.
+//
+// Stepping ahead (~step_ahead_when_apart): the peers' exchange of T can only change this
+// partition's interval after T through its vehicles' contacts with the peers' vehicles, soil
+// under both, or objects the peers toppled. When, by the last exchange applied (of T minus one
+// interval), no peer vehicle can come near any of ours before the interval's end (boxes round
+// every part, grown by the distance each can travel: partition_reach.hpp), the partition steps
+// the interval at once and applies that exchange before the next one. The answer is the strict
+// lockstep's (tested bit for bit); what it saves is the wait for the peers' latest exchange, so
+// partitions may drift up to one interval apart and absorb each other's jitter.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -71,6 +80,7 @@
 #include <avsp_terrain/soil.hpp>
 
 #include "avsp_dynamics/collision_counter.hpp"
+#include "avsp_dynamics/partition_reach.hpp"
 #include "avsp_dynamics/stuck_detector.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
@@ -170,6 +180,7 @@ struct VehicleIo
   std::string name;
   std::size_t id = 0;
   ad::VehicleModel model;
+  ad::VehicleBox box;      ///< round every part of it, base_link (stepping ahead of the peers)
   std::string model_name;  ///< ~vehicles[k].model (config_dir/<model_name>.yaml)
   std::string cmd_topic, drive_topic;
   ros::Subscriber cmd_sub, drive_sub;
@@ -282,6 +293,7 @@ public:
                            config_dir + "): " + e.what());
       }
       v->model_name = s.model;
+      v->box = ad::boundingBox(v->model);
       v->spin_angle.assign(v->model.wheels.size(), 0.0);
       for (const ad::WheelSpec& w : v->model.wheels)
       {
@@ -448,12 +460,14 @@ private:
     const auto log_times = [&] {
       if (intervals == 0)
         return;
-      char line[256];
+      char line[512];
       std::snprintf(line, sizeof line,
                     "dynamics_node: partition '%s': %llu intervals to t = %.3f s; per interval %.1f us stepping, "
-                    "%.1f us waiting for the clock and peers, %.1f us exchanging with them",
+                    "%.1f us waiting for the clock and peers, %.1f us exchanging with them; %llu stepped ahead of "
+                    "the peers' last exchange",
                     partition_.c_str(), static_cast<unsigned long long>(intervals), reported,
-                    1e6 * stepping / intervals, 1e6 * waiting / intervals, 1e6 * exchanging / intervals);
+                    1e6 * stepping / intervals, 1e6 * waiting / intervals, 1e6 * exchanging / intervals,
+                    static_cast<unsigned long long>(stepped_ahead_));
       if (ros::ok())
         ROS_INFO("%s", line);
       else
@@ -491,8 +505,21 @@ private:
         const double end =
             std::min(target, sync_interval_ * (std::floor(reported / sync_interval_ + 1e-6) + 1.0));
         const double exchanged_before = exchanging;
-        if (!peers_.empty() && !applyPeerExchanges(reported, exchanging))
-          return false;
+        if (!peers_.empty())
+        {
+          // The exchange left for later must be in before this interval; the latest one only
+          // if a peer's vehicle may come near ours in it (see "Stepping ahead" above).
+          if (pending_exchange_ && !applyPeerExchanges(*pending_exchange_, exchanging))
+            return false;
+          pending_exchange_.reset();
+          if (reported > 0.0 && step_ahead_when_apart_ && peersApart(reported, end))
+          {
+            pending_exchange_ = reported;
+            ++stepped_ahead_;
+          }
+          else if (!applyPeerExchanges(reported, exchanging))
+            return false;
+        }
         const ros::WallTime begin = ros::WallTime::now();
         waiting += (begin - mark).toSec() - (exchanging - exchanged_before);
         while (ros::ok() && world_->time() + 0.5 * h < end)
@@ -556,6 +583,16 @@ private:
       return;
     terrain_->setChangeTracking(true);
     exchange_standing_ = standing_;
+    pnh_.param("step_ahead_when_apart", step_ahead_when_apart_, true);
+    // A wheel's soil changes stay under it, bar the soil pushed to the cells round it.
+    const at::ElevationGrid& g = terrain_->base();
+    soil_reach_ = 0.25 + 2.0 * std::max(g.dx(), g.dy());
+    // An object a peer's vehicle pushes over may fall its height (plus its own size) away.
+    for (std::uint32_t id : standing_)
+    {
+      const at::TerrainObject& o = objects_.get(id);
+      topple_reach_ = std::max(topple_reach_, o.height + std::hypot(o.length, o.width));
+    }
     exchange_pub_ = nh_.advertise<avsp_msgs::PartitionExchange>("/lockstep/exchange/" + partition_, 100);
     for (auto& [name, peer] : peers_)
     {
@@ -663,7 +700,7 @@ private:
       try
       {
         for (const avsp_msgs::ProxyVehicle& pv : m.vehicles)
-          placeProxy(name, pv);
+          placeProxy(name, pv, t);
         std::vector<at::PointChange> changes(m.soil_points.size());
         for (std::size_t k = 0; k < changes.size(); ++k)
         {
@@ -706,11 +743,12 @@ private:
       // Older intervals are done with too (a repeated publication can leave one behind).
       peer.received.erase(peer.received.begin(), peer.received.upper_bound(key));
     }
+    peers_applied_ = t;
     return true;
   }
 
   /// A peer's vehicle: its proxy (made the first time from config_dir/<model>.yaml) placed.
-  void placeProxy(const std::string& peer, const avsp_msgs::ProxyVehicle& pv)
+  void placeProxy(const std::string& peer, const avsp_msgs::ProxyVehicle& pv, double t)
   {
     auto it = proxies_.find(pv.name);
     if (it == proxies_.end())
@@ -730,6 +768,7 @@ private:
         throw std::invalid_argument("vehicle '" + pv.name + "' of partition '" + peer + "': " + e.what());
       }
       it = proxies_.emplace(pv.name, world_->addProxy(model, pv.name)).first;
+      proxy_reach_[pv.name].box = ad::boundingBox(model);
       ROS_INFO("dynamics_node: partition '%s' sees %s (%s, partition '%s') as a proxy", partition_.c_str(),
                pv.name.c_str(), pv.model.c_str(), peer.c_str());
     }
@@ -743,6 +782,39 @@ private:
     const geometry_msgs::Twist& v = pv.velocity;
     world_->setProxyState(it->second, pose, Eigen::Vector3d(v.linear.x, v.linear.y, v.linear.z),
                           Eigen::Vector3d(v.angular.x, v.angular.y, v.angular.z));
+    ProxyReach& r = proxy_reach_.at(pv.name);
+    r.pose = pose;
+    r.linear_velocity = Eigen::Vector3d(v.linear.x, v.linear.y, v.linear.z);
+    r.angular_velocity = Eigen::Vector3d(v.angular.x, v.angular.y, v.angular.z);
+    r.time = t;
+    if (!r.linear_velocity.allFinite() || !r.angular_velocity.allFinite())
+      throw std::invalid_argument("vehicle '" + pv.name + "': velocity is not finite");
+  }
+
+  /**
+   * Whether no peer vehicle, as the last applied exchange gave it, can come near one of ours
+   * while we step from `from` to `to`: then the peers' exchange of `from` cannot change that
+   * interval. Each box grows by the distance its points can travel by `to` (accelerations up to
+   * kMaxAcceleration); a peer's also by the reach of its soil changes and of what it topples.
+   */
+  bool peersApart(double from, double to) const
+  {
+    // m/s^2: 20 g, far beyond what driving or a collision between ground vehicles gives a
+    // point of a vehicle over an interval.
+    constexpr double kMaxAcceleration = 200.0;
+    for (const auto& [name, r] : proxy_reach_)
+    {
+      const double grow_peer = ad::sweptReach(r.box, r.linear_velocity, r.angular_velocity, to - r.time, kMaxAcceleration) +
+                               soil_reach_ + topple_reach_;
+      for (const auto& v : vehicles_)
+      {
+        const ad::VehicleState& s = world_->state(v->id);
+        const double grow = ad::sweptReach(v->box, s.linear_velocity, s.angular_velocity, to - from, kMaxAcceleration);
+        if (!ad::shadowsApart(s.pose, v->box, grow, r.pose, r.box, grow_peer))
+          return false;
+      }
+    }
+    return true;
   }
 
   /// This partition's part of interval `t`: its vehicles, its soil changes, what it toppled.
@@ -752,6 +824,7 @@ private:
     m.header.stamp = ros::Time(t);
     m.header.frame_id = "map";
     m.partition = partition_;
+    m.peers_applied = ros::Time(peers_applied_);
     for (const auto& v : vehicles_)
     {
       const ad::VehicleState& s = world_->state(v->id);
@@ -1224,6 +1297,21 @@ private:
   };
   std::map<std::string, Peer> peers_;                ///< by partition name (applied in this order)
   std::map<std::string, std::size_t> proxies_;       ///< peers' vehicles: World proxy index by name
+  /// A peer's vehicle as its last applied exchange gave it (stepping ahead of the peers).
+  struct ProxyReach
+  {
+    ad::VehicleBox box;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero(), angular_velocity = Eigen::Vector3d::Zero();
+    double time = 0.0;  ///< s, the exchange's stamp
+  };
+  std::map<std::string, ProxyReach> proxy_reach_;
+  bool step_ahead_when_apart_ = true;
+  double soil_reach_ = 0.0;    ///< m, how far from a vehicle's box its soil changes may reach
+  double topple_reach_ = 0.0;  ///< m, how far an object a peer's vehicle topples may fall
+  std::optional<double> pending_exchange_;  ///< s: the peers' exchange of this time is not applied yet
+  double peers_applied_ = 0.0;               ///< s: the latest peers' exchange applied
+  std::uint64_t stepped_ahead_ = 0;          ///< intervals stepped before the peers' last exchange
   std::vector<std::uint32_t> exchange_standing_;     ///< toppleable objects not yet sent as toppled
   ros::Publisher exchange_pub_;
   bool failed_ = false;  ///< a fatal error stopped the run (exit 1; a plain shutdown exits 0)

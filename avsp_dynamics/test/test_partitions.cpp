@@ -5,7 +5,9 @@
 //   every vehicle is bit-identical between the layouts.
 // - A partition killed mid-run stops the clock within its timeout, naming the partition.
 // - Two vehicles in two partitions driven head-on collide through their proxies: neither
-//   passes through the other.
+//   passes through the other. While they are apart the partitions step ahead of each other's
+//   exchange, and the odometry equals, bit for bit, a strict pair's (~step_ahead_when_apart
+//   false) run alongside on the same clock.
 // - A malformed exchange from a peer stops the partition with exit 1 naming the topic.
 #include <signal.h>
 #include <sys/wait.h>
@@ -180,11 +182,22 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
   double reach = 0.0;  // m, how far the chassis reaches ahead of base_link
   for (const avsp::dynamics::CollisionBox& b : model.collision_boxes)
     reach = std::max(reach, b.pose.translation().x() + 0.5 * b.size.x());
-  const std::vector<std::string> names{ "east", "west" };
+  // The pair under test at the root, and the strict pair in ~strict_ns (empty: none).
+  std::string strict_ns;
+  pnh.param<std::string>("strict_ns", strict_ns, "");
+  std::vector<std::string> names{ "east", "west" };
+  if (!strict_ns.empty())
+    names.insert(names.end(), { strict_ns + "/east", strict_ns + "/west" });
   std::map<std::string, std::vector<nav_msgs::Odometry>> streams;
   std::map<std::string, std::uint32_t> collisions;
   std::map<std::string, ros::Publisher> commands;
   std::vector<ros::Subscriber> subs;
+  // Partition pe's exchanges: when it stepped ahead of pw's (stamp - peers_applied, s).
+  std::map<double, double> lag;
+  subs.push_back(nh.subscribe<avsp_msgs::PartitionExchange>(
+      "/lockstep/exchange/pe", 1000, [&](const avsp_msgs::PartitionExchange::ConstPtr& m) {
+        lag[m->header.stamp.toSec()] = (m->header.stamp - m->peers_applied).toSec();
+      }));
   for (const std::string& v : names)
   {
     commands[v] = nh.advertise<avsp_msgs::DriveCommand>("/" + v + "/cmd_drive", 10);
@@ -240,6 +253,64 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
               "collisions %u / %u, final x %.2f / %.2f m\n",
               closest, reach, collisions["east"], collisions["west"], e[n - 1].pose.pose.position.x,
               w[n - 1].pose.pose.position.x);
+  if (strict_ns.empty())
+    return;
+  // Stepping ahead: while apart, pe stepped before pw's latest exchange (two intervals behind
+  // it), never when the chassis were within 0.3 m; and the answer is the strict lockstep's.
+  std::map<long, double> lag_cs;  // by stamp in centiseconds
+  for (const auto& [t, l] : lag)
+    lag_cs[std::lround(100.0 * t)] = l;
+  std::size_t ahead = 0, near = 0, ahead_near = 0, missing = 0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const long cs = std::lround(100.0 * e[i].header.stamp.toSec());
+    if (std::abs(e[i].header.stamp.toSec() - 0.01 * cs) > 1e-6 || cs == 0)
+      continue;  // the exchanges are at the intervals' ends
+    if (!lag_cs.count(cs))
+    {
+      ++missing;  // the subscription may have connected late, or the last ones still be under way
+      continue;
+    }
+    const double l = lag_cs.at(cs);
+    const bool stepped_ahead = std::abs(l - 0.02) < 1e-6;
+    EXPECT_TRUE(stepped_ahead || std::abs(l - 0.01) < 1e-6) << "t = " << 0.01 * cs << " s: lag " << l;
+    ahead += stepped_ahead;
+    const double gap = std::hypot(e[i].pose.pose.position.x - w[i].pose.pose.position.x,
+                                  e[i].pose.pose.position.y - w[i].pose.pose.position.y) -
+                       2.0 * reach;
+    if (gap < 0.3)
+    {
+      ++near;
+      ahead_near += stepped_ahead;
+    }
+  }
+  EXPECT_GT(ahead, 100u) << "pe never stepped ahead of pw's exchange while they were apart";
+  EXPECT_GT(near, 3u);
+  EXPECT_LT(missing, 20u) << "exchanges from pe not heard";
+  EXPECT_EQ(ahead_near, 0u) << "pe stepped ahead of pw's exchange with the chassis within 0.3 m";
+  for (const std::string v : { "east", "west" })
+  {
+    const auto& a = streams[v];
+    const auto& b = streams[strict_ns + "/" + v];
+    const std::size_t m = std::min(a.size(), b.size());
+    ASSERT_GE(m, static_cast<std::size_t>(100.0 * until)) << v;
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < m; ++i)
+    {
+      ASSERT_EQ(a[i].header.stamp, b[i].header.stamp) << v << " message " << i;
+      const auto &p = a[i].pose.pose, &q = b[i].pose.pose;
+      const auto &u = a[i].twist.twist, &x = b[i].twist.twist;
+      if (p.position.x != q.position.x || p.position.y != q.position.y || p.position.z != q.position.z ||
+          p.orientation.x != q.orientation.x || p.orientation.y != q.orientation.y ||
+          p.orientation.z != q.orientation.z || p.orientation.w != q.orientation.w || u.linear.x != x.linear.x ||
+          u.linear.y != x.linear.y || u.angular.z != x.angular.z)
+        ++differ;
+    }
+    EXPECT_EQ(differ, 0u) << v << ": " << differ << " of " << m << " odometry messages differ from the strict pair's";
+    std::printf("[ partitions ] %s: %zu messages, %zu differ from the strict lockstep; pe stepped ahead in %zu "
+                "intervals, in %zu of the %zu with the chassis within 0.3 m\n",
+                v.c_str(), m, differ, ahead, ahead_near, near);
+  }
 }
 
 /// pid of a running node, from its own XML-RPC getPid.
