@@ -10,16 +10,20 @@
    does, and the partitions are peers (proxies and soil exchange on). The real-time factor is
    sim time / wall time between /clock = 1 s and the end (`--duration`, default 10 s), as
    lockstep_clock measures it (nothing else subscribes to /clock meanwhile): start-up (each
-   partition builds the course) is not counted.
+   partition builds the course) is not counted. The partitions step ahead of each other's
+   latest exchanges while their vehicles are apart (dynamics_node ~step_ahead_intervals, default
+   2; the share of intervals is printed); `--step-ahead K` sets it (0: strict).
 2. Lockstep synchronisation overhead: two partitions with one fed_alpha each on flat gravel;
    per 10 ms interval the wall time a partition spends waiting for the clock and its peer (from
    its own log). The faster partition's wait also holds the load difference, so the figure is
    the lesser of the two waits: the round trip done -> clock -> tick plus the exchange. On the
    loopback, and (`--veth`, needs root) with partition p2 in a second network namespace joined
-   by a veth pair, as in test/two_hosts.py.
+   by a veth pair, as in test/two_hosts.py. Each link twice: strict (every interval waits for
+   the peer's exchange: the figure is the round trip) and stepping ahead (the two vehicles are
+   10 m apart: the wait left is what the one-interval slack does not absorb).
 
 usage: . build/avsp/devel/setup.sh && python3 avsp_dynamics/bench/bench_partitions.py
-       [--vehicles 4,8,16,32,64] [--duration 10] [--veth] [--sync-only] [--rtf-only]
+       [--vehicles 4,8,16,32,64] [--duration 10] [--veth] [--sync-only] [--rtf-only] [--step-ahead K]
 (AVSP_BENCH_KEEP_LOGS=1 keeps each run's roslaunch log and prints its path.)
 """
 import argparse
@@ -51,6 +55,7 @@ def balanced(vehicles, count):
 
 
 SYNC_INTERVAL = [0.01]  # s, --sync-interval
+STEP_AHEAD = [2]  # dynamics_node ~step_ahead_intervals (--step-ahead)
 
 
 def node_xml(name, vehicles, partition, peers, terrain, machine_attr=""):
@@ -61,13 +66,15 @@ def node_xml(name, vehicles, partition, peers, terrain, machine_attr=""):
             '    <rosparam param="vehicles">[%s]</rosparam>\n'
             '    <param name="partition" value="%s"/>\n%s'
             '    <param name="sync_interval" value="%g"/>\n'
+            '    <param name="step_ahead_intervals" value="%d"/>\n'
             '    <param name="publish_clock" value="false"/>\n'
             '    <param name="wait_for_command" value="true"/>\n'
             '    <param name="command_timeout" value="3600.0"/>\n'
             '    <param name="obstacles" value="false"/>\n'
             '    <param name="config_dir" value="$(find avsp)/config/vehicles"/>\n'
             '    <param name="soils_file" value="$(find avsp)/config/soils.yaml"/>\n%s'
-            '  </node>\n' % (name, machine_attr, vlist, partition, peers_xml, SYNC_INTERVAL[0], terrain))
+            '  </node>\n' % (name, machine_attr, vlist, partition, peers_xml, SYNC_INTERVAL[0],
+                            STEP_AHEAD[0], terrain))
 
 
 def launch_xml(parts, duration, terrain, host_split=False):
@@ -116,7 +123,7 @@ print("STARTED" if started else "NOT STARTED")
 '''
 
 WAIT_RE = re.compile(r"partition '(\w+)': (\d+) intervals to t = ([\d.]+) s; per interval ([\d.]+) us stepping, "
-                     r"([\d.]+) us waiting for the clock and peers, ([\d.]+) us exchanging")
+                     r"([\d.]+) us waiting for the clock and peers, ([\d.]+) us exchanging with them; (\d+) stepped ahead")
 
 
 def env_for(setup, port, ip="127.0.0.1"):
@@ -165,7 +172,8 @@ def run_layout(setup, parts, duration, terrain, port, timeout):
     rtf = float(m.group(1)) if m else float("nan")
     waits = {}
     for w in WAIT_RE.finditer(text):
-        waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)))
+        waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)),
+                             100.0 * float(w.group(7)) / max(1.0, float(w.group(2))))
     if rtf != rtf or (len(parts) > 1 and len(waits) < len(parts)):
         sys.stderr.write("run failed:\n%s\n%s\n" % (probe.stdout[-2000:], text[-4000:]))
     return rtf, waits
@@ -177,8 +185,10 @@ FLAT = ('    <param name="flat_soil" value="gravel"/>\n    <param name="flat_siz
 
 def rtf_table(setup, counts, duration):
     print("Real-time factor vs vehicles, default course, deformable soil on, sensors off "
-          "(%g s of sim time from t = 1 s, sync interval %g s)" % (duration, SYNC_INTERVAL[0]))
-    print("| vehicles | 1 partition | 2 partitions | speed-up | 2 partitions: stepping/waiting/exchange, us per interval |")
+          "(%g s of sim time from t = 1 s, sync interval %g s, %s)" %
+          (duration, SYNC_INTERVAL[0], "stepping ahead up to %d intervals" % STEP_AHEAD[0] if STEP_AHEAD[0] else "strict"))
+    print("| vehicles | 1 partition | 2 partitions | speed-up | 2 partitions: stepping/waiting/exchange, us per interval "
+          "(intervals stepped ahead) |")
     print("|---:|---:|---:|---:|---|")
     sys.stdout.flush()
     port = 11600
@@ -188,7 +198,7 @@ def rtf_table(setup, counts, duration):
         one, _ = run_layout(setup, [vehicles], duration, COURSE, port, 600.0)
         port += 1
         two, waits = run_layout(setup, balanced(vehicles, 2), duration, COURSE, port, 600.0)
-        detail = ", ".join("%s %.0f/%.0f/%.0f" % (p, *waits[p]) for p in sorted(waits))
+        detail = ", ".join("%s %.0f/%.0f/%.0f (%.0f%%)" % (p, *waits[p]) for p in sorted(waits))
         print("| %d | %.2fx | %.2fx | %.2f | %s |" % (n, one, two, two / one if one > 0 else float("nan"), detail))
         sys.stdout.flush()
 
@@ -248,7 +258,8 @@ def sync_veth(setup, duration):
         for log in logs:
             log.seek(0)
             for w in WAIT_RE.finditer(log.read()):
-                waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)))
+                waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)),
+                             100.0 * float(w.group(7)) / max(1.0, float(w.group(2))))
         text = ""
         for log in logs:
             log.seek(0)
@@ -266,15 +277,16 @@ def sync_veth(setup, duration):
 def print_sync(name, result):
     rtf, waits = result
     if rtf is None:
-        print("| %s | (%s) | | |" % (name, waits))
+        print("| %s | (%s) | | | | |" % (name, waits))
         return
     if len(waits) < 2:
-        print("| %s | (no timing in the partitions' logs) | | |" % name)
+        print("| %s | (no timing in the partitions' logs) | | | | |" % name)
         return
-    wait = min(w for _, w, _ in waits.values())
-    step = max(s for s, _, _ in waits.values())
-    exch = max(e for _, _, e in waits.values())
-    print("| %s | %.0f | %.0f | %.0f | %.2fx |" % (name, wait, exch, step, rtf))
+    wait = min(w[1] for w in waits.values())
+    step = max(w[0] for w in waits.values())
+    exch = max(w[2] for w in waits.values())
+    ahead = min(w[3] for w in waits.values())
+    print("| %s | %.0f | %.0f | %.0f | %.0f%% | %.2fx |" % (name, wait, exch, step, ahead, rtf))
 
 
 def main():
@@ -285,8 +297,10 @@ def main():
     ap.add_argument("--sync-only", action="store_true")
     ap.add_argument("--rtf-only", action="store_true")
     ap.add_argument("--sync-interval", type=float, default=0.01, help="s, lockstep_clock's interval")
+    ap.add_argument("--step-ahead", type=int, default=2, help="dynamics_node ~step_ahead_intervals (0: strict)")
     args = ap.parse_args()
     SYNC_INTERVAL[0] = args.sync_interval
+    STEP_AHEAD[0] = args.step_ahead
     devel = os.environ.get("CMAKE_PREFIX_PATH", "").split(":")[0]
     setup = os.path.join(devel, "setup.sh")
     if not os.path.exists(setup):
@@ -297,11 +311,15 @@ def main():
     if not args.rtf_only:
         print("\nLockstep synchronisation, 2 partitions x 1 fed_alpha on flat gravel, 10 ms intervals (%g s)"
               % args.duration)
-        print("| link | sync wait, us/interval | exchange, us/interval | stepping, us/interval | real-time factor |")
-        print("|---|---:|---:|---:|---:|")
-        print_sync("loopback", sync_loopback(setup, args.duration))
-        if args.veth:
-            print_sync("veth (two network namespaces)", sync_veth(setup, args.duration))
+        print("| link | sync wait, us/interval | exchange, us/interval | stepping, us/interval | stepped ahead | "
+              "real-time factor |")
+        print("|---|---:|---:|---:|---:|---:|")
+        for ahead in (0, args.step_ahead):
+            STEP_AHEAD[0] = ahead
+            mode = "stepping ahead up to %d" % ahead if ahead else "strict"
+            print_sync("loopback, " + mode, sync_loopback(setup, args.duration))
+            if args.veth:
+                print_sync("veth (two network namespaces), " + mode, sync_veth(setup, args.duration))
     return 0
 
 

@@ -32,17 +32,19 @@
 // ruts. Without contacts between partitions' vehicles, or two partitions' wheels on the same
 // soil point in one interval, any layout gives the same trajectories bit for bit.
 //
-// Stepping ahead (~step_ahead_when_apart): the peers' exchange of T can only change this
+// Stepping ahead (~step_ahead_intervals, K): the peers' exchange of T can only change this
 // partition's interval after T through its vehicles' contacts with the peers' vehicles, soil
-// under both, or objects the peers toppled. When, by the last exchange applied (of T minus one
-// interval), no peer vehicle can come near any of ours before the interval's end (boxes round
-// every part, grown by the distance each can travel: partition_reach.hpp), the partition steps
-// the interval at once and applies that exchange before the next one. The answer is the strict
-// lockstep's (tested bit for bit); what it saves is the wait for the peers' latest exchange, so
-// partitions may drift up to one interval apart and absorb each other's jitter.
+// under both, or objects the peers toppled. Before an interval the partition applies the
+// exchanges K or more intervals old, then the newer ones, oldest first, only as long as, by the
+// last one applied, a peer vehicle may come near one of ours before the interval's end (boxes
+// round every part, grown by the distance each can travel: partition_reach.hpp); the rest wait
+// for a later interval. The answer is the strict lockstep's (tested bit for bit); what it saves
+// is the wait for the peers' latest exchanges, so partitions may drift up to K intervals apart
+// and absorb each other's jitter and the messages' latency.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <cstdio>
 #include <functional>
 #include <limits>
@@ -507,18 +509,20 @@ private:
         const double exchanged_before = exchanging;
         if (!peers_.empty())
         {
-          // The exchange left for later must be in before this interval; the latest one only
-          // if a peer's vehicle may come near ours in it (see "Stepping ahead" above).
-          if (pending_exchange_ && !applyPeerExchanges(*pending_exchange_, exchanging))
-            return false;
-          pending_exchange_.reset();
-          if (reported > 0.0 && step_ahead_when_apart_ && peersApart(reported, end))
+          // Oldest first: those K intervals old or more, then the newer ones while a peer's
+          // vehicle may come near ours in this interval (see "Stepping ahead" above).
+          pending_exchanges_.push_back(reported);
+          while (!pending_exchanges_.empty())
           {
-            pending_exchange_ = reported;
-            ++stepped_ahead_;
+            const double t = pending_exchanges_.front();
+            const bool due = reported == 0.0 || t < reported - (step_ahead_intervals_ - 0.5) * sync_interval_;
+            if (!due && peersApart(reported, end))
+              break;
+            if (!applyPeerExchanges(t, exchanging))
+              return false;
+            pending_exchanges_.pop_front();
           }
-          else if (!applyPeerExchanges(reported, exchanging))
-            return false;
+          stepped_ahead_ += pending_exchanges_.empty() ? 0 : 1;
         }
         const ros::WallTime begin = ros::WallTime::now();
         waiting += (begin - mark).toSec() - (exchanging - exchanged_before);
@@ -583,7 +587,7 @@ private:
       return;
     terrain_->setChangeTracking(true);
     exchange_standing_ = standing_;
-    pnh_.param("step_ahead_when_apart", step_ahead_when_apart_, true);
+    step_ahead_intervals_ = avsp::msgs::boundedIntParam(pnh_, "step_ahead_intervals", 2, 0, 100);
     // A wheel's soil changes stay under it, bar the soil pushed to the cells round it.
     const at::ElevationGrid& g = terrain_->base();
     soil_reach_ = 0.25 + 2.0 * std::max(g.dx(), g.dy());
@@ -1306,10 +1310,10 @@ private:
     double time = 0.0;  ///< s, the exchange's stamp
   };
   std::map<std::string, ProxyReach> proxy_reach_;
-  bool step_ahead_when_apart_ = true;
+  int step_ahead_intervals_ = 2;  ///< K: how many of the peers' latest exchanges may wait
   double soil_reach_ = 0.0;    ///< m, how far from a vehicle's box its soil changes may reach
   double topple_reach_ = 0.0;  ///< m, how far an object a peer's vehicle topples may fall
-  std::optional<double> pending_exchange_;  ///< s: the peers' exchange of this time is not applied yet
+  std::deque<double> pending_exchanges_;  ///< s: the peers' exchanges not applied yet, oldest first
   double peers_applied_ = 0.0;               ///< s: the latest peers' exchange applied
   std::uint64_t stepped_ahead_ = 0;          ///< intervals stepped before the peers' last exchange
   std::vector<std::uint32_t> exchange_standing_;     ///< toppleable objects not yet sent as toppled

@@ -6,8 +6,8 @@
 // - A partition killed mid-run stops the clock within its timeout, naming the partition.
 // - Two vehicles in two partitions driven head-on collide through their proxies: neither
 //   passes through the other. While they are apart the partitions step ahead of each other's
-//   exchange, and the odometry equals, bit for bit, a strict pair's (~step_ahead_when_apart
-//   false) run alongside on the same clock.
+//   exchanges, and the odometry equals, bit for bit, a strict pair's (~step_ahead_intervals
+//   0) run alongside on the same clock.
 // - A malformed exchange from a peer stops the partition with exit 1 naming the topic.
 #include <signal.h>
 #include <sys/wait.h>
@@ -255,8 +255,11 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
               w[n - 1].pose.pose.position.x);
   if (strict_ns.empty())
     return;
-  // Stepping ahead: while apart, pe stepped before pw's latest exchange (two intervals behind
-  // it), never when the chassis were within 0.3 m; and the answer is the strict lockstep's.
+  // Stepping ahead: while apart, pe stepped before pw's latest exchanges (peers_applied up to
+  // ~step_ahead_intervals + 1 intervals behind), never when the chassis were within 0.3 m; and
+  // the answer is the strict lockstep's.
+  int step_ahead = 2;
+  pnh.param("step_ahead_intervals", step_ahead, 2);
   std::map<long, double> lag_cs;  // by stamp in centiseconds
   for (const auto& [t, l] : lag)
     lag_cs[std::lround(100.0 * t)] = l;
@@ -272,8 +275,10 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
       continue;
     }
     const double l = lag_cs.at(cs);
-    const bool stepped_ahead = std::abs(l - 0.02) < 1e-6;
-    EXPECT_TRUE(stepped_ahead || std::abs(l - 0.01) < 1e-6) << "t = " << 0.01 * cs << " s: lag " << l;
+    const long behind = std::lround(l / 0.01);  // intervals
+    EXPECT_NEAR(l, 0.01 * behind, 1e-6) << "t = " << 0.01 * cs << " s";
+    EXPECT_TRUE(behind >= 1 && behind <= step_ahead + 1) << "t = " << 0.01 * cs << " s: lag " << l;
+    const bool stepped_ahead = behind > 1;
     ahead += stepped_ahead;
     const double gap = std::hypot(e[i].pose.pose.position.x - w[i].pose.pose.position.x,
                                   e[i].pose.pose.position.y - w[i].pose.pose.position.y) -
