@@ -65,6 +65,30 @@ avsp_msgs::DriveCommand command(int k, const ros::Time& stamp)
   return c;
 }
 
+/// How many of the first n messages of two odometry streams differ in pose or twist, bit for
+/// bit; a stamp mismatch fails the test and counts as all n.
+std::size_t differingMessages(const std::vector<nav_msgs::Odometry>& a, const std::vector<nav_msgs::Odometry>& b,
+                              std::size_t n, const std::string& what)
+{
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (a[i].header.stamp != b[i].header.stamp)
+    {
+      ADD_FAILURE() << what << " message " << i << ": stamps " << a[i].header.stamp << " and " << b[i].header.stamp;
+      return n;
+    }
+    const auto &p = a[i].pose.pose, &q = b[i].pose.pose;
+    const auto &u = a[i].twist.twist, &w = b[i].twist.twist;
+    if (p.position.x != q.position.x || p.position.y != q.position.y || p.position.z != q.position.z ||
+        p.orientation.x != q.orientation.x || p.orientation.y != q.orientation.y ||
+        p.orientation.z != q.orientation.z || p.orientation.w != q.orientation.w || u.linear.x != w.linear.x ||
+        u.linear.y != w.linear.y || u.angular.z != w.angular.z)
+      ++differ;
+  }
+  return differ;
+}
+
 TEST(Partitions, OneAndTwoPartitionsGiveIdenticalOdometry)
 {
   ros::NodeHandle nh, pnh("~");
@@ -127,18 +151,7 @@ TEST(Partitions, OneAndTwoPartitionsGiveIdenticalOdometry)
     const auto& b = streams["two/" + v];
     const std::size_t n = std::min(a.size(), b.size());
     ASSERT_GE(n, static_cast<std::size_t>(100.0 * until)) << v;
-    std::size_t differ = 0;
-    for (std::size_t i = 0; i < n; ++i)
-    {
-      ASSERT_EQ(a[i].header.stamp, b[i].header.stamp) << v << " message " << i;
-      const auto &p = a[i].pose.pose, &q = b[i].pose.pose;
-      const auto &u = a[i].twist.twist, &w = b[i].twist.twist;
-      if (p.position.x != q.position.x || p.position.y != q.position.y || p.position.z != q.position.z ||
-          p.orientation.x != q.orientation.x || p.orientation.y != q.orientation.y ||
-          p.orientation.z != q.orientation.z || p.orientation.w != q.orientation.w || u.linear.x != w.linear.x ||
-          u.linear.y != w.linear.y || u.angular.z != w.angular.z)
-        ++differ;
-    }
+    const std::size_t differ = differingMessages(a, b, n, v);
     EXPECT_EQ(differ, 0u) << v << ": " << differ << " of " << n << " odometry messages differ between the layouts";
     // Not trivially equal: it drove and turned.
     const double dist = std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
@@ -299,18 +312,7 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
     const auto& b = streams[strict_ns + "/" + v];
     const std::size_t m = std::min(a.size(), b.size());
     ASSERT_GE(m, static_cast<std::size_t>(100.0 * until)) << v;
-    std::size_t differ = 0;
-    for (std::size_t i = 0; i < m; ++i)
-    {
-      ASSERT_EQ(a[i].header.stamp, b[i].header.stamp) << v << " message " << i;
-      const auto &p = a[i].pose.pose, &q = b[i].pose.pose;
-      const auto &u = a[i].twist.twist, &x = b[i].twist.twist;
-      if (p.position.x != q.position.x || p.position.y != q.position.y || p.position.z != q.position.z ||
-          p.orientation.x != q.orientation.x || p.orientation.y != q.orientation.y ||
-          p.orientation.z != q.orientation.z || p.orientation.w != q.orientation.w || u.linear.x != x.linear.x ||
-          u.linear.y != x.linear.y || u.angular.z != x.angular.z)
-        ++differ;
-    }
+    const std::size_t differ = differingMessages(a, b, m, v);
     EXPECT_EQ(differ, 0u) << v << ": " << differ << " of " << m << " odometry messages differ from the strict pair's";
     std::printf("[ partitions ] %s: %zu messages, %zu differ from the strict lockstep; pe stepped ahead in %zu "
                 "intervals, in %zu of the %zu with the chassis within 0.3 m\n",
