@@ -483,7 +483,11 @@ private:
     } at_exit{ log_times };
     while (ros::ok())
     {
-      queue->callAvailable(ros::WallDuration(0.001));
+      // Wait for a callback only when there is nothing to step: the ticks processed after the
+      // last interval may already be ahead, and a blocking call would idle until some other
+      // message came (up to its 1 ms timeout).
+      const bool behind = tick_ && *tick_ > reported + 0.5 * h;
+      queue->callAvailable(behind ? ros::WallDuration(0.0) : ros::WallDuration(0.001));
       if (!(*tick_ > reported + 0.5 * h))
       {
         if (tick_repeated_)
