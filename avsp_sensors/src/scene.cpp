@@ -152,6 +152,12 @@ constexpr double kFanSlopeMargin = 1e-6;
 /// m: a fan's next ray starts this much before the previous one's hit, for the rounding of
 /// that hit (the start only saves steps; the cell it falls in is still tested whole).
 constexpr double kFanBackOff = 1e-6;
+/// Fans of fewer rays are cast ray by ray: collecting their candidate primitives would cost
+/// more than the BVH walks it saves.
+constexpr std::size_t kFanMinRays = 4;
+/// m: a fan's candidate primitives are those whose footprint, widened by this (plus 1e-9 of
+/// the fan's reach), meets its ground line (fanCandidates()).
+constexpr double kFanMargin = 1e-6;
 
 /// The checks of Scene::validateRay without building a message.
 bool rayValid(const Ray& ray)
@@ -242,6 +248,8 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
   // hit is the one a single cast() gives, bit for bit; fans are found within a chunk only,
   // and chunk bounds are fixed multiples of the grain, so nothing depends on the schedule.
   parallelForDynamic(rays.size(), threads, kBatchGrain, [&](std::size_t begin, std::size_t end) {
+    std::vector<std::uint32_t> scratch;
+    std::vector<FanCandidate> candidates;
     std::size_t k = begin;
     while (k < end)
     {
@@ -249,6 +257,15 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
       const int order = r < end ? fanStep(rays[k], rays[r]) : 0;
       while (order != 0 && r < end && fanStep(rays[r - 1], rays[r]) == order)
         ++r;
+      if (r - k < kFanMinRays)
+      {
+        for (; k < r; ++k)
+          hits[k] = castUnchecked(rays[k]);
+        continue;
+      }
+      // The fan's rays all run above one ground line: the static primitives whose footprint
+      // meets it are collected once, each ray then tests those (mostly none or a few).
+      fanCandidates(rays, k, r, scratch, candidates);
       double s_clear = 0.0;  // m, horizontal: the ground is not met before it in this fan
       for (std::size_t m = 0; m < r - k; ++m)
       {
@@ -257,12 +274,68 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
         const double h = horizontal(ray.direction);
         double reach = 0.0;
         const double t_clear = m > 0 ? std::max(0.0, s_clear / h - kFanBackOff) : 0.0;
-        hits[idx] = castUnchecked(ray, t_clear, reach);
+        hits[idx] = castFanRay(ray, t_clear, reach, candidates);
         s_clear = reach * h;
       }
       k = r;
     }
   });
+}
+
+void Scene::fanCandidates(const std::vector<Ray>& rays, std::size_t begin, std::size_t end,
+                          std::vector<std::uint32_t>& scratch, std::vector<FanCandidate>& out) const
+{
+  out.clear();
+  const Ray& first = rays[begin];
+  const double h0 = horizontal(first.direction);
+  const double ux = first.direction.x() / h0, uy = first.direction.y() / h0;
+  double length = 0.0;  // m: the farthest any ray of the fan gets from the origin horizontally
+  for (std::size_t k = begin; k < end; ++k)
+    length = std::max(length, rays[k].max_range * horizontal(rays[k].direction));
+  // The rays' own horizontal directions differ from (ux, uy) by < 1e-12 rad per step of the fan
+  // (fanStep), so their paths stay within length * 1e-9 of the line for any fan of < 1000 rays;
+  // 1 um more absorbs rounding of the hit points against primitiveBounds().
+  const double margin = kFanMargin + 1e-9 * length;
+  objects_.collectAlongSegment(first.origin.x(), first.origin.y(), ux, uy, length, margin, scratch);
+  for (std::uint32_t p : scratch)
+  {
+    const Eigen::Vector3d &lo = objects_.boundsLo(p), &hi = objects_.boundsHi(p);
+    double s0 = 0.0, s1 = length;
+    auto axis = [&](double o, double u, double l, double h) {
+      if (u == 0.0)
+        return;  // collectAlongSegment found o within [l, h]
+      double a = (l - margin - o) / u, b = (h + margin - o) / u;
+      if (a > b)
+        std::swap(a, b);
+      s0 = std::max(s0, a);
+      s1 = std::min(s1, b);
+    };
+    axis(first.origin.x(), ux, lo.x(), hi.x());
+    axis(first.origin.y(), uy, lo.y(), hi.y());
+    // Widened once more for the rounding of s0, s1 themselves (the rays' t = s / h).
+    out.push_back(FanCandidate{ p, std::max(0.0, s0 - margin), s1 + margin, lo.z() - margin, hi.z() + margin });
+  }
+}
+
+RayHit Scene::castFanRay(const Ray& ray, double t_clear, double& terrain_reach,
+                         const std::vector<FanCandidate>& candidates) const
+{
+  RayHit out;
+  double best = ray.max_range;
+  TerrainHit th;
+  terrain_reach = ray.max_range;
+  if (terrain_.intersectFrom(ray.origin, ray.direction, t_clear, best, th))
+  {
+    terrain_reach = th.t;
+    best = th.t;
+    out.kind = HitKind::kTerrain;
+    out.range = th.t;
+    out.point = th.point;
+    out.normal = th.normal;
+    out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
+  }
+  castSolids(ray, best, out, &candidates);
+  return out;
 }
 
 RayHit Scene::castUnchecked(const Ray& ray) const
@@ -287,8 +360,45 @@ RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reac
     out.normal = th.normal;
     out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
   }
+  castSolids(ray, best, out, nullptr);
+  return out;
+}
+
+void Scene::castSolids(const Ray& ray, double best, RayHit& out, const std::vector<FanCandidate>* candidates) const
+{
   PrimitiveHit ph;
-  if (objects_.intersect(ray.origin, ray.direction, 0.0, best, ph))
+  bool found = false;
+  if (candidates == nullptr)
+    found = objects_.intersect(ray.origin, ray.direction, 0.0, best, ph);
+  else
+  {
+    // What PrimitiveBvh::intersect finds, among the candidates: the nearest entry in (0, best],
+    // ties to the lower index (candidates ascend, so the first found of equal t stays).
+    const double h = horizontal(ray.direction);
+    const double inv_h = 1.0 / h;
+    const double oz = ray.origin.z(), dz = ray.direction.z();
+    const std::vector<Primitive>& prims = objects_.primitives();
+    for (const FanCandidate& c : *candidates)
+    {
+      const double ta = c.s0 * inv_h;
+      if (ta > best)
+        continue;  // the ray ends (terrain or range) before it reaches the footprint
+      const double tb = std::min(c.s1 * inv_h, best);
+      const double za = oz + ta * dz, zb = oz + tb * dz;
+      if (std::min(za, zb) > c.z_hi || std::max(za, zb) < c.z_lo)
+        continue;  // above or below the primitive all along its footprint
+      PrimitiveHit h_c;
+      if (intersectPrimitive(prims[c.index], ray.origin, ray.direction, 0.0, best, h_c) &&
+          (h_c.t < best || !found))
+      {
+        best = h_c.t;
+        ph = h_c;
+        ph.index = c.index;
+        found = true;
+      }
+    }
+  }
+  if (found)
   {
     best = ph.t;
     const Primitive& p = objects_.primitives()[ph.index];
@@ -310,7 +420,6 @@ RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reac
     out.reflectivity = b.primitive.reflectivity;
     out.velocity = b.velocity + b.angular_velocity.cross(out.point - b.primitive.centre);
   }
-  return out;
 }
 
 }  // namespace sensors
