@@ -207,16 +207,15 @@ double horizontal(const Eigen::Vector3d& d)
 }
 
 /**
- * Whether rays a and b lie in one vertical half-plane (same origin bit for bit, horizontal
+ * Whether rays a and b (horizontal lengths of their directions ha, hb) lie in one vertical half-plane (same origin bit for bit, horizontal
  * directions parallel to 1e-12, not vertical) with clearly different slopes dz / horizontal:
  * +1 when b points higher than a, -1 when lower, 0 when they are not such a pair.
  */
-int fanStep(const Ray& a, const Ray& b)
+int fanStep(const Ray& a, const Ray& b, double ha, double hb)
 {
   if (a.origin != b.origin)
     return 0;
   const Eigen::Vector3d &da = a.direction, &db = b.direction;
-  const double ha = horizontal(da), hb = horizontal(db);
   if (!(ha > 0.0 && hb > 0.0))
     return 0;
   if (std::abs(da.x() * db.y() - da.y() * db.x()) > 1e-12 * ha * hb || da.x() * db.x() + da.y() * db.y() <= 0.0)
@@ -250,13 +249,17 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
   parallelForDynamic(rays.size(), threads, kBatchGrain, [&](std::size_t begin, std::size_t end) {
     std::vector<std::uint32_t> scratch;
     std::vector<FanCandidate> candidates;
+    std::vector<double> hz(end - begin);  // horizontal length of each ray's direction
+    for (std::size_t k = begin; k < end; ++k)
+      hz[k - begin] = horizontal(rays[k].direction);
     std::size_t k = begin;
     while (k < end)
     {
       std::size_t r = k + 1;
-      const int order = r < end ? fanStep(rays[k], rays[r]) : 0;
-      while (order != 0 && r < end && fanStep(rays[r - 1], rays[r]) == order)
-        ++r;
+      const int order = r < end ? fanStep(rays[k], rays[r], hz[k - begin], hz[r - begin]) : 0;
+      if (order != 0)
+        for (++r; r < end && fanStep(rays[r - 1], rays[r], hz[r - 1 - begin], hz[r - begin]) == order;)
+          ++r;
       if (r - k < kFanMinRays)
       {
         for (; k < r; ++k)
@@ -265,16 +268,16 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
       }
       // The fan's rays all run above one ground line: the static primitives whose footprint
       // meets it are collected once, each ray then tests those (mostly none or a few).
-      fanCandidates(rays, k, r, scratch, candidates);
+      fanCandidates(rays, hz.data() + (k - begin), k, r, scratch, candidates);
       double s_clear = 0.0;  // m, horizontal: the ground is not met before it in this fan
       for (std::size_t m = 0; m < r - k; ++m)
       {
         const std::size_t idx = order >= 0 ? k + m : r - 1 - m;  // lowest first
         const Ray& ray = rays[idx];
-        const double h = horizontal(ray.direction);
+        const double h = hz[idx - begin];
         double reach = 0.0;
         const double t_clear = m > 0 ? std::max(0.0, s_clear / h - kFanBackOff) : 0.0;
-        hits[idx] = castFanRay(ray, t_clear, reach, candidates);
+        castFanRay(ray, h, t_clear, reach, candidates, hits[idx]);
         s_clear = reach * h;
       }
       k = r;
@@ -282,16 +285,16 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
   });
 }
 
-void Scene::fanCandidates(const std::vector<Ray>& rays, std::size_t begin, std::size_t end,
+void Scene::fanCandidates(const std::vector<Ray>& rays, const double* hz, std::size_t begin, std::size_t end,
                           std::vector<std::uint32_t>& scratch, std::vector<FanCandidate>& out) const
 {
   out.clear();
   const Ray& first = rays[begin];
-  const double h0 = horizontal(first.direction);
+  const double h0 = hz[0];
   const double ux = first.direction.x() / h0, uy = first.direction.y() / h0;
   double length = 0.0;  // m: the farthest any ray of the fan gets from the origin horizontally
   for (std::size_t k = begin; k < end; ++k)
-    length = std::max(length, rays[k].max_range * horizontal(rays[k].direction));
+    length = std::max(length, rays[k].max_range * hz[k - begin]);
   // The rays' own horizontal directions differ from (ux, uy) by < 1e-12 rad per step of the fan
   // (fanStep), so their paths stay within length * 1e-9 of the line for any fan of < 1000 rays;
   // 1 um more absorbs rounding of the hit points against primitiveBounds().
@@ -317,10 +320,10 @@ void Scene::fanCandidates(const std::vector<Ray>& rays, std::size_t begin, std::
   }
 }
 
-RayHit Scene::castFanRay(const Ray& ray, double t_clear, double& terrain_reach,
-                         const std::vector<FanCandidate>& candidates) const
+void Scene::castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
+                       const std::vector<FanCandidate>& candidates, RayHit& out) const
 {
-  RayHit out;
+  out = RayHit();
   double best = ray.max_range;
   TerrainHit th;
   terrain_reach = ray.max_range;
@@ -334,8 +337,7 @@ RayHit Scene::castFanRay(const Ray& ray, double t_clear, double& terrain_reach,
     out.normal = th.normal;
     out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
   }
-  castSolids(ray, best, out, &candidates);
-  return out;
+  castSolids(ray, h, best, out, &candidates);
 }
 
 RayHit Scene::castUnchecked(const Ray& ray) const
@@ -360,11 +362,12 @@ RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reac
     out.normal = th.normal;
     out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
   }
-  castSolids(ray, best, out, nullptr);
+  castSolids(ray, 0.0, best, out, nullptr);
   return out;
 }
 
-void Scene::castSolids(const Ray& ray, double best, RayHit& out, const std::vector<FanCandidate>* candidates) const
+void Scene::castSolids(const Ray& ray, double h, double best, RayHit& out,
+                       const std::vector<FanCandidate>* candidates) const
 {
   PrimitiveHit ph;
   bool found = false;
@@ -374,7 +377,6 @@ void Scene::castSolids(const Ray& ray, double best, RayHit& out, const std::vect
   {
     // What PrimitiveBvh::intersect finds, among the candidates: the nearest entry in (0, best],
     // ties to the lower index (candidates ascend, so the first found of equal t stays).
-    const double h = horizontal(ray.direction);
     const double inv_h = 1.0 / h;
     const double oz = ray.origin.z(), dz = ray.direction.z();
     const std::vector<Primitive>& prims = objects_.primitives();
@@ -409,7 +411,7 @@ void Scene::castSolids(const Ray& ray, double best, RayHit& out, const std::vect
     out.id = p.id;
     out.reflectivity = p.reflectivity;
   }
-  if (body_bvh_.intersect(ray.origin, ray.direction, 0.0, best, ph, ray.ignore_body))
+  if (!bodies_.empty() && body_bvh_.intersect(ray.origin, ray.direction, 0.0, best, ph, ray.ignore_body))
   {
     const Body& b = bodies_[ph.index];
     out.kind = HitKind::kBody;

@@ -164,15 +164,20 @@ private:
     double s0, s1;        ///< m, horizontal distance from the origin: the line within the footprint
     double z_lo, z_hi;    ///< m, the primitive's height range, widened
   };
-  /// Fills `out` with the static primitives the rays of the fan rays[begin, end) may enter.
-  void fanCandidates(const std::vector<Ray>& rays, std::size_t begin, std::size_t end, std::vector<std::uint32_t>& scratch,
-                     std::vector<FanCandidate>& out) const;
-  /// castUnchecked(ray, t_clear, terrain_reach) with the static primitives searched among
+  /// Fills `out` with the static primitives the rays of the fan rays[begin, end) may enter;
+  /// hz[k - begin] is the horizontal length of rays[k].direction.
+  void fanCandidates(const std::vector<Ray>& rays, const double* hz, std::size_t begin, std::size_t end,
+                     std::vector<std::uint32_t>& scratch, std::vector<FanCandidate>& out) const;
+  /// out = castUnchecked(ray, t_clear, terrain_reach) with the static primitives searched among
   /// `candidates` (a fan's, ascending index) instead of the BVH: the same hit, bit for bit.
-  RayHit castFanRay(const Ray& ray, double t_clear, double& terrain_reach,
-                    const std::vector<FanCandidate>& candidates) const;
-  /// The object and body part of a cast, after the terrain.
-  void castSolids(const Ray& ray, double best, RayHit& out, const std::vector<FanCandidate>* candidates) const;
+  /// h: horizontal length of ray.direction (> 0).
+  void castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
+                  const std::vector<FanCandidate>& candidates, RayHit& out) const;
+  /// The object and body part of a cast, after the terrain hit (or none) left in `out` with
+  /// range `best`: static primitives from the BVH, or from a fan's `candidates` (then h is the
+  /// horizontal length of ray.direction), then the bodies.
+  void castSolids(const Ray& ray, double h, double best, RayHit& out,
+                  const std::vector<FanCandidate>* candidates) const;
 
   HeightField terrain_;
   Reflectivities reflectivities_;
