@@ -155,7 +155,7 @@ constexpr double kFanBackOff = 1e-6;
 /// Fans of fewer rays are cast ray by ray: collecting their candidate primitives would cost
 /// more than the BVH walks it saves.
 constexpr std::size_t kFanMinRays = 4;
-/// m: a fan's candidate primitives are those whose footprint, widened by this (plus 1e-9 of
+/// m: a fan's candidate primitives are those whose footprint, widened by this (plus 2e-9 of
 /// the fan's reach), meets its ground line (fanCandidates()).
 constexpr double kFanMargin = 1e-6;
 
@@ -207,9 +207,10 @@ double horizontal(const Eigen::Vector3d& d)
 }
 
 /**
- * Whether rays a and b (horizontal lengths of their directions ha, hb) lie in one vertical half-plane (same origin bit for bit, horizontal
- * directions parallel to 1e-12, not vertical) with clearly different slopes dz / horizontal:
- * +1 when b points higher than a, -1 when lower, 0 when they are not such a pair.
+ * Whether rays a and b (ha, hb: horizontal lengths of their directions) lie in one vertical
+ * half-plane (same origin bit for bit, horizontal directions parallel to 1e-12, not vertical)
+ * with clearly different slopes dz / horizontal: +1 when b points higher than a, -1 when lower,
+ * 0 when they are not such a pair.
  */
 int fanStep(const Ray& a, const Ray& b, double ha, double hb)
 {
@@ -295,10 +296,11 @@ void Scene::fanCandidates(const std::vector<Ray>& rays, const double* hz, std::s
   double length = 0.0;  // m: the farthest any ray of the fan gets from the origin horizontally
   for (std::size_t k = begin; k < end; ++k)
     length = std::max(length, rays[k].max_range * hz[k - begin]);
-  // The rays' own horizontal directions differ from (ux, uy) by < 1e-12 rad per step of the fan
-  // (fanStep), so their paths stay within length * 1e-9 of the line for any fan of < 1000 rays;
-  // 1 um more absorbs rounding of the hit points against primitiveBounds().
-  const double margin = kFanMargin + 1e-9 * length;
+  // The rays' own horizontal directions differ from (ux, uy) by <= 1e-12 rad per step of the
+  // fan (fanStep), and a fan has at most kBatchGrain = 1024 rays (it never spans two chunks), so
+  // their paths stay within ~1.02e-9 * length of the line; 1 um more absorbs rounding of the hit
+  // points against primitiveBounds().
+  const double margin = kFanMargin + 2e-9 * length;
   objects_.collectAlongSegment(first.origin.x(), first.origin.y(), ux, uy, length, margin, scratch);
   for (std::uint32_t p : scratch)
   {
