@@ -223,6 +223,62 @@ PrimitiveBvh::PrimitiveBvh(std::vector<Primitive> primitives) : primitives_(std:
     order_[k] = static_cast<std::uint32_t>(k);
   nodes_.reserve(2 * n);
   build(0, static_cast<std::uint32_t>(n), lo, hi, centre, 0);
+  lo_ = std::move(lo);
+  hi_ = std::move(hi);
+}
+
+namespace
+{
+/// Whether the segment (x0, y0) + s (ux, uy), s in [0, length], meets the box [lo, hi] (x, y).
+bool segmentMeetsBox2d(double x0, double y0, double ux, double uy, double length, double lox, double loy,
+                       double hix, double hiy)
+{
+  double s0 = 0.0, s1 = length;
+  auto axis = [&](double p, double u, double lo, double hi) {
+    if (u == 0.0)
+      return p >= lo && p <= hi;
+    double a = (lo - p) / u, b = (hi - p) / u;
+    if (a > b)
+      std::swap(a, b);
+    s0 = std::max(s0, a);
+    s1 = std::min(s1, b);
+    return s0 <= s1;
+  };
+  return axis(x0, ux, lox, hix) && axis(y0, uy, loy, hiy);
+}
+}  // namespace
+
+void PrimitiveBvh::collectAlongSegment(double x0, double y0, double ux, double uy, double length, double margin,
+                                       std::vector<std::uint32_t>& out) const
+{
+  out.clear();
+  if (nodes_.empty())
+    return;
+  std::uint32_t stack[kMaxDepth + 2];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0)
+  {
+    const Node& nd = nodes_[stack[--top]];
+    // Node boxes are float, rounded outwards: they contain their primitives' double bounds.
+    if (!segmentMeetsBox2d(x0, y0, ux, uy, length, nd.lo[0] - margin, nd.lo[1] - margin, nd.hi[0] + margin,
+                           nd.hi[1] + margin))
+      continue;
+    if (nd.count > 0)
+    {
+      for (std::uint32_t k = nd.first; k < nd.first + nd.count; ++k)
+      {
+        const std::uint32_t p = order_[k];
+        if (segmentMeetsBox2d(x0, y0, ux, uy, length, lo_[p].x() - margin, lo_[p].y() - margin, hi_[p].x() + margin,
+                              hi_[p].y() + margin))
+          out.push_back(p);
+      }
+      continue;
+    }
+    stack[top++] = nd.first;
+    stack[top++] = static_cast<std::uint32_t>(&nd - nodes_.data()) + 1;
+  }
+  std::sort(out.begin(), out.end());
 }
 
 std::uint32_t PrimitiveBvh::build(std::uint32_t begin, std::uint32_t end, std::vector<Eigen::Vector3d>& lo,

@@ -152,6 +152,12 @@ constexpr double kFanSlopeMargin = 1e-6;
 /// m: a fan's next ray starts this much before the previous one's hit, for the rounding of
 /// that hit (the start only saves steps; the cell it falls in is still tested whole).
 constexpr double kFanBackOff = 1e-6;
+/// Fans of fewer rays are cast ray by ray: collecting their candidate primitives would cost
+/// more than the BVH walks it saves.
+constexpr std::size_t kFanMinRays = 4;
+/// m: a fan's candidate primitives are those whose footprint, widened by this (plus 2e-9 of
+/// the fan's reach), meets its ground line (fanCandidates()).
+constexpr double kFanMargin = 1e-6;
 
 /// The checks of Scene::validateRay without building a message.
 bool rayValid(const Ray& ray)
@@ -201,16 +207,16 @@ double horizontal(const Eigen::Vector3d& d)
 }
 
 /**
- * Whether rays a and b lie in one vertical half-plane (same origin bit for bit, horizontal
- * directions parallel to 1e-12, not vertical) with clearly different slopes dz / horizontal:
- * +1 when b points higher than a, -1 when lower, 0 when they are not such a pair.
+ * Whether rays a and b (ha, hb: horizontal lengths of their directions) lie in one vertical
+ * half-plane (same origin bit for bit, horizontal directions parallel to 1e-12, not vertical)
+ * with clearly different slopes dz / horizontal: +1 when b points higher than a, -1 when lower,
+ * 0 when they are not such a pair.
  */
-int fanStep(const Ray& a, const Ray& b)
+int fanStep(const Ray& a, const Ray& b, double ha, double hb)
 {
   if (a.origin != b.origin)
     return 0;
   const Eigen::Vector3d &da = a.direction, &db = b.direction;
-  const double ha = horizontal(da), hb = horizontal(db);
   if (!(ha > 0.0 && hb > 0.0))
     return 0;
   if (std::abs(da.x() * db.y() - da.y() * db.x()) > 1e-12 * ha * hb || da.x() * db.x() + da.y() * db.y() <= 0.0)
@@ -242,27 +248,98 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
   // hit is the one a single cast() gives, bit for bit; fans are found within a chunk only,
   // and chunk bounds are fixed multiples of the grain, so nothing depends on the schedule.
   parallelForDynamic(rays.size(), threads, kBatchGrain, [&](std::size_t begin, std::size_t end) {
+    std::vector<std::uint32_t> scratch;
+    std::vector<FanCandidate> candidates;
+    std::vector<double> hz(end - begin);  // horizontal length of each ray's direction
+    for (std::size_t k = begin; k < end; ++k)
+      hz[k - begin] = horizontal(rays[k].direction);
     std::size_t k = begin;
     while (k < end)
     {
       std::size_t r = k + 1;
-      const int order = r < end ? fanStep(rays[k], rays[r]) : 0;
-      while (order != 0 && r < end && fanStep(rays[r - 1], rays[r]) == order)
-        ++r;
+      const int order = r < end ? fanStep(rays[k], rays[r], hz[k - begin], hz[r - begin]) : 0;
+      if (order != 0)
+        for (++r; r < end && fanStep(rays[r - 1], rays[r], hz[r - 1 - begin], hz[r - begin]) == order;)
+          ++r;
+      if (r - k < kFanMinRays)
+      {
+        for (; k < r; ++k)
+          hits[k] = castUnchecked(rays[k]);
+        continue;
+      }
+      // The fan's rays all run above one ground line: the static primitives whose footprint
+      // meets it are collected once, each ray then tests those (mostly none or a few).
+      fanCandidates(rays, hz.data() + (k - begin), k, r, scratch, candidates);
       double s_clear = 0.0;  // m, horizontal: the ground is not met before it in this fan
       for (std::size_t m = 0; m < r - k; ++m)
       {
         const std::size_t idx = order >= 0 ? k + m : r - 1 - m;  // lowest first
         const Ray& ray = rays[idx];
-        const double h = horizontal(ray.direction);
+        const double h = hz[idx - begin];
         double reach = 0.0;
         const double t_clear = m > 0 ? std::max(0.0, s_clear / h - kFanBackOff) : 0.0;
-        hits[idx] = castUnchecked(ray, t_clear, reach);
+        castFanRay(ray, h, t_clear, reach, candidates, hits[idx]);
         s_clear = reach * h;
       }
       k = r;
     }
   });
+}
+
+void Scene::fanCandidates(const std::vector<Ray>& rays, const double* hz, std::size_t begin, std::size_t end,
+                          std::vector<std::uint32_t>& scratch, std::vector<FanCandidate>& out) const
+{
+  out.clear();
+  const Ray& first = rays[begin];
+  const double h0 = hz[0];
+  const double ux = first.direction.x() / h0, uy = first.direction.y() / h0;
+  double length = 0.0;  // m: the farthest any ray of the fan gets from the origin horizontally
+  for (std::size_t k = begin; k < end; ++k)
+    length = std::max(length, rays[k].max_range * hz[k - begin]);
+  // The rays' own horizontal directions differ from (ux, uy) by <= 1e-12 rad per step of the
+  // fan (fanStep), and a fan has at most kBatchGrain = 1024 rays (it never spans two chunks), so
+  // their paths stay within ~1.02e-9 * length of the line; 1 um more absorbs rounding of the hit
+  // points against primitiveBounds().
+  const double margin = kFanMargin + 2e-9 * length;
+  objects_.collectAlongSegment(first.origin.x(), first.origin.y(), ux, uy, length, margin, scratch);
+  for (std::uint32_t p : scratch)
+  {
+    const Eigen::Vector3d &lo = objects_.boundsLo(p), &hi = objects_.boundsHi(p);
+    double s0 = 0.0, s1 = length;
+    auto axis = [&](double o, double u, double l, double h) {
+      if (u == 0.0)
+        return;  // collectAlongSegment found o within [l, h]
+      double a = (l - margin - o) / u, b = (h + margin - o) / u;
+      if (a > b)
+        std::swap(a, b);
+      s0 = std::max(s0, a);
+      s1 = std::min(s1, b);
+    };
+    axis(first.origin.x(), ux, lo.x(), hi.x());
+    axis(first.origin.y(), uy, lo.y(), hi.y());
+    // Widened once more for the rounding of s0, s1 themselves (the rays' t = s / h).
+    out.push_back(FanCandidate{ p, std::max(0.0, s0 - margin), s1 + margin, lo.z() - margin, hi.z() + margin });
+  }
+}
+
+void Scene::castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
+                       const std::vector<FanCandidate>& candidates, RayHit& out) const
+{
+  out = RayHit();
+  double best = ray.max_range;
+  TerrainHit th;
+  terrain_reach = ray.max_range;
+  if (terrain_.intersectFrom(ray.origin, ray.direction, t_clear, best, th))
+  {
+    terrain_reach = th.t;
+    best = th.t;
+    out.kind = HitKind::kTerrain;
+    out.range = th.t;
+    out.point = th.point;
+    out.normal = th.normal;
+    out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
+  }
+  castSolids(ray, h, best, out, &candidates);
 }
 
 RayHit Scene::castUnchecked(const Ray& ray) const
@@ -287,8 +364,45 @@ RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reac
     out.normal = th.normal;
     out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
   }
+  castSolids(ray, 0.0, best, out, nullptr);
+  return out;
+}
+
+void Scene::castSolids(const Ray& ray, double h, double best, RayHit& out,
+                       const std::vector<FanCandidate>* candidates) const
+{
   PrimitiveHit ph;
-  if (objects_.intersect(ray.origin, ray.direction, 0.0, best, ph))
+  bool found = false;
+  if (candidates == nullptr)
+    found = objects_.intersect(ray.origin, ray.direction, 0.0, best, ph);
+  else
+  {
+    // What PrimitiveBvh::intersect finds, among the candidates: the nearest entry in (0, best],
+    // ties to the lower index (candidates ascend, so the first found of equal t stays).
+    const double inv_h = 1.0 / h;
+    const double oz = ray.origin.z(), dz = ray.direction.z();
+    const std::vector<Primitive>& prims = objects_.primitives();
+    for (const FanCandidate& c : *candidates)
+    {
+      const double ta = c.s0 * inv_h;
+      if (ta > best)
+        continue;  // the ray ends (terrain or range) before it reaches the footprint
+      const double tb = std::min(c.s1 * inv_h, best);
+      const double za = oz + ta * dz, zb = oz + tb * dz;
+      if (std::min(za, zb) > c.z_hi || std::max(za, zb) < c.z_lo)
+        continue;  // above or below the primitive all along its footprint
+      PrimitiveHit h_c;
+      if (intersectPrimitive(prims[c.index], ray.origin, ray.direction, 0.0, best, h_c) &&
+          (h_c.t < best || !found))
+      {
+        best = h_c.t;
+        ph = h_c;
+        ph.index = c.index;
+        found = true;
+      }
+    }
+  }
+  if (found)
   {
     best = ph.t;
     const Primitive& p = objects_.primitives()[ph.index];
@@ -299,7 +413,7 @@ RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reac
     out.id = p.id;
     out.reflectivity = p.reflectivity;
   }
-  if (body_bvh_.intersect(ray.origin, ray.direction, 0.0, best, ph, ray.ignore_body))
+  if (!bodies_.empty() && body_bvh_.intersect(ray.origin, ray.direction, 0.0, best, ph, ray.ignore_body))
   {
     const Body& b = bodies_[ph.index];
     out.kind = HitKind::kBody;
@@ -310,7 +424,6 @@ RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reac
     out.reflectivity = b.primitive.reflectivity;
     out.velocity = b.velocity + b.angular_velocity.cross(out.point - b.primitive.centre);
   }
-  return out;
 }
 
 }  // namespace sensors

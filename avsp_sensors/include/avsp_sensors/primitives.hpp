@@ -95,6 +95,26 @@ public:
   bool occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min, double t_max,
                 std::uint32_t skip_id = kNoId) const;
 
+  /**
+   * @brief Indices of the primitives whose horizontal footprint (the x-y extent of
+   *        primitiveBounds(), widened by `margin` on every side) meets the 2-D segment
+   *        (x0, y0) + s (ux, uy), s in [0, length], in ascending order (replacing `out`).
+   *
+   * A ray whose path projected on the ground stays within `margin` of that segment can only
+   * enter these primitives: a lidar column (rays sharing an origin and a vertical half-plane)
+   * collects them once and tests each of its rays against the short list instead of walking
+   * the BVH per ray (Scene::cast). A 2-D walk of the BVH, so a few microseconds per segment.
+   * @param ux, uy unit horizontal direction
+   * @param length m, >= 0
+   * @param margin m, >= 0
+   */
+  void collectAlongSegment(double x0, double y0, double ux, double uy, double length, double margin,
+                           std::vector<std::uint32_t>& out) const;
+
+  /// Map-frame bounds of primitive k (primitiveBounds(), computed once at construction).
+  const Eigen::Vector3d& boundsLo(std::size_t k) const { return lo_[k]; }
+  const Eigen::Vector3d& boundsHi(std::size_t k) const { return hi_[k]; }
+
   const std::vector<Primitive>& primitives() const { return primitives_; }
   std::size_t nodeCount() const { return nodes_.size(); }
 
@@ -113,6 +133,7 @@ private:
                       std::vector<Eigen::Vector3d>& hi, std::vector<Eigen::Vector3d>& centre, int depth);
 
   std::vector<Primitive> primitives_;
+  std::vector<Eigen::Vector3d> lo_, hi_;  ///< primitiveBounds() of each primitive
   std::vector<std::uint32_t> order_;  ///< primitive indices grouped by leaf
   std::vector<Node> nodes_;
 };

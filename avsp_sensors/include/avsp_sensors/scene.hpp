@@ -156,6 +156,29 @@ private:
   RayHit castUnchecked(const Ray& ray, double t_clear, double& terrain_reach) const;
   float terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vector3d& p) const;
 
+  /// A static primitive that a fan's rays may enter: where the fan's ground line crosses its
+  /// (slightly widened) footprint and its height range.
+  struct FanCandidate
+  {
+    std::uint32_t index;  ///< into staticPrimitives()
+    double s0, s1;        ///< m, horizontal distance from the origin: the line within the footprint
+    double z_lo, z_hi;    ///< m, the primitive's height range, widened
+  };
+  /// Fills `out` with the static primitives the rays of the fan rays[begin, end) may enter;
+  /// hz[k - begin] is the horizontal length of rays[k].direction.
+  void fanCandidates(const std::vector<Ray>& rays, const double* hz, std::size_t begin, std::size_t end,
+                     std::vector<std::uint32_t>& scratch, std::vector<FanCandidate>& out) const;
+  /// out = castUnchecked(ray, t_clear, terrain_reach) with the static primitives searched among
+  /// `candidates` (a fan's, ascending index) instead of the BVH: the same hit, bit for bit.
+  /// h: horizontal length of ray.direction (> 0).
+  void castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
+                  const std::vector<FanCandidate>& candidates, RayHit& out) const;
+  /// The object and body part of a cast, after the terrain hit (or none) left in `out` with
+  /// range `best`: static primitives from the BVH, or from a fan's `candidates` (then h is the
+  /// horizontal length of ray.direction), then the bodies.
+  void castSolids(const Ray& ray, double h, double best, RayHit& out,
+                  const std::vector<FanCandidate>* candidates) const;
+
   HeightField terrain_;
   Reflectivities reflectivities_;
   PrimitiveBvh objects_;
