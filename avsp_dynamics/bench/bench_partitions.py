@@ -12,7 +12,11 @@
    lockstep_clock measures it (nothing else subscribes to /clock meanwhile): start-up (each
    partition builds the course) is not counted. The partitions step ahead of each other's
    latest exchanges while their vehicles are apart (dynamics_node ~step_ahead_intervals, default
-   2; the share of intervals is printed); `--step-ahead K` sets it (0: strict).
+   4, and lockstep_clock ~lookahead K + 1; the share of intervals is printed); `--step-ahead K` sets it (0: strict).
+   The "ceiling" column is what two processes can give on this machine at all: the two halves
+   run at the same time as two independent runs (no peers, one clock each), and the slower one's
+   real-time factor over the single process's is the speed-up 2 partitions would reach with no
+   synchronisation and no exchange at all.
 2. Lockstep synchronisation overhead: two partitions with one fed_alpha each on flat gravel;
    per 10 ms interval the wall time a partition spends waiting for the clock and its peer (from
    its own log). The faster partition's wait also holds the load difference, so the figure is
@@ -33,6 +37,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "test"))
@@ -55,7 +60,7 @@ def balanced(vehicles, count):
 
 
 SYNC_INTERVAL = [0.01]  # s, --sync-interval
-STEP_AHEAD = [2]  # dynamics_node ~step_ahead_intervals (--step-ahead)
+STEP_AHEAD = [4]  # dynamics_node ~step_ahead_intervals (--step-ahead); lockstep_clock ~lookahead is K + 1
 
 
 def node_xml(name, vehicles, partition, peers, terrain, machine_attr=""):
@@ -85,7 +90,8 @@ def launch_xml(parts, duration, terrain, host_split=False):
          '    <rosparam param="partitions">[%s]</rosparam>\n'
          '    <param name="duration" value="%g"/>\n    <param name="timeout" value="60.0"/>\n'
          '    <param name="sync_interval" value="%g"/>\n'
-         '  </node>\n' % (", ".join(names), duration, SYNC_INTERVAL[0])]
+         '    <param name="lookahead" value="%d"/>\n'
+         '  </node>\n' % (", ".join(names), duration, SYNC_INTERVAL[0], STEP_AHEAD[0] + 1)]
     b = []
     for k, vehicles in enumerate(parts):
         peers = [n for n in names if n != names[k]]
@@ -187,9 +193,9 @@ def rtf_table(setup, counts, duration):
     print("Real-time factor vs vehicles, default course, deformable soil on, sensors off "
           "(%g s of sim time from t = 1 s, sync interval %g s, %s)" %
           (duration, SYNC_INTERVAL[0], "stepping ahead up to %d intervals" % STEP_AHEAD[0] if STEP_AHEAD[0] else "strict"))
-    print("| vehicles | 1 partition | 2 partitions | speed-up | 2 partitions: stepping/waiting/exchange, us per interval "
-          "(intervals stepped ahead) |")
-    print("|---:|---:|---:|---:|---|")
+    print("| vehicles | 1 partition | 2 partitions | speed-up | ceiling | 2 partitions: stepping/waiting/exchange, us per "
+          "interval (intervals stepped ahead) |")
+    print("|---:|---:|---:|---:|---:|---|")
     sys.stdout.flush()
     port = 11600
     for n in counts:
@@ -198,8 +204,21 @@ def rtf_table(setup, counts, duration):
         one, _ = run_layout(setup, [vehicles], duration, COURSE, port, 600.0)
         port += 1
         two, waits = run_layout(setup, balanced(vehicles, 2), duration, COURSE, port, 600.0)
+        halves = balanced(vehicles, 2)
+        alone = [float("nan"), float("nan")]
+
+        def half(k, port_k):
+            alone[k], _ = run_layout(setup, [halves[k]], duration, COURSE, port_k, 600.0)
+        port += 2
+        threads = [threading.Thread(target=half, args=(k, port - 1 + k)) for k in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        ceiling = min(alone) / one if one > 0 else float("nan")
         detail = ", ".join("%s %.0f/%.0f/%.0f (%.0f%%)" % (p, *waits[p]) for p in sorted(waits))
-        print("| %d | %.2fx | %.2fx | %.2f | %s |" % (n, one, two, two / one if one > 0 else float("nan"), detail))
+        print("| %d | %.2fx | %.2fx | %.2f | %.2f | %s |" %
+              (n, one, two, two / one if one > 0 else float("nan"), ceiling, detail))
         sys.stdout.flush()
 
 
@@ -297,7 +316,7 @@ def main():
     ap.add_argument("--sync-only", action="store_true")
     ap.add_argument("--rtf-only", action="store_true")
     ap.add_argument("--sync-interval", type=float, default=0.01, help="s, lockstep_clock's interval")
-    ap.add_argument("--step-ahead", type=int, default=2, help="dynamics_node ~step_ahead_intervals (0: strict)")
+    ap.add_argument("--step-ahead", type=int, default=4, help="dynamics_node ~step_ahead_intervals (0: strict)")
     args = ap.parse_args()
     SYNC_INTERVAL[0] = args.sync_interval
     STEP_AHEAD[0] = args.step_ahead

@@ -591,7 +591,7 @@ private:
       return;
     terrain_->setChangeTracking(true);
     exchange_standing_ = standing_;
-    step_ahead_intervals_ = avsp::msgs::boundedIntParam(pnh_, "step_ahead_intervals", 2, 0, 100);
+    step_ahead_intervals_ = avsp::msgs::boundedIntParam(pnh_, "step_ahead_intervals", 4, 0, 100);
     // A wheel's soil changes stay under it, bar the soil pushed to the cells round it.
     const at::ElevationGrid& g = terrain_->base();
     soil_reach_ = 0.25 + 2.0 * std::max(g.dx(), g.dy());
@@ -1314,7 +1314,7 @@ private:
     double time = 0.0;  ///< s, the exchange's stamp
   };
   std::map<std::string, ProxyReach> proxy_reach_;
-  int step_ahead_intervals_ = 2;  ///< K: how many of the peers' latest exchanges may wait
+  int step_ahead_intervals_ = 4;  ///< K: how many of the peers' latest exchanges may wait
   double soil_reach_ = 0.0;    ///< m, how far from a vehicle's box its soil changes may reach
   double topple_reach_ = 0.0;  ///< m, how far an object a peer's vehicle topples may fall
   std::deque<double> pending_exchanges_;  ///< s: the peers' exchanges not applied yet, oldest first

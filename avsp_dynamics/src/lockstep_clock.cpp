@@ -58,7 +58,7 @@ public:
     startup_timeout_ = boundedParam(pnh, "startup_timeout", 300.0, 0.01, 36000.0);
     real_time_factor_ = boundedParam(pnh, "real_time_factor", 0.0, 0.0, 1000.0);
     duration_ = boundedParam(pnh, "duration", 0.0, 0.0, 1e9);
-    lookahead_ = static_cast<unsigned>(avsp::msgs::boundedIntParam(pnh, "lookahead", 3, 1, 1000));
+    lookahead_ = static_cast<unsigned>(avsp::msgs::boundedIntParam(pnh, "lookahead", 5, 1, 1000));
     try
     {
       barrier_ = std::make_unique<avsp::dynamics::LockstepBarrier>(names, interval, lookahead_);
@@ -174,7 +174,7 @@ private:
   }
 
   std::unique_ptr<avsp::dynamics::LockstepBarrier> barrier_;
-  unsigned lookahead_ = 3;
+  unsigned lookahead_ = 5;
   double timeout_ = 10.0, startup_timeout_ = 300.0, real_time_factor_ = 0.0, duration_ = 0.0;
   ros::Publisher clock_pub_;
   ros::Subscriber done_sub_;

@@ -271,8 +271,8 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
   // Stepping ahead: while apart, pe stepped before pw's latest exchanges (peers_applied up to
   // ~step_ahead_intervals + 1 intervals behind), never when the chassis were within 0.3 m; and
   // the answer is the strict lockstep's.
-  int step_ahead = 2;
-  pnh.param("step_ahead_intervals", step_ahead, 2);
+  int step_ahead = 4;
+  pnh.param("step_ahead_intervals", step_ahead, 4);
   std::map<long, double> lag_cs;  // by stamp in centiseconds
   for (const auto& [t, l] : lag)
     lag_cs[std::lround(100.0 * t)] = l;
