@@ -322,10 +322,10 @@ void Scene::fanCandidates(const std::vector<Ray>& rays, const double* hz, std::s
   }
 }
 
-void Scene::castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
-                       const std::vector<FanCandidate>& candidates, RayHit& out) const
+// Inlined into both casts: a call per ray cost ~4 % of bench_raycast.
+__attribute__((always_inline)) inline double Scene::castTerrain(const Ray& ray, double t_clear, double& terrain_reach,
+                                                                 RayHit& out) const
 {
-  out = RayHit();
   double best = ray.max_range;
   TerrainHit th;
   terrain_reach = ray.max_range;
@@ -339,6 +339,14 @@ void Scene::castFanRay(const Ray& ray, double h, double t_clear, double& terrain
     out.normal = th.normal;
     out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
   }
+  return best;
+}
+
+void Scene::castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
+                       const std::vector<FanCandidate>& candidates, RayHit& out) const
+{
+  out = RayHit();
+  const double best = castTerrain(ray, t_clear, terrain_reach, out);
   castSolids(ray, h, best, out, &candidates);
 }
 
@@ -351,19 +359,7 @@ RayHit Scene::castUnchecked(const Ray& ray) const
 RayHit Scene::castUnchecked(const Ray& ray, double t_clear, double& terrain_reach) const
 {
   RayHit out;
-  double best = ray.max_range;
-  TerrainHit th;
-  terrain_reach = ray.max_range;
-  if (terrain_.intersectFrom(ray.origin, ray.direction, t_clear, best, th))
-  {
-    terrain_reach = th.t;
-    best = th.t;
-    out.kind = HitKind::kTerrain;
-    out.range = th.t;
-    out.point = th.point;
-    out.normal = th.normal;
-    out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
-  }
+  const double best = castTerrain(ray, t_clear, terrain_reach, out);
   castSolids(ray, 0.0, best, out, nullptr);
   return out;
 }

@@ -173,6 +173,9 @@ private:
   /// h: horizontal length of ray.direction (> 0).
   void castFanRay(const Ray& ray, double h, double t_clear, double& terrain_reach,
                   const std::vector<FanCandidate>& candidates, RayHit& out) const;
+  /// The terrain part of a cast: `out` (a fresh RayHit) given the terrain hit, if any, from a
+  /// traversal starting at t_clear; terrain_reach and the returned range are that hit's, or max_range.
+  double castTerrain(const Ray& ray, double t_clear, double& terrain_reach, RayHit& out) const;
   /// The object and body part of a cast, after the terrain hit (or none) left in `out` with
   /// range `best`: static primitives from the BVH, or from a fan's `candidates` (then h is the
   /// horizontal length of ray.direction), then the bodies.
