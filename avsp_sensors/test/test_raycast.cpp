@@ -689,6 +689,17 @@ TEST(HeightField, StartingPastAKnownClearStretchGivesTheSameHitBitForBit)
   EXPECT_FALSE(f.intersectFrom(o, d, ref.t + 2.0, ref.t + 2.1, got) && got.t == ref.t);
 }
 
+/// Every field of two hits equal, bit for bit.
+::testing::AssertionResult sameHit(const RayHit& a, const RayHit& b)
+{
+  if (a.kind == b.kind && a.range == b.range && a.point == b.point && a.normal == b.normal &&
+      a.velocity == b.velocity && a.id == b.id && a.reflectivity == b.reflectivity)
+    return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "hits differ: kind " << static_cast<int>(a.kind) << " / "
+                                       << static_cast<int>(b.kind) << ", range " << a.range << " / " << b.range
+                                       << ", id " << a.id << " / " << b.id;
+}
+
 TEST(Scene, LidarFansInABatchGiveTheHitsOfSingleCasts)
 {
   // A batch casts consecutive rays from one origin in one vertical half-plane (a lidar column)
@@ -751,12 +762,7 @@ TEST(Scene, LidarFansInABatchGiveTheHitsOfSingleCasts)
     const RayHit single = scene.cast(rays[k]);
     for (const auto* batch : { &one, &two, &three })
     {
-      const RayHit& b = (*batch)[k];
-      ASSERT_EQ(b.kind, single.kind) << k;
-      ASSERT_EQ(b.range, single.range) << k;
-      ASSERT_EQ(b.point, single.point) << k;
-      ASSERT_EQ(b.normal, single.normal) << k;
-      ASSERT_EQ(b.id, single.id) << k;
+      ASSERT_TRUE(sameHit((*batch)[k], single)) << "ray " << k;
     }
     terrain += single.kind == HitKind::kTerrain;
     objects += single.kind == HitKind::kObject;
@@ -923,14 +929,7 @@ TEST(Scene, FansThroughDenseObjectsGiveTheHitsOfSingleCasts)
     const RayHit single = scene.cast(rays[k]);
     for (const auto* batch : { &one, &two })
     {
-      const RayHit& b = (*batch)[k];
-      ASSERT_EQ(b.kind, single.kind) << k;
-      ASSERT_EQ(b.range, single.range) << k;
-      ASSERT_EQ(b.point, single.point) << k;
-      ASSERT_EQ(b.normal, single.normal) << k;
-      ASSERT_EQ(b.velocity, single.velocity) << k;
-      ASSERT_EQ(b.id, single.id) << k;
-      ASSERT_EQ(b.reflectivity, single.reflectivity) << k;
+      ASSERT_TRUE(sameHit((*batch)[k], single)) << "ray " << k;
     }
     objects += single.kind == HitKind::kObject;
     duplicates += single.kind == HitKind::kObject && single.id % 25 == 0 && single.id < 400;
