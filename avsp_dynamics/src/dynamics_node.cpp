@@ -788,15 +788,12 @@ private:
       throw std::invalid_argument("vehicle '" + pv.name + "': orientation is not a unit quaternion");
     pose.linear() = q.normalized().toRotationMatrix();
     const geometry_msgs::Twist& v = pv.velocity;
-    world_->setProxyState(it->second, pose, Eigen::Vector3d(v.linear.x, v.linear.y, v.linear.z),
-                          Eigen::Vector3d(v.angular.x, v.angular.y, v.angular.z));
     ProxyReach& r = proxy_reach_.at(pv.name);
-    r.pose = pose;
     r.linear_velocity = Eigen::Vector3d(v.linear.x, v.linear.y, v.linear.z);
     r.angular_velocity = Eigen::Vector3d(v.angular.x, v.angular.y, v.angular.z);
+    world_->setProxyState(it->second, pose, r.linear_velocity, r.angular_velocity);  // refuses a non-finite state
+    r.pose = pose;
     r.time = t;
-    if (!r.linear_velocity.allFinite() || !r.angular_velocity.allFinite())
-      throw std::invalid_argument("vehicle '" + pv.name + "': velocity is not finite");
   }
 
   /**
@@ -810,17 +807,19 @@ private:
     // m/s^2: 20 g, far beyond what driving or a collision between ground vehicles gives a
     // point of a vehicle over an interval.
     constexpr double kMaxAcceleration = 200.0;
+    std::vector<double> grow(vehicles_.size());  // each of ours, once
+    for (std::size_t k = 0; k < vehicles_.size(); ++k)
+    {
+      const ad::VehicleState& s = world_->state(vehicles_[k]->id);
+      grow[k] = ad::sweptReach(vehicles_[k]->box, s.linear_velocity, s.angular_velocity, to - from, kMaxAcceleration);
+    }
     for (const auto& [name, r] : proxy_reach_)
     {
       const double grow_peer = ad::sweptReach(r.box, r.linear_velocity, r.angular_velocity, to - r.time, kMaxAcceleration) +
                                soil_reach_ + topple_reach_;
-      for (const auto& v : vehicles_)
-      {
-        const ad::VehicleState& s = world_->state(v->id);
-        const double grow = ad::sweptReach(v->box, s.linear_velocity, s.angular_velocity, to - from, kMaxAcceleration);
-        if (!ad::shadowsApart(s.pose, v->box, grow, r.pose, r.box, grow_peer))
+      for (std::size_t k = 0; k < vehicles_.size(); ++k)
+        if (!ad::shadowsApart(world_->state(vehicles_[k]->id).pose, vehicles_[k]->box, grow[k], r.pose, r.box, grow_peer))
           return false;
-      }
     }
     return true;
   }
