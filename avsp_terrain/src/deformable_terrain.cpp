@@ -219,8 +219,15 @@ bool sameDeformation(const PointDeformation& a, const PointDeformation& b)
 std::vector<PointChange> DeformableTerrain::takeChanges()
 {
   std::vector<PointChange> changes;
+  takeChanges(changes);
+  return changes;
+}
+
+void DeformableTerrain::takeChanges(std::vector<PointChange>& changes)
+{
+  changes.clear();
   if (!tracking_)
-    return changes;
+    return;
   std::sort(changed_tiles_.begin(), changed_tiles_.end());
   for (std::size_t t : changed_tiles_)
   {
@@ -240,7 +247,6 @@ std::vector<PointChange> DeformableTerrain::takeChanges()
     spare_tiles_.push_back(std::move(before_[t]));
   }
   changed_tiles_.clear();
-  return changes;
 }
 
 std::size_t DeformableTerrain::applyChanges(const std::vector<PointChange>& changes)

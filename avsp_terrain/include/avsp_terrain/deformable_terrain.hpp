@@ -235,6 +235,8 @@ public:
    *        tile; starts the next interval. Empty when tracking is off.
    */
   std::vector<PointChange> takeChanges();
+  /// takeChanges() into `out` (replaced; its capacity kept, so a steady run allocates nothing).
+  void takeChanges(std::vector<PointChange>& out);
   /**
    * @brief Applies another terrain's changes (takeChanges() there, same grid). A point still
    *        exactly at `before` becomes `after` bit for bit (so processes that never touch the
