@@ -13,6 +13,8 @@
    partition builds the course) is not counted. The partitions step ahead of each other's
    latest exchanges while their vehicles are apart (dynamics_node ~step_ahead_intervals, default
    4, and lockstep_clock ~lookahead K + 1; the share of intervals is printed); `--step-ahead K` sets it (0: strict).
+   While apart they also hold their soil changes back (sent with a later exchange); the share
+   of exchanges that carried soil is printed too.
    The "ceiling" column is what two processes can give on this machine at all: the two halves
    run at the same time as two independent runs (no peers, one clock each), and the slower one's
    real-time factor over the single process's is the speed-up 2 partitions would reach with no
@@ -129,7 +131,8 @@ print("STARTED" if started else "NOT STARTED")
 '''
 
 WAIT_RE = re.compile(r"partition '(\w+)': (\d+) intervals to t = ([\d.]+) s; per interval ([\d.]+) us stepping, "
-                     r"([\d.]+) us waiting for the clock and peers, ([\d.]+) us exchanging with them; (\d+) stepped ahead")
+                     r"([\d.]+) us waiting for the clock and peers, ([\d.]+) us exchanging with them; (\d+) stepped ahead"
+                     r"[^;\n]*; our soil changes sent in (\d+) of (\d+) exchanges")
 
 
 def env_for(setup, port, ip="127.0.0.1"):
@@ -179,7 +182,8 @@ def run_layout(setup, parts, duration, terrain, port, timeout):
     waits = {}
     for w in WAIT_RE.finditer(text):
         waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)),
-                             100.0 * float(w.group(7)) / max(1.0, float(w.group(2))))
+                             100.0 * float(w.group(7)) / max(1.0, float(w.group(2))),
+                             100.0 * float(w.group(8)) / max(1.0, float(w.group(9))))
     if rtf != rtf or (len(parts) > 1 and len(waits) < len(parts)):
         sys.stderr.write("run failed:\n%s\n%s\n" % (probe.stdout[-2000:], text[-4000:]))
     return rtf, waits
@@ -194,7 +198,7 @@ def rtf_table(setup, counts, duration):
           "(%g s of sim time from t = 1 s, sync interval %g s, %s)" %
           (duration, SYNC_INTERVAL[0], "stepping ahead up to %d intervals" % STEP_AHEAD[0] if STEP_AHEAD[0] else "strict"))
     print("| vehicles | 1 partition | 2 partitions | speed-up | ceiling | 2 partitions: stepping/waiting/exchange, us per "
-          "interval (intervals stepped ahead) |")
+          "interval (intervals stepped ahead; exchanges carrying soil) |")
     print("|---:|---:|---:|---:|---:|---|")
     sys.stdout.flush()
     port = 11600
@@ -216,7 +220,7 @@ def rtf_table(setup, counts, duration):
         for t in threads:
             t.join()
         ceiling = min(alone) / one if one > 0 else float("nan")
-        detail = ", ".join("%s %.0f/%.0f/%.0f (%.0f%%)" % (p, *waits[p]) for p in sorted(waits))
+        detail = ", ".join("%s %.0f/%.0f/%.0f (%.0f%%; %.0f%%)" % (p, *waits[p]) for p in sorted(waits))
         print("| %d | %.2fx | %.2fx | %.2f | %.2f | %s |" %
               (n, one, two, two / one if one > 0 else float("nan"), ceiling, detail))
         sys.stdout.flush()
@@ -278,7 +282,8 @@ def sync_veth(setup, duration):
             log.seek(0)
             for w in WAIT_RE.finditer(log.read()):
                 waits[w.group(1)] = (float(w.group(4)), float(w.group(5)), float(w.group(6)),
-                             100.0 * float(w.group(7)) / max(1.0, float(w.group(2))))
+                             100.0 * float(w.group(7)) / max(1.0, float(w.group(2))),
+                             100.0 * float(w.group(8)) / max(1.0, float(w.group(9))))
         text = ""
         for log in logs:
             log.seek(0)

@@ -41,6 +41,13 @@
 // for a later interval. The answer is the strict lockstep's (tested bit for bit); what it saves
 // is the wait for the peers' latest exchanges, so partitions may drift up to K intervals apart
 // and absorb each other's jitter and the messages' latency.
+//
+// Soil held back (K > 0): the soil changes of an interval go out with its exchange only when a
+// peer vehicle, as we last knew it, could come near them before the peers apply our next
+// exchange (K + 1 intervals on); otherwise they accumulate in the terrain and go out later, a
+// point changed in many intervals once. Under wheels the soil changes in every step (flow under
+// slip), so vehicles apart send a fraction of the points, copy fewer tiles for the tracking and
+// apply fewer; a peer never steps on soil of ours it has not applied (tested bit for bit).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -466,10 +473,11 @@ private:
       std::snprintf(line, sizeof line,
                     "dynamics_node: partition '%s': %llu intervals to t = %.3f s; per interval %.1f us stepping, "
                     "%.1f us waiting for the clock and peers, %.1f us exchanging with them; %llu stepped ahead of "
-                    "the peers' last exchange",
+                    "the peers' last exchange; our soil changes sent in %llu of %llu exchanges",
                     partition_.c_str(), static_cast<unsigned long long>(intervals), reported,
                     1e6 * stepping / intervals, 1e6 * waiting / intervals, 1e6 * exchanging / intervals,
-                    static_cast<unsigned long long>(stepped_ahead_));
+                    static_cast<unsigned long long>(stepped_ahead_), static_cast<unsigned long long>(soil_exchanges_),
+                    static_cast<unsigned long long>(exchanges_));
       if (ros::ok())
         ROS_INFO("%s", line);
       else
@@ -594,6 +602,9 @@ private:
     step_ahead_intervals_ = avsp::msgs::boundedIntParam(pnh_, "step_ahead_intervals", 4, 0, 100);
     // A wheel's soil changes stay under it, bar the soil pushed to the cells round it.
     const at::ElevationGrid& g = terrain_->base();
+    if (g.columns() * g.rows() > std::numeric_limits<std::uint32_t>::max())
+      throw StartupError("the terrain grid has " + std::to_string(g.columns() * g.rows()) +
+                         " points; partitions exchange soil points as 32-bit indices (~peers needs fewer)");
     soil_reach_ = 0.25 + 2.0 * std::max(g.dx(), g.dy());
     // An object a peer's vehicle pushes over may fall its height (plus its own size) away.
     for (std::uint32_t id : standing_)
@@ -709,19 +720,26 @@ private:
       {
         for (const avsp_msgs::ProxyVehicle& pv : m.vehicles)
           placeProxy(name, pv, t);
-        std::vector<at::PointChange> changes(m.soil_points.size());
-        for (std::size_t k = 0; k < changes.size(); ++k)
+        // Thousands of points per interval: one 32-bit division each (the grid has fewer than
+        // 2^32 points, see loadPeers), into a buffer kept from the last interval.
+        const auto columns = static_cast<std::uint32_t>(g.columns());
+        const std::size_t points = g.columns() * g.rows();
+        std::vector<at::PointChange>& changes = received_changes_;
+        changes.resize(m.soil_points.size());
+        const float* before = m.soil_before.data();
+        const float* after = m.soil_after.data();
+        for (std::size_t k = 0; k < changes.size(); ++k, before += 3, after += 3)
         {
           const std::uint32_t index = m.soil_points[k];
-          if (index >= g.columns() * g.rows())
+          if (index >= points)
             throw std::out_of_range("soil_points[" + std::to_string(k) + "] = " + std::to_string(index) +
                                     " is outside the " + std::to_string(g.columns()) + " x " +
                                     std::to_string(g.rows()) + " grid");
           at::PointChange& c = changes[k];
-          c.i = static_cast<std::uint32_t>(index % g.columns());
-          c.j = static_cast<std::uint32_t>(index / g.columns());
-          c.before = { m.soil_before[3 * k], m.soil_before[3 * k + 1], m.soil_before[3 * k + 2] };
-          c.after = { m.soil_after[3 * k], m.soil_after[3 * k + 1], m.soil_after[3 * k + 2] };
+          c.j = index / columns;
+          c.i = index - c.j * columns;
+          c.before = { before[0], before[1], before[2] };
+          c.after = { after[0], after[1], after[2] };
         }
         const std::size_t merged = terrain_->applyChanges(changes);
         if (merged > 0)
@@ -752,6 +770,7 @@ private:
       peer.received.erase(peer.received.begin(), peer.received.upper_bound(key));
     }
     peers_applied_ = t;
+    peers_known_ = true;
     return true;
   }
 
@@ -824,6 +843,37 @@ private:
     return true;
   }
 
+  /**
+   * Whether the soil we changed since our last soil exchange (soil_sent_) may wait for a later
+   * exchange: no peer vehicle, as the last applied exchange gave it, can come within reach of it
+   * before the peers would apply our next exchange (they step at most K intervals past an
+   * exchange they have not applied, so K + 1 intervals from `t`). Our changes since soil_sent_
+   * lie in our vehicles' boxes grown by how far they could go since then, plus the soil's reach;
+   * a peer's vehicle is grown by how far it could go by then, plus the soil's reach too (the soil
+   * its wheels push). The decision depends on simulated states only: runs stay deterministic.
+   */
+  bool unsentSoilApart(double t) const
+  {
+    constexpr double kMaxAcceleration = 200.0;  // m/s^2, as peersApart()
+    const double horizon = t + (step_ahead_intervals_ + 1) * sync_interval_;
+    for (const auto& [name, r] : proxy_reach_)
+    {
+      const double grow_peer =
+          ad::sweptReach(r.box, r.linear_velocity, r.angular_velocity, horizon - r.time, kMaxAcceleration) +
+          soil_reach_;
+      for (std::size_t k = 0; k < vehicles_.size(); ++k)
+      {
+        const SentState& s = soil_sent_states_[k];
+        const double grow = ad::sweptReach(vehicles_[k]->box, s.linear_velocity, s.angular_velocity,
+                                           t - soil_sent_, kMaxAcceleration) +
+                            soil_reach_;
+        if (!ad::shadowsApart(s.pose, vehicles_[k]->box, grow, r.pose, r.box, grow_peer))
+          return false;
+      }
+    }
+    return true;
+  }
+
   /// This partition's part of interval `t`: its vehicles, its soil changes, what it toppled.
   void publishExchange(double t)
   {
@@ -843,16 +893,40 @@ private:
       pv.velocity.angular = vectorMsg(s.angular_velocity);
       m.vehicles.push_back(pv);
     }
-    const std::size_t columns = terrain_->base().columns();
-    const std::vector<at::PointChange> changes = terrain_->takeChanges();
-    m.soil_points.reserve(changes.size());
-    m.soil_before.reserve(3 * changes.size());
-    m.soil_after.reserve(3 * changes.size());
-    for (const at::PointChange& c : changes)
+    const auto columns = static_cast<std::uint32_t>(terrain_->base().columns());
+    std::vector<at::PointChange>& changes = sent_changes_;
+    changes.clear();
+    ++exchanges_;
+    if (step_ahead_intervals_ == 0 || !peers_known_ || !unsentSoilApart(t))
     {
-      m.soil_points.push_back(static_cast<std::uint32_t>(c.j * columns + c.i));
-      m.soil_before.insert(m.soil_before.end(), { c.before.plastic, c.before.displaced, c.before.sigma_max });
-      m.soil_after.insert(m.soil_after.end(), { c.after.plastic, c.after.displaced, c.after.sigma_max });
+      // Changes accumulate in the terrain until taken: a point changed in several intervals
+      // goes out once, from its state at our last soil exchange to now.
+      terrain_->takeChanges(changes);
+      soil_sent_ = t;
+      soil_sent_states_.resize(vehicles_.size());
+      for (std::size_t k = 0; k < vehicles_.size(); ++k)
+      {
+        const ad::VehicleState& s = world_->state(vehicles_[k]->id);
+        soil_sent_states_[k] = SentState{ s.pose, s.linear_velocity, s.angular_velocity };
+      }
+      ++soil_exchanges_;
+    }
+    // Sized once and written in place: thousands of points per interval.
+    m.soil_points.resize(changes.size());
+    m.soil_before.resize(3 * changes.size());
+    m.soil_after.resize(3 * changes.size());
+    float* before = m.soil_before.data();
+    float* after = m.soil_after.data();
+    for (std::size_t k = 0; k < changes.size(); ++k, before += 3, after += 3)
+    {
+      const at::PointChange& c = changes[k];
+      m.soil_points[k] = c.j * columns + c.i;
+      before[0] = c.before.plastic;
+      before[1] = c.before.displaced;
+      before[2] = c.before.sigma_max;
+      after[0] = c.after.plastic;
+      after[1] = c.after.displaced;
+      after[2] = c.after.sigma_max;
     }
     for (std::uint32_t id : takeFallen(exchange_standing_))
     {
@@ -1317,6 +1391,17 @@ private:
   double soil_reach_ = 0.0;    ///< m, how far from a vehicle's box its soil changes may reach
   double topple_reach_ = 0.0;  ///< m, how far an object a peer's vehicle topples may fall
   std::deque<double> pending_exchanges_;  ///< s: the peers' exchanges not applied yet, oldest first
+  std::vector<at::PointChange> sent_changes_, received_changes_;  ///< buffers kept between intervals
+  /// Our vehicle's state when we last sent our soil changes (see unsentSoilApart()).
+  struct SentState
+  {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero(), angular_velocity = Eigen::Vector3d::Zero();
+  };
+  std::vector<SentState> soil_sent_states_;  ///< per vehicle, in vehicles_ order
+  double soil_sent_ = 0.0;                   ///< s: the last exchange that carried our soil changes
+  bool peers_known_ = false;                 ///< every peer's exchange applied at least once
+  std::uint64_t exchanges_ = 0, soil_exchanges_ = 0;  ///< sent, and of them with our soil changes
   double peers_applied_ = 0.0;               ///< s: the latest peers' exchange applied
   std::uint64_t stepped_ahead_ = 0;          ///< intervals stepped before the peers' last exchange
   std::vector<std::uint32_t> exchange_standing_;     ///< toppleable objects not yet sent as toppled

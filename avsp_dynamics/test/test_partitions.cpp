@@ -6,8 +6,8 @@
 // - A partition killed mid-run stops the clock within its timeout, naming the partition.
 // - Two vehicles in two partitions driven head-on collide through their proxies: neither
 //   passes through the other. While they are apart the partitions step ahead of each other's
-//   exchanges, and the odometry equals, bit for bit, a strict pair's (~step_ahead_intervals
-//   0) run alongside on the same clock.
+//   exchanges and hold their soil changes back, and the odometry equals, bit for bit, a strict
+//   pair's (~step_ahead_intervals 0) run alongside on the same clock.
 // - A malformed exchange from a peer stops the partition with exit 1 naming the topic.
 #include <signal.h>
 #include <sys/wait.h>
@@ -205,11 +205,14 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
   std::map<std::string, std::uint32_t> collisions;
   std::map<std::string, ros::Publisher> commands;
   std::vector<ros::Subscriber> subs;
-  // Partition pe's exchanges: when it stepped ahead of pw's (stamp - peers_applied, s).
+  // Partition pe's exchanges: when it stepped ahead of pw's (stamp - peers_applied, s), and
+  // how many soil points it sent (it holds them back while pw's vehicle is far).
   std::map<double, double> lag;
+  std::map<double, std::size_t> soil_sent;
   subs.push_back(nh.subscribe<avsp_msgs::PartitionExchange>(
       "/lockstep/exchange/pe", 1000, [&](const avsp_msgs::PartitionExchange::ConstPtr& m) {
         lag[m->header.stamp.toSec()] = (m->header.stamp - m->peers_applied).toSec();
+        soil_sent[m->header.stamp.toSec()] = m->soil_points.size();
       }));
   for (const std::string& v : names)
   {
@@ -276,7 +279,11 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
   std::map<long, double> lag_cs;  // by stamp in centiseconds
   for (const auto& [t, l] : lag)
     lag_cs[std::lround(100.0 * t)] = l;
+  std::map<long, std::size_t> soil_cs;
+  for (const auto& [t, points] : soil_sent)
+    soil_cs[std::lround(100.0 * t)] = points;
   std::size_t ahead = 0, near = 0, ahead_near = 0, missing = 0;
+  std::size_t soil_held = 0, soil_held_near = 0, near_1m = 0;
   for (std::size_t i = 0; i < n; ++i)
   {
     const long cs = std::lround(100.0 * e[i].header.stamp.toSec());
@@ -301,7 +308,19 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
       ++near;
       ahead_near += stepped_ahead;
     }
+    // Both drive at full throttle all along (slip: the soil under them changes in every step),
+    // so an exchange without soil points held them back.
+    const bool held = soil_cs.count(cs) && soil_cs.at(cs) == 0;
+    soil_held += held;
+    if (gap < 1.0)
+    {
+      ++near_1m;
+      soil_held_near += held;
+    }
   }
+  EXPECT_GT(soil_held, 100u) << "pe never held its soil changes back while apart";
+  EXPECT_GT(near_1m, 3u);
+  EXPECT_EQ(soil_held_near, 0u) << "pe held its soil changes back with the chassis within 1 m";
   EXPECT_GT(ahead, 100u) << "pe never stepped ahead of pw's exchange while they were apart";
   EXPECT_GT(near, 3u);
   EXPECT_LT(missing, 20u) << "exchanges from pe not heard";
@@ -315,8 +334,9 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
     const std::size_t differ = differingMessages(a, b, m, v);
     EXPECT_EQ(differ, 0u) << v << ": " << differ << " of " << m << " odometry messages differ from the strict pair's";
     std::printf("[ partitions ] %s: %zu messages, %zu differ from the strict lockstep; pe stepped ahead in %zu "
-                "intervals, in %zu of the %zu with the chassis within 0.3 m\n",
-                v.c_str(), m, differ, ahead, ahead_near, near);
+                "intervals, in %zu of the %zu with the chassis within 0.3 m; held its soil back in %zu, in %zu of "
+                "the %zu within 1 m\n",
+                v.c_str(), m, differ, ahead, ahead_near, near, soil_held, soil_held_near, near_1m);
   }
 }
 
