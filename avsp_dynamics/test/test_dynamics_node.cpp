@@ -398,6 +398,10 @@ TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_real_time_factor:=-1.0");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~real_time_factor"), std::string::npos) << out;
+  // A value of the wrong type is refused, not replaced by the default.
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_step:=fast");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~step must be a number, got a string"), std::string::npos) << out;
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_flat_soil:=marmalade");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~flat_soil"), std::string::npos) << out;
@@ -445,6 +449,9 @@ TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=p1", peers({ "a/b" }));
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~peers[0] 'a/b' must be a plain name"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=p1 _step_ahead_intervals:=2.5", peers({ "p2" }));
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~step_ahead_intervals must be an integer, got 2.5"), std::string::npos) << out;
 }
 
 // A lockstep vehicle whose controller never answers stops the run after ~lockstep_timeout with

@@ -6,10 +6,12 @@
  *        it and exits 1 instead of running on a silent default.
  */
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
 #include <ros/node_handle.h>
+#include <xmlrpcpp/XmlRpcValue.h>
 
 namespace avsp
 {
@@ -21,23 +23,81 @@ struct StartupError : std::runtime_error
   using std::runtime_error::runtime_error;
 };
 
-/// A private double parameter (default `fallback`) that must be finite and in [min, max].
+/// What a parameter value is, for messages ("a string", "a list", ...).
+inline std::string parameterKind(const XmlRpc::XmlRpcValue& v)
+{
+  switch (v.getType())
+  {
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return "a boolean";
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return "an integer";
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      return "a number";
+    case XmlRpc::XmlRpcValue::TypeString:
+      return "a string";
+    case XmlRpc::XmlRpcValue::TypeArray:
+      return "a list";
+    case XmlRpc::XmlRpcValue::TypeStruct:
+      return "a dictionary";
+    default:
+      return "not a number";
+  }
+}
+
+/// A private double parameter (default `fallback`) that must be finite and in [min, max]. A value
+/// of another type (a string, a list) is refused, not replaced by the default.
 inline double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min,
                            double max)
 {
   double value = fallback;
-  pnh.param(key, value, fallback);
+  XmlRpc::XmlRpcValue v;
+  if (pnh.getParam(key, v))
+  {
+    if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+      value = static_cast<double>(v);
+    else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+      value = static_cast<int>(v);
+    else
+      throw StartupError("parameter ~" + key + " must be a number, got " + parameterKind(v));
+  }
   if (!std::isfinite(value) || value < min || value > max)
     throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and in [" +
                        std::to_string(min) + ", " + std::to_string(max) + "]");
   return value;
 }
 
-/// A private int parameter (default `fallback`) that must be in [min, max].
+/// Whether `d` is a whole number an int holds.
+inline bool isWholeInt(double d)
+{
+  return std::floor(d) == d && d >= -2147483648.0 && d <= 2147483647.0;
+}
+
+/// A private int parameter (default `fallback`) that must be in [min, max]. A whole number
+/// written as a double (4.0) is taken; a fraction or a value of another type is refused, not
+/// rounded or replaced by the default.
 inline int boundedIntParam(const ros::NodeHandle& pnh, const std::string& key, int fallback, int min, int max)
 {
   int value = fallback;
-  pnh.param(key, value, fallback);
+  XmlRpc::XmlRpcValue v;
+  if (pnh.getParam(key, v))
+  {
+    if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+      value = static_cast<int>(v);
+    else if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble && isWholeInt(static_cast<double>(v)))
+      value = static_cast<int>(static_cast<double>(v));
+    else
+    {
+      std::string got = parameterKind(v);
+      if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+      {
+        char text[32];
+        std::snprintf(text, sizeof text, "%g", static_cast<double>(v));
+        got = text;
+      }
+      throw StartupError("parameter ~" + key + " must be an integer, got " + got);
+    }
+  }
   if (value < min || value > max)
     throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be in [" + std::to_string(min) +
                        ", " + std::to_string(max) + "]");
