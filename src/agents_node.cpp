@@ -65,11 +65,11 @@ public:
   AgentsNode(ros::NodeHandle& nh, ros::NodeHandle& pnh)
   {
     rate_ = boundedParam(pnh, "rate", 20.0, 0.1, 1000.0);
-    pnh.param<std::string>("frame", frame_, "map");
+    frame_ = avsp::msgs::stringParam(pnh, "frame", "map");
     if (frame_.empty())
       throw StartupError("parameter ~frame must not be empty");
     std::string soils_file;
-    pnh.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+    soils_file = avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     std::unique_ptr<at::SoilLibrary> soils;
     try
     {

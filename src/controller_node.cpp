@@ -138,7 +138,7 @@ public:
       throw StartupError("parameter ~mode '" + mode + "' must be waypoints or leader_follower");
     const std::string model_name = requiredString(pnh, "model", "vehicle model, <config_dir>/<model>.yaml");
     std::string config_dir;
-    pnh.param<std::string>("config_dir", config_dir, ros::package::getPath("avsp") + "/config/vehicles");
+    config_dir = avsp::msgs::stringParam(pnh, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
     const double track_width_factor = boundedParam(pnh, "track_width_factor", 1.0, 1.0, 10.0);
     ac::SteeringGeometry geometry;
     try
@@ -152,8 +152,8 @@ public:
     }
     const double rate = boundedParam(pnh, "rate", 20.0, 1.0, 1000.0);
     period_ = 1.0 / rate;
-    pnh.param<std::string>("frame_id", frame_id_, "map");
-    pnh.param("lockstep", lockstep_, false);
+    frame_id_ = avsp::msgs::stringParam(pnh, "frame_id", "map");
+    lockstep_ = avsp::msgs::boolParam(pnh, "lockstep", false);
     try
     {
       if (mode == "waypoints")

@@ -110,7 +110,7 @@ public:
     config.time_acceleration = boundedParam(pnh, "time_acceleration", 1.0, 1e-6, 1e6);
     config.air_temperature = boundedParam(pnh, "air_temperature", 288.15, 150.0, 350.0);
     const double rate = boundedParam(pnh, "rate", 1.0, 0.01, 100.0);
-    pnh.param<std::string>("frame_id", frame_id_, "map");
+    frame_id_ = avsp::msgs::stringParam(pnh, "frame_id", "map");
     config.timeline = weatherFromParams(pnh);
     try
     {

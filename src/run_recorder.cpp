@@ -176,7 +176,7 @@ public:
       throw StartupError("parameter /use_sim_time must be true: ~duration is sim time (/clock)");
     const std::vector<ar::VehicleSpec> specs = vehicleList(pnh);
     output_dir_ = requiredString(pnh, "output_dir");
-    pnh.param<std::string>("scenario_name", scenario_, "");
+    scenario_ = avsp::msgs::stringParam(pnh, "scenario_name", "");
     if (scenario_.empty())
     {
       fs::path p = fs::path(output_dir_).lexically_normal();
@@ -188,11 +188,11 @@ public:
       throw StartupError("parameter ~duration is required (s of sim time)");
     duration_ = avsp::msgs::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);
     progress_period_ = avsp::msgs::boundedParam(pnh, "progress_period", 1.0, 0.01, 3600.0);
-    pnh.param<std::string>("plot_script", plot_script_, ros::package::getPath("avsp") + "/scripts/plot_results.py");
+    plot_script_ = avsp::msgs::stringParam(pnh, "plot_script", ros::package::getPath("avsp") + "/scripts/plot_results.py");
     if (plot_script_.empty() || !fs::is_regular_file(plot_script_))
       throw StartupError("parameter ~plot_script '" + plot_script_ + "' is not a file");
     std::string soils_file;
-    pnh.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+    soils_file = avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     try
     {
       soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));

@@ -26,11 +26,11 @@ public:
   {
     const std::string ns = ros::names::clean(nh.getNamespace());
     const std::string last = ns.substr(ns.find_last_of('/') + 1);
-    pnh.param<std::string>("vehicle_id", vehicle_id_, last);
+    vehicle_id_ = avsp::msgs::stringParam(pnh, "vehicle_id", last);
     if (vehicle_id_.empty())
       throw StartupError("parameter ~vehicle_id is required when the node is not in a vehicle's namespace");
     period_ = 1.0 / boundedParam(pnh, "rate", 10.0, 0.1, 1000.0);
-    pnh.param<std::string>("frame_id", frame_id_, "map");
+    frame_id_ = avsp::msgs::stringParam(pnh, "frame_id", "map");
     pub_ = nh.advertise<avsp_msgs::VehicleState>("v2v/out", 10);
     sub_ = nh.subscribe("avt_341/odometry", 10, &V2vBroadcaster::onOdometry, this,
                         ros::TransportHints().tcpNoDelay());  // on the lockstep path to the radio

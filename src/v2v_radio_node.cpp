@@ -101,10 +101,10 @@ public:
     options.antenna_height = boundedParam(pnh, "antenna_height", 1.5, 0.0, 1000.0);
     options.los_step = boundedParam(pnh, "los_step", 1.0, 0.01, 100.0);
     options.seed = static_cast<std::uint64_t>(boundedIntParam(pnh, "seed", 0, 0, 2147483647));
-    pnh.param("line_of_sight", options.line_of_sight, false);
+    options.line_of_sight = avsp::msgs::boolParam(pnh, "line_of_sight", false);
     const double marker_rate = boundedParam(pnh, "marker_rate", 2.0, 0.0, 100.0);
     const double update_rate = boundedParam(pnh, "update_rate", 100.0, 1.0, 10000.0);
-    pnh.param<std::string>("frame_id", frame_id_, "map");
+    frame_id_ = avsp::msgs::stringParam(pnh, "frame_id", "map");
     lockstep_period_ = boundedParam(pnh, "lockstep_period", 0.0, 0.0, 10.0);
     broadcast_period_ = 1.0 / boundedParam(pnh, "broadcast_rate", 10.0, 0.1, 1000.0);
     latency_ = options.latency;
@@ -114,7 +114,7 @@ public:
     if (options.line_of_sight)
     {
       std::string soils_file;
-      pnh.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+      soils_file = avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
       try
       {
         soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));

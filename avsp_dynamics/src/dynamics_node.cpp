@@ -217,9 +217,9 @@ public:
   {
     const std::vector<VehicleSpec> specs = vehicleSpecs(pnh_);
     std::string config_dir, soils_file;
-    pnh_.param<std::string>("config_dir", config_dir, ros::package::getPath("avsp") + "/config/vehicles");
+    config_dir = avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
     config_dir_ = config_dir;
-    pnh_.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+    soils_file = avsp::msgs::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     try
     {
       soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
@@ -231,20 +231,16 @@ public:
 
     ad::WorldOptions options;
     options.step = boundedParam(pnh_, "step", 0.001, 1e-5, 0.01);
-    int seed = 0;
-    pnh_.param("seed", seed, 0);
-    if (seed < 0)
-      throw StartupError("parameter ~seed must be >= 0");
-    options.seed = static_cast<std::uint64_t>(seed);
-    pnh_.param("deform_terrain", options.deform_terrain, true);
+    options.seed = static_cast<std::uint64_t>(avsp::msgs::boundedIntParam(pnh_, "seed", 0, 0, 2147483647));
+    options.deform_terrain = avsp::msgs::boolParam(pnh_, "deform_terrain", true);
     command_timeout_ = boundedParam(pnh_, "command_timeout", 0.5, 0.0, 3600.0);
     const double odom_rate = boundedParam(pnh_, "odometry_rate", 100.0, 1.0, 1.0 / options.step);
     const double clock_rate = boundedParam(pnh_, "clock_rate", 500.0, 1.0, 1.0 / options.step);
     const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
     real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
-    pnh_.param("publish_clock", publish_clock_, true);
-    pnh_.param("wait_for_command", wait_for_command_, false);
-    pnh_.param<std::string>("partition", partition_, "");
+    publish_clock_ = avsp::msgs::boolParam(pnh_, "publish_clock", true);
+    wait_for_command_ = avsp::msgs::boolParam(pnh_, "wait_for_command", false);
+    partition_ = avsp::msgs::stringParam(pnh_, "partition", "");
     sync_interval_ = boundedParam(pnh_, "sync_interval", 0.01, options.step, 10.0);
     {
       const double steps = sync_interval_ / options.step;
@@ -268,7 +264,7 @@ public:
 
     loadTerrain();
     bool obstacles = true;
-    pnh_.param("obstacles", obstacles, true);
+    obstacles = avsp::msgs::boolParam(pnh_, "obstacles", true);
     try
     {
       world_ = std::make_unique<ad::World>(*terrain_, options);

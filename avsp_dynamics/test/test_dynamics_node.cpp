@@ -402,6 +402,12 @@ TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_step:=fast");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~step must be a number, got a string"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_publish_clock:=maybe");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~publish_clock must be true or false, got a string"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=7");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~partition must be a string, got an integer"), std::string::npos) << out;
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_flat_soil:=marmalade");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~flat_soil"), std::string::npos) << out;

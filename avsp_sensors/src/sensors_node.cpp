@@ -160,7 +160,7 @@ public:
     const std::vector<asn::VehicleEntry> entries = asn::parseVehicles(list);
     const std::vector<asn::SensorsSpec> specs = readSensorSpecs(entries);
 
-    pnh_.param<std::string>("world_frame", world_frame_, "odom");
+    world_frame_ = avsp::msgs::stringParam(pnh_, "world_frame", "odom");
     if (world_frame_.empty())
       throw StartupError("parameter ~world_frame must not be empty");
     const int seed = boundedIntParam(pnh_, "seed", 0, 0, 2147483647);
@@ -171,8 +171,8 @@ public:
     const std::optional<as::EnuFrame> origin = readOrigin(asn::needsOrigin(specs));
 
     std::string config_dir, soils_file;
-    pnh_.param<std::string>("config_dir", config_dir, ros::package::getPath("avsp") + "/config/vehicles");
-    pnh_.param<std::string>("soils_file", soils_file, ros::package::getPath("avsp") + "/config/soils.yaml");
+    config_dir = avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
+    soils_file = avsp::msgs::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
 
     // Vehicles: their descriptions give the mounts and the bodies others see.
     for (std::size_t k = 0; k < entries.size(); ++k)
@@ -187,7 +187,7 @@ public:
     // Lockstep with a partitioned run: report each clock interval sensed, so lockstep_clock
     // waits for the sensors as for the dynamics partitions (the sensors never fall behind by
     // more than one interval, however costly a sweep or frame).
-    pnh_.param<std::string>("lockstep_partition", lockstep_partition_, "");
+    lockstep_partition_ = avsp::msgs::stringParam(pnh_, "lockstep_partition", "");
     if (!lockstep_partition_.empty())
     {
       std::string why;
@@ -528,7 +528,7 @@ private:
   void advertiseCameras()
   {
     // Seasons flip south of the equator; without ~latitude the north's are used.
-    camera_latitude_ = pnh_.param("latitude", 0.0);
+    camera_latitude_ = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
     for (auto& vp : vehicles_)
     {
       VehicleIo& v = *vp;

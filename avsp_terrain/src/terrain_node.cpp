@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -19,6 +20,7 @@
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/node_params.hpp>
 #include <ros/package.h>
 #include <ros/ros.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -39,9 +41,10 @@ using avsp::msgs::StartupError;
 
 double finiteParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min_exclusive)
 {
-  double value = fallback;
-  pnh.param(key, value, fallback);
-  if (!std::isfinite(value) || value <= min_exclusive)
+  // Any number is read (the bounds below say what is allowed); a string or a list is refused.
+  const double value =
+      avsp::msgs::boundedParam(pnh, key, fallback, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
+  if (value <= min_exclusive)
     throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and > " +
                        std::to_string(min_exclusive));
   return value;
@@ -99,7 +102,7 @@ public:
   TerrainNode(ros::NodeHandle& nh, ros::NodeHandle& pnh)
     : nh_(nh), pnh_(pnh), soils_(at::SoilLibrary::load(soilsFile(pnh)))
   {
-    pnh_.param<std::string>("frame_id", frame_id_, "map");
+    frame_id_ = avsp::msgs::stringParam(pnh_, "frame_id", "map");
     if (frame_id_.empty())
       throw StartupError("parameter ~frame_id must not be empty");
     loadTerrain();
@@ -181,7 +184,7 @@ private:
   static std::string soilsFile(const ros::NodeHandle& pnh)
   {
     std::string path;
-    pnh.param<std::string>("soils_file", path, ros::package::getPath("avsp") + "/config/soils.yaml");
+    path = avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     return path;
   }
 
@@ -199,7 +202,7 @@ private:
   void setUpWeather()
   {
     std::string weather_soil;
-    pnh_.param<std::string>("weather_soil", weather_soil, "sandy_loam");
+    weather_soil = avsp::msgs::stringParam(pnh_, "weather_soil", "sandy_loam");
     if (!soils_.contains(weather_soil))
       throw StartupError("parameter ~weather_soil: no soil '" + weather_soil + "' in the soil library");
     region_size_ = finiteParam(pnh_, "weather_region_size", 25.0, 0.0);

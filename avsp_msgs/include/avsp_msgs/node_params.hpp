@@ -104,5 +104,29 @@ inline int boundedIntParam(const ros::NodeHandle& pnh, const std::string& key, i
   return value;
 }
 
+/// A private boolean parameter (default `fallback`); a value of another type (a string, a
+/// number) is refused, not replaced by the default.
+inline bool boolParam(const ros::NodeHandle& pnh, const std::string& key, bool fallback)
+{
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(key, v))
+    return fallback;
+  if (v.getType() != XmlRpc::XmlRpcValue::TypeBoolean)
+    throw StartupError("parameter ~" + key + " must be true or false, got " + parameterKind(v));
+  return static_cast<bool>(v);
+}
+
+/// A private string parameter (default `fallback`); a value of another type (a number, a list)
+/// is refused, not replaced by the default.
+inline std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& fallback)
+{
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(key, v))
+    return fallback;
+  if (v.getType() != XmlRpc::XmlRpcValue::TypeString)
+    throw StartupError("parameter ~" + key + " must be a string, got " + parameterKind(v));
+  return static_cast<std::string>(v);
+}
+
 }  // namespace msgs
 }  // namespace avsp
