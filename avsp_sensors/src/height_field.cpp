@@ -541,38 +541,29 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
     if (t_out >= t1)
       return false;
     t = t_out;
-    std::int64_t from_i = bi, from_j = bj;
-    if (tx <= ty)
-    {
-      bi += step_x;
-      fx += sx;
-    }
-    if (ty <= tx)
-    {
-      bj += step_y;
-      fy += sy;
-    }
+    // Across x, y or both (at a corner). Selects, not branches: which face comes first is
+    // what a branch predictor cannot guess.
+    const bool across_x = tx <= ty, across_y = ty <= tx;
+    bi += across_x ? step_x : 0;
+    fx += across_x ? sx : 0.0;
+    bj += across_y ? step_y : 0;
+    fy += across_y ? sy : 0.0;
     if (static_cast<std::uint64_t>(bi) >= nbx || static_cast<std::uint64_t>(bj) >= nby)
       return false;
-    // Go up while the step also left the parent block and the new parent lies wholly below the
-    // ray here: a parent the ray was already inside dips to the ray somewhere, and one that
-    // reaches the ray's height cannot be skipped, so testing either would only send the
-    // traversal straight back down. (Above the top level sits a block of +inf.)
-    if (((bi ^ from_i) | (bj ^ from_j)) >> 1)
+    // Go up while the parent block lies wholly below the ray here (above the top level sits a
+    // block of +inf). A parent the step did not leave was tested before and dipped to the ray,
+    // so it mostly fails again; testing it anyway is cheaper than the unpredictable branch on
+    // whether the step left it.
+    const double z_now = oz + t * dz;
+    if (clears(level + 1, bi >> 1, bj >> 1, z_now))
     {
-      const double z_now = oz + t * dz;
-      if (clears(level + 1, bi >> 1, bj >> 1, z_now))
+      do
       {
-        do
-        {
-          ++level;
-          bi >>= 1;
-          bj >>= 1;
-          from_i >>= 1;
-          from_j >>= 1;
-        } while (((bi ^ from_i) | (bj ^ from_j)) >> 1 && clears(level + 1, bi >> 1, bj >> 1, z_now));
-        enterLevel();
-      }
+        ++level;
+        bi >>= 1;
+        bj >>= 1;
+      } while (clears(level + 1, bi >> 1, bj >> 1, z_now));
+      enterLevel();
     }
   }
 }
