@@ -27,6 +27,10 @@ constexpr double kRootTolerance = 1e-9;
 /// an exact cell test, never a wrong miss.
 constexpr double kSkipMargin = 1e-7;
 
+/// Grid units: a ray that ends farther than this inside the grid's edge is not clipped by it
+/// (far above the rounding of the end point and of the clipping divisions).
+constexpr double kInsideMargin = 1e-6;
+
 /// 2^L for the levels the walk visits (cells per block side at level L).
 struct BlockSizes
 {
@@ -376,6 +380,11 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
   auto slab = [&](double p0, double dp, double hi) {
     if (dp == 0.0)
       return p0 >= 0.0 && p0 <= hi;
+    // A ray that starts and ends well inside (most of them) cannot be clipped: the divisions
+    // below would give t0 <= 0 and t1 >= t_max, so they are skipped.
+    const double p1 = p0 + t_max * dp;
+    if (p0 >= 0.0 && p0 <= hi && p1 > kInsideMargin && p1 < hi - kInsideMargin)
+      return true;
     double ta = (0.0 - p0) / dp, tb = (hi - p0) / dp;
     if (ta > tb)
       std::swap(ta, tb);
@@ -502,7 +511,7 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
       continue;
     }
     const double t_out = std::min(t_exit, t1);
-    const double z_low = rising ? oz + t * dz : oz + t_out * dz;
+    const double z_low = oz + (rising ? t : t_out) * dz;
     if (level > 0)
     {
       if (z_low <= mip(level, bi, bj) + kSkipMargin)
@@ -541,13 +550,18 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
     if (t_out >= t1)
       return false;
     t = t_out;
-    // Across x, y or both (at a corner). Selects, not branches: which face comes first is
-    // what a branch predictor cannot guess.
-    const bool across_x = tx <= ty, across_y = ty <= tx;
-    bi += across_x ? step_x : 0;
-    fx += across_x ? sx : 0.0;
-    bj += across_y ? step_y : 0;
-    fy += across_y ? sy : 0.0;
+    // Across x, y or both (at a corner). (Done by arithmetic instead, this costs ~30 more
+    // instructions per ray and saved no time: the hardware predicts it better than callgrind.)
+    if (tx <= ty)
+    {
+      bi += step_x;
+      fx += sx;
+    }
+    if (ty <= tx)
+    {
+      bj += step_y;
+      fy += sy;
+    }
     if (static_cast<std::uint64_t>(bi) >= nbx || static_cast<std::uint64_t>(bj) >= nby)
       return false;
     // Go up while the parent block lies wholly below the ray here (above the top level sits a
