@@ -27,6 +27,27 @@ constexpr double kRootTolerance = 1e-9;
 /// an exact cell test, never a wrong miss.
 constexpr double kSkipMargin = 1e-7;
 
+/// Grid units: a ray that ends farther than this inside the grid's edge is not clipped by it
+/// (far above the rounding of the end point and of the clipping divisions).
+constexpr double kInsideMargin = 1e-6;
+
+/// 2^L for the levels the walk visits (cells per block side at level L).
+struct BlockSizes
+{
+  double v[64];
+  constexpr BlockSizes() : v()
+  {
+    double s = 1.0;
+    for (double& x : v)
+    {
+      x = s;
+      s *= 2.0;
+    }
+  }
+  constexpr double operator[](int level) const { return v[level]; }
+};
+constexpr BlockSizes kBlockSize;
+
 [[noreturn]] void bad(const std::string& what)
 {
   throw std::invalid_argument("HeightField: " + what);
@@ -56,6 +77,9 @@ HeightField::HeightField(double origin_x, double origin_y, double dx, double dy,
       bad("heights[" + std::to_string(k) + "] is not finite");
   cells_x_ = columns - 1;
   cells_y_ = rows - 1;
+  cells_xd_ = static_cast<double>(cells_x_);
+  cells_yd_ = static_cast<double>(cells_y_);
+  cell_diagonal_ = std::sqrt(dx * dx + dy * dy);
   buildMips();
 }
 
@@ -77,20 +101,16 @@ HeightField HeightField::fromTerrain(const terrain::DeformableTerrain& terrain)
 
 std::size_t HeightField::mipColumns(std::size_t level) const
 {
-  if (level == 0)
-    return cells_x_;
-  if (level > mips_.size())
-    throw std::out_of_range("HeightField: mip level " + std::to_string(level) + " of " + std::to_string(mips_.size()));
-  return mips_[level - 1].nx;
+  if (level > mipLevels())
+    throw std::out_of_range("HeightField: mip level " + std::to_string(level) + " of " + std::to_string(mipLevels()));
+  return levels_[level].nx;
 }
 
 std::size_t HeightField::mipRows(std::size_t level) const
 {
-  if (level == 0)
-    return cells_y_;
-  if (level > mips_.size())
-    throw std::out_of_range("HeightField: mip level " + std::to_string(level) + " of " + std::to_string(mips_.size()));
-  return mips_[level - 1].ny;
+  if (level > mipLevels())
+    throw std::out_of_range("HeightField: mip level " + std::to_string(level) + " of " + std::to_string(mipLevels()));
+  return levels_[level].ny;
 }
 
 float HeightField::mipMax(std::size_t level, std::size_t bi, std::size_t bj) const
@@ -103,16 +123,13 @@ float HeightField::mipMax(std::size_t level, std::size_t bi, std::size_t bj) con
     const float* s = heights_.data() + bj * columns_ + bi;
     return std::max(std::max(s[0], s[1]), std::max(s[columns_], s[columns_ + 1]));
   }
-  const Level& l = mips_[level - 1];
-  return l.max[l.index(bi, bj)];
+  return mip_max_[levels_[level].index(bi, bj)];
 }
 
 std::size_t HeightField::bytes() const
 {
   std::size_t b = heights_.size() * sizeof(float);
-  for (const Level& l : mips_)
-    b += l.max.size() * sizeof(float);
-  return b;
+  return b + mip_max_.size() * sizeof(float);
 }
 
 double HeightField::pointHeight(std::size_t i, std::size_t j) const
@@ -155,9 +172,13 @@ float HeightField::blockMaxFromHeights(std::size_t bi, std::size_t bj) const
 
 void HeightField::buildMips()
 {
-  mips_.clear();
-  std::size_t nx = cells_x_, ny = cells_y_;
-  // At least one stored level, then halve until one block covers the grid.
+  levels_.clear();
+  Level cells;
+  cells.nx = cells_x_;
+  cells.ny = cells_y_;
+  levels_.push_back(cells);
+  std::size_t nx = cells_x_, ny = cells_y_, offset = 0;
+  // At least one stored level, then halve until one block covers the grid; then the +inf block.
   do
   {
     nx = (nx + 1) / 2;
@@ -166,25 +187,34 @@ void HeightField::buildMips()
     l.nx = nx;
     l.ny = ny;
     l.tiles_x = (nx + Level::kTile - 1) / Level::kTile;
-    // Padding entries of partial tiles are never read; -inf keeps them harmless anyway.
-    l.max.assign(l.tiles_x * ((ny + Level::kTile - 1) / Level::kTile) * Level::kTile * Level::kTile,
-                 -std::numeric_limits<float>::infinity());
-    mips_.push_back(std::move(l));
+    l.offset = offset;
+    offset += l.tiles() * Level::kTile * Level::kTile;
+    levels_.push_back(l);
   } while (nx > 1 || ny > 1);
+  Level cap;
+  cap.nx = cap.ny = cap.tiles_x = 1;
+  cap.offset = offset;
+  levels_.push_back(cap);
+  if (levels_.size() > static_cast<std::size_t>(kMaxLevels))
+    bad("the grid needs more than " + std::to_string(kMaxLevels - 2) + " mip levels");
+  // Padding entries of partial tiles are never read; -inf keeps them harmless anyway.
+  mip_max_.assign(offset + Level::kTile * Level::kTile, -std::numeric_limits<float>::infinity());
+  std::fill(mip_max_.begin() + static_cast<std::ptrdiff_t>(offset), mip_max_.end(),
+            std::numeric_limits<float>::infinity());
   refreshMips(0, 0, cells_x_ - 1, cells_y_ - 1);
 }
 
 void HeightField::refreshMips(std::size_t ci0, std::size_t cj0, std::size_t ci1, std::size_t cj1)
 {
   std::size_t bi0 = ci0 / 2, bj0 = cj0 / 2, bi1 = ci1 / 2, bj1 = cj1 / 2;
-  Level& first = mips_[0];
+  const Level& first = levels_[1];
   for (std::size_t bj = bj0; bj <= bj1; ++bj)
     for (std::size_t bi = bi0; bi <= bi1; ++bi)
-      first.max[first.index(bi, bj)] = blockMaxFromHeights(bi, bj);
-  for (std::size_t L = 1; L < mips_.size(); ++L)
+      mip_max_[first.index(bi, bj)] = blockMaxFromHeights(bi, bj);
+  for (std::size_t L = 2; L <= mipLevels(); ++L)
   {
-    const Level& child = mips_[L - 1];
-    Level& parent = mips_[L];
+    const Level& child = levels_[L - 1];
+    const Level& parent = levels_[L];
     bi0 /= 2;
     bj0 /= 2;
     bi1 /= 2;
@@ -195,8 +225,8 @@ void HeightField::refreshMips(std::size_t ci0, std::size_t cj0, std::size_t ci1,
         float m = -std::numeric_limits<float>::infinity();
         for (std::size_t cj = 2 * bj; cj <= std::min(2 * bj + 1, child.ny - 1); ++cj)
           for (std::size_t ci = 2 * bi; ci <= std::min(2 * bi + 1, child.nx - 1); ++ci)
-            m = std::max(m, child.max[child.index(ci, cj)]);
-        parent.max[parent.index(bi, bj)] = m;
+            m = std::max(m, mip_max_[child.index(ci, cj)]);
+        mip_max_[parent.index(bi, bj)] = m;
       }
   }
   // The lowest height bounds rays from below (see intersect()); it only needs to be a lower
@@ -344,12 +374,17 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
   g.DX = d.x() / dx_;
   g.DY = d.y() / dy_;
   const double X0 = g.X0, Y0 = g.Y0, DX = g.DX, DY = g.DY;
-  const double nx = static_cast<double>(cells_x_), ny = static_cast<double>(cells_y_);
+  const double nx = cells_xd_, ny = cells_yd_;
   double t0 = 0.0, t1 = t_max;
   // Clip to the grid's footprint ...
   auto slab = [&](double p0, double dp, double hi) {
     if (dp == 0.0)
       return p0 >= 0.0 && p0 <= hi;
+    // A ray that starts and ends well inside (most of them) cannot be clipped: the divisions
+    // below would give t0 <= 0 and t1 >= t_max, so they are skipped.
+    const double p1 = p0 + t_max * dp;
+    if (p0 >= 0.0 && p0 <= hi && p1 > kInsideMargin && p1 < hi - kInsideMargin)
+      return true;
     double ta = (0.0 - p0) / dp, tb = (hi - p0) / dp;
     if (ta > tb)
       std::swap(ta, tb);
@@ -361,7 +396,10 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
     return false;
   // ... and to the heights' range: above the highest point going up, or below the lowest going
   // down, nothing can be hit. This also bounds vertical rays.
-  const double top = mips_.back().max[0];
+  const Level* const levels = levels_.data();
+  const float* const mips = mip_max_.data();
+  const int top_level = static_cast<int>(levels_.size()) - 2;
+  const double top = mips[levels[top_level].offset];
   if (d.z() > 0.0)
   {
     if (o.z() + t0 * d.z() > top + kSkipMargin)
@@ -379,7 +417,6 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
   if (t0 > t1)
     return false;
 
-  const int top_level = static_cast<int>(mips_.size());
   // Where the ray may first meet the surface, as far as the caller knows (t_clear), and where
   // the exact cell tests start from: t0, the same with or without t_clear.
   const double t_first = t0;
@@ -388,10 +425,11 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
     return false;
   const bool px = DX > 0.0, py = DY > 0.0;
   const bool move_x = DX != 0.0, move_y = DY != 0.0;
-  // Reciprocals: one multiply per face instead of a division in the inner loop.
-  const double iX = 1.0 / DX, iY = 1.0 / DY;
+  // Reciprocals: one multiply per face instead of a division in the inner loop. An axis the ray
+  // does not move along gets an infinite exit face and a factor of 1, so its exit time is +inf.
+  const double iX = move_x ? 1.0 / DX : 1.0, iY = move_y ? 1.0 / DY : 1.0;
   // The traversal works in blocks of the current level: block b of level L spans cells
-  // [b << L, (b + 1) << L); the ray leaves it through face (b + exit) << L and steps to b + step.
+  // [b 2^L, (b + 1) 2^L); the ray leaves it through face (b + exit) 2^L and steps to b + step.
   const std::int64_t exit_x = px ? 1 : 0, exit_y = py ? 1 : 0;
   const std::int64_t step_x = px ? 1 : -1, step_y = py ? 1 : -1;
   const auto ncx = static_cast<std::int64_t>(cells_x_), ncy = static_cast<std::int64_t>(cells_y_);
@@ -404,25 +442,19 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
       return lo;
     return std::min(static_cast<std::int64_t>(p), hi - 1);
   };
-  // The levels read in place (a per-ray copy of their pointers cost more than it saved once
-  // coherent rays came down to a few steps each).
-  const Level* const levels = mips_.data();
   const float* const heights = heights_.data();
   const std::size_t columns = columns_;
-  // Stored maximum of block (bi, bj) of level L >= 1.
+  // Stored maximum of block (bi, bj) of level L >= 1 (+inf above the top level).
   auto mip = [&](int L, std::int64_t bi, std::int64_t bj) -> double {
-    const Level& l = levels[L - 1];
-    return l.max.data()[l.index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj))];
+    return mips[levels[L].index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj))];
   };
   // How far the ray can drop while crossing a block of level L: at most its diagonal times the
   // ray's slope (0 for rays going up). Used only to choose levels, never to skip.
   const double horizontal = std::sqrt(d.x() * d.x() + d.y() * d.y());
-  const double drop_per_cell = d.z() >= 0.0      ? 0.0
-                               : horizontal > 0.0 ? std::sqrt(dx_ * dx_ + dy_ * dy_) * (-d.z()) / horizontal
-                                                  : kInf;
+  const double drop_per_cell = d.z() >= 0.0 ? 0.0 : horizontal > 0.0 ? cell_diagonal_ * (-d.z()) / horizontal : kInf;
   // Whether block (bi, bj) of level L >= 1 lies wholly below the ray, which is at height z now.
   auto clears = [&](int L, std::int64_t bi, std::int64_t bj, double z) {
-    return mip(L, bi, bj) + kSkipMargin + drop_per_cell * static_cast<double>(std::int64_t{ 1 } << L) < z;
+    return mip(L, bi, bj) + kSkipMargin + drop_per_cell * kBlockSize[L] < z;
   };
   // Start at the coarsest block around the start that the ray is likely to clear: a coarser one
   // reaches the ray (or the ray drops to it while crossing), so testing it would only lead to
@@ -432,32 +464,54 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
   std::int64_t bj = cellOf(Y0 + t * DY, 0, ncy);
   {
     const double z_start = oz + t * dz;
-    while (level < top_level && clears(level + 1, bi >> 1, bj >> 1, z_start))
+    while (clears(level + 1, bi >> 1, bj >> 1, z_start))
     {
       ++level;
       bi >>= 1;
       bj >>= 1;
     }
   }
+  // The current block's exit faces (fx, fy, grid units), steps to the next block's (sx, sy) and
+  // block counts, kept as the walk moves and refreshed when it changes level: the faces are
+  // integers times 2^level, exact in doubles, so each is the value (b + exit) 2^level would give.
+  double fx, fy, sx, sy;
+  std::uint64_t nbx, nby;
+  auto enterLevel = [&]() {
+    const double size = kBlockSize[level];
+    fx = move_x ? static_cast<double>(bi + exit_x) * size : kInf;
+    fy = move_y ? static_cast<double>(bj + exit_y) * size : kInf;
+    sx = px ? size : -size;
+    sy = py ? size : -size;
+    nbx = levels[level].nx;
+    nby = levels[level].ny;
+  };
+  enterLevel();
   for (;;)
   {
     // The ray's exit from block (bi, bj) of the current level. A face beyond the grid's edge
     // (the last block of a level may be partial) is never reached: t1 ends the ray there.
-    const double tx = move_x ? (static_cast<double>((bi + exit_x) << level) - X0) * iX : kInf;
-    const double ty = move_y ? (static_cast<double>((bj + exit_y) << level) - Y0) * iY : kInf;
+    const double tx = (fx - X0) * iX;
+    const double ty = (fy - Y0) * iY;
+    const double t_exit = std::min(tx, ty);
     // Rounding can leave the current position on the block's exit face: step across it.
-    if (tx <= t || ty <= t)
+    if (t_exit <= t)
     {
       if (tx <= t)
+      {
         bi += step_x;
+        fx += sx;
+      }
       if (ty <= t)
+      {
         bj += step_y;
-      if (bi < 0 || bj < 0 || (bi << level) >= ncx || (bj << level) >= ncy)
+        fy += sy;
+      }
+      if (static_cast<std::uint64_t>(bi) >= nbx || static_cast<std::uint64_t>(bj) >= nby)
         return false;
       continue;
     }
-    const double t_out = std::min(std::min(tx, ty), t1);
-    const double z_low = rising ? oz + t * dz : oz + t_out * dz;
+    const double t_out = std::min(t_exit, t1);
+    const double z_low = oz + (rising ? t : t_out) * dz;
     if (level > 0)
     {
       if (z_low <= mip(level, bi, bj) + kSkipMargin)
@@ -465,9 +519,11 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
         // The ray may dip into this block: look at its children, starting with the one the
         // ray is in now (the lower one when the upper would lie beyond the grid).
         --level;
-        const std::int64_t mid_x = (2 * bi + 1) << level, mid_y = (2 * bj + 1) << level;
-        bi = 2 * bi + (mid_x < ncx && X0 + t * DX >= static_cast<double>(mid_x) ? 1 : 0);
-        bj = 2 * bj + (mid_y < ncy && Y0 + t * DY >= static_cast<double>(mid_y) ? 1 : 0);
+        const double half = kBlockSize[level];
+        const double mid_x = static_cast<double>(2 * bi + 1) * half, mid_y = static_cast<double>(2 * bj + 1) * half;
+        bi = 2 * bi + (mid_x < nx && X0 + t * DX >= mid_x ? 1 : 0);
+        bj = 2 * bj + (mid_y < ny && Y0 + t * DY >= mid_y ? 1 : 0);
+        enterLevel();
         continue;
       }
     }
@@ -494,26 +550,34 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
     if (t_out >= t1)
       return false;
     t = t_out;
-    std::int64_t from_i = bi, from_j = bj;
+    // Across x, y or both (at a corner). (Done by arithmetic instead, this costs ~30 more
+    // instructions per ray and saved no time: the hardware predicts it better than callgrind.)
     if (tx <= ty)
-      bi += step_x;
-    if (ty <= tx)
-      bj += step_y;
-    if (bi < 0 || bj < 0 || (bi << level) >= ncx || (bj << level) >= ncy)
-      return false;
-    // Go up while the step also left the parent block and the new parent lies wholly below the
-    // ray here: a parent the ray was already inside dips to the ray somewhere, and one that
-    // reaches the ray's height cannot be skipped, so testing either would only send the
-    // traversal straight back down.
-    const double z_now = oz + t * dz;
-    while (level < top_level && ((bi >> 1) != (from_i >> 1) || (bj >> 1) != (from_j >> 1)) &&
-           clears(level + 1, bi >> 1, bj >> 1, z_now))
     {
-      ++level;
-      bi >>= 1;
-      bj >>= 1;
-      from_i >>= 1;
-      from_j >>= 1;
+      bi += step_x;
+      fx += sx;
+    }
+    if (ty <= tx)
+    {
+      bj += step_y;
+      fy += sy;
+    }
+    if (static_cast<std::uint64_t>(bi) >= nbx || static_cast<std::uint64_t>(bj) >= nby)
+      return false;
+    // Go up while the parent block lies wholly below the ray here (above the top level sits a
+    // block of +inf). A parent the step did not leave was tested before and dipped to the ray,
+    // so it mostly fails again; testing it anyway is cheaper than the unpredictable branch on
+    // whether the step left it.
+    const double z_now = oz + t * dz;
+    if (clears(level + 1, bi >> 1, bj >> 1, z_now))
+    {
+      do
+      {
+        ++level;
+        bi >>= 1;
+        bj >>= 1;
+      } while (clears(level + 1, bi >> 1, bj >> 1, z_now));
+      enterLevel();
     }
   }
 }

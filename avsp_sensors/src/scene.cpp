@@ -207,21 +207,21 @@ double horizontal(const Eigen::Vector3d& d)
 }
 
 /**
- * Whether rays a and b (ha, hb: horizontal lengths of their directions) lie in one vertical
- * half-plane (same origin bit for bit, horizontal directions parallel to 1e-12, not vertical)
- * with clearly different slopes dz / horizontal: +1 when b points higher than a, -1 when lower,
- * 0 when they are not such a pair.
+ * Whether rays a and b (ha, hb: horizontal lengths of their directions, sa, sb: their slopes
+ * dz / horizontal) lie in one vertical half-plane (same origin bit for bit, horizontal
+ * directions parallel to 1e-12, not vertical) with clearly different slopes: +1 when b points
+ * higher than a, -1 when lower, 0 when they are not such a pair.
  */
-int fanStep(const Ray& a, const Ray& b, double ha, double hb)
+int fanStep(const Ray& a, const Ray& b, double ha, double hb, double sa, double sb)
 {
-  if (a.origin != b.origin)
+  // Component by component: Eigen's != reduces all three even when x already differs.
+  if (a.origin.x() != b.origin.x() || a.origin.y() != b.origin.y() || a.origin.z() != b.origin.z())
     return 0;
   const Eigen::Vector3d &da = a.direction, &db = b.direction;
   if (!(ha > 0.0 && hb > 0.0))
     return 0;
   if (std::abs(da.x() * db.y() - da.y() * db.x()) > 1e-12 * ha * hb || da.x() * db.x() + da.y() * db.y() <= 0.0)
     return 0;
-  const double sa = da.z() / ha, sb = db.z() / hb;
   if (sb > sa + kFanSlopeMargin)
     return 1;
   if (sb < sa - kFanSlopeMargin)
@@ -250,16 +250,24 @@ void Scene::cast(const std::vector<Ray>& rays, std::vector<RayHit>& hits, unsign
   parallelForDynamic(rays.size(), threads, kBatchGrain, [&](std::size_t begin, std::size_t end) {
     std::vector<std::uint32_t> scratch;
     std::vector<FanCandidate> candidates;
-    std::vector<double> hz(end - begin);  // horizontal length of each ray's direction
+    // Per ray, once: the horizontal length of its direction and its slope dz / horizontal
+    // (meaningless for vertical rays, which fanStep() refuses before looking at it).
+    std::vector<double> hz(end - begin), slope(end - begin);
     for (std::size_t k = begin; k < end; ++k)
+    {
       hz[k - begin] = horizontal(rays[k].direction);
+      slope[k - begin] = rays[k].direction.z() / hz[k - begin];
+    }
+    auto step = [&](std::size_t a, std::size_t b) {
+      return fanStep(rays[a], rays[b], hz[a - begin], hz[b - begin], slope[a - begin], slope[b - begin]);
+    };
     std::size_t k = begin;
     while (k < end)
     {
       std::size_t r = k + 1;
-      const int order = r < end ? fanStep(rays[k], rays[r], hz[k - begin], hz[r - begin]) : 0;
+      const int order = r < end ? step(k, r) : 0;
       if (order != 0)
-        for (++r; r < end && fanStep(rays[r - 1], rays[r], hz[r - 1 - begin], hz[r - begin]) == order;)
+        for (++r; r < end && step(r - 1, r) == order;)
           ++r;
       if (r - k < kFanMinRays)
       {

@@ -363,6 +363,47 @@ TEST(HeightField, PatchRefreshesOnlyTheMipsAboveItAndMatchesARebuild)
   EXPECT_NEAR(hit.point.z(), 3.0, 1e-6);
 }
 
+TEST(HeightField, ACopyHasItsOwnHeightsAndMipsAndCastsTheSame)
+{
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<float> U(0.f, 1.f);
+  const std::size_t n = 45, m = 38;
+  std::vector<float> h(n * m);
+  for (auto& v : h)
+    v = U(rng);
+  HeightField f(0.0, 0.0, 0.1, 0.1, n, m, h);
+  const HeightField copy = f;
+  // Before any change: the same hit, bit for bit, for rays in all directions.
+  std::uniform_real_distribution<double> X(-0.5, 4.9), Y(-0.5, 4.2), Z(0.2, 3.0), A(-kPi, kPi), E(-1.2, 0.3);
+  int hits = 0;
+  for (int k = 0; k < 300; ++k)
+  {
+    const double az = A(rng), el = E(rng);
+    const Vector3d o(X(rng), Y(rng), Z(rng)), d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    TerrainHit a, b;
+    const bool ha = f.intersect(o, d, 20.0, a), hb = copy.intersect(o, d, 20.0, b);
+    ASSERT_EQ(ha, hb) << "ray " << k;
+    if (ha)
+    {
+      ++hits;
+      EXPECT_EQ(a.t, b.t) << "ray " << k;
+      EXPECT_EQ(a.normal, b.normal) << "ray " << k;
+    }
+  }
+  EXPECT_GT(hits, 100);
+  // A berm raised in the original leaves the copy's heights, mips and hits as they were.
+  const float top_before = copy.mipMax(copy.mipLevels(), 0, 0);
+  f.setHeights(20, 17, 1, 1, { 3.0f });
+  EXPECT_EQ(f.mipMax(f.mipLevels(), 0, 0), 3.0f);
+  EXPECT_EQ(copy.mipMax(copy.mipLevels(), 0, 0), top_before);
+  EXPECT_LT(top_before, 1.0f);
+  TerrainHit hit;
+  ASSERT_TRUE(f.intersect(Vector3d(2.0, 1.7, 10.0), unit(0, 0, -1), 100.0, hit));
+  EXPECT_NEAR(hit.point.z(), 3.0, 1e-6);
+  ASSERT_TRUE(copy.intersect(Vector3d(2.0, 1.7, 10.0), unit(0, 0, -1), 100.0, hit));
+  EXPECT_NEAR(hit.point.z(), h[17 * n + 20], 1e-6);
+}
+
 TEST(HeightField, RefreshFromDeformableTerrainFollowsTheRuts)
 {
   using namespace avsp::terrain;

@@ -114,7 +114,7 @@ public:
   bool heightAt(double x, double y, double& h) const;
 
   /// Number of mip levels stored (levels 1 .. mipLevels()), plus the implicit level 0.
-  std::size_t mipLevels() const { return mips_.size(); }
+  std::size_t mipLevels() const { return levels_.size() - 2; }
   /// Blocks along x and y at mip level L (L = 0: cells).
   std::size_t mipColumns(std::size_t level) const;
   std::size_t mipRows(std::size_t level) const;
@@ -155,21 +155,21 @@ private:
     bool operator!=(const CacheLineAllocator&) const { return false; }
   };
 
-  /// One mip level, stored in tiles of kTile x kTile blocks (one 64-byte cache line each), row-
-  /// major within a tile and tiles row-major: a ray's next block, across x or y, is then
-  /// mostly in the line it already loaded, where a row-major level (thousands of blocks wide
-  /// at level 1) costs a cache miss per step across y.
+  /// Where a level's block maxima are in mip_max_: in tiles of kTile x kTile blocks (one 64-byte
+  /// cache line each), row-major within a tile and tiles row-major: a ray's next block, across x
+  /// or y, is then mostly in the line it already loaded, where a row-major level (thousands of
+  /// blocks wide at level 1) costs a cache miss per step across y.
   struct Level
   {
     static constexpr std::size_t kTile = 4;
-    std::size_t nx = 0, ny = 0;
-    std::size_t tiles_x = 0;  ///< tiles per row
-    std::vector<float, CacheLineAllocator<float>> max;  ///< tiles_x * ceil(ny / kTile) tiles of kTile^2 entries
-    static std::size_t index(std::size_t bi, std::size_t bj, std::size_t tiles_x)
+    std::size_t nx = 0, ny = 0;  ///< blocks along x and y (level 0: the cells)
+    std::size_t tiles_x = 0;     ///< tiles per row
+    std::size_t offset = 0;      ///< index of the level's first entry in mip_max_ (a tile start)
+    std::size_t tiles() const { return tiles_x * ((ny + kTile - 1) / kTile); }
+    std::size_t index(std::size_t bi, std::size_t bj) const
     {
-      return ((bj / kTile) * tiles_x + bi / kTile) * (kTile * kTile) + (bj % kTile) * kTile + bi % kTile;
+      return offset + ((bj / kTile) * tiles_x + bi / kTile) * (kTile * kTile) + (bj % kTile) * kTile + bi % kTile;
     }
-    std::size_t index(std::size_t bi, std::size_t bj) const { return index(bi, bj, tiles_x); }
   };
 
   void buildMips();
@@ -184,8 +184,14 @@ private:
   double origin_x_, origin_y_, dx_, dy_;
   std::size_t columns_, rows_;
   std::size_t cells_x_, cells_y_;
+  double cells_xd_, cells_yd_;  ///< cells_x_, cells_y_ as doubles (the walk clips to them)
+  double cell_diagonal_;        ///< m, sqrt(dx^2 + dy^2)
   std::vector<float> heights_;
-  std::vector<Level> mips_;  ///< mips_[L - 1] is level L
+  /// levels_[0] describes the cells (nothing stored), levels_[L] for 1 <= L <= mipLevels() the
+  /// mip levels, and one more a single block of +inf above the top, so that the walk's climbs
+  /// stop there without a test of the level.
+  std::vector<Level> levels_;
+  std::vector<float, CacheLineAllocator<float>> mip_max_;  ///< the levels' tiles, one after another
   float min_height_ = 0.f;   ///< a lower bound of all heights (exact after construction)
 };
 
