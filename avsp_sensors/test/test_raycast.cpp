@@ -750,12 +750,10 @@ TEST(Scene, LidarFansInABatchGiveTheHitsOfSingleCasts)
   // slope), objects in the way, channels above the horizon, and a fan whose lowest ray misses.
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
-  std::vector<float> h(301 * 301);
-  for (std::size_t j = 0; j < 301; ++j)
-    for (std::size_t i = 0; i < 301; ++i)
-      h[j * 301 + i] = static_cast<float>(0.8 * std::sin(0.21 * i) * std::cos(0.17 * j) + 0.05 * U(rng) +
-                                          (i > 200 && i < 210 ? 3.0 : 0.0));  // a wall-like ridge
-  Scene scene(HeightField(-15, -15, 0.1, 0.1, 301, 301, h));
+  Scene scene(gridOf(-15, -15, 0.1, 301, 301, [&](double x, double y) {
+    const double i = std::round((x + 15) / 0.1), j = std::round((y + 15) / 0.1);  // grid indices
+    return 0.8 * std::sin(0.21 * i) * std::cos(0.17 * j) + 0.05 * U(rng) + (i > 200 && i < 210 ? 3.0 : 0.0);  // a ridge
+  }));
   std::vector<Primitive> prims;
   for (int k = 0; k < 12; ++k)
   {
@@ -909,11 +907,10 @@ TEST(Scene, FansThroughDenseObjectsGiveTheHitsOfSingleCasts)
   // origins inside solids: every field of every hit equals a single cast's.
   std::mt19937_64 rng(33);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
-  std::vector<float> h(501 * 501);
-  for (std::size_t j = 0; j < 501; ++j)
-    for (std::size_t i = 0; i < 501; ++i)
-      h[j * 501 + i] = static_cast<float>(0.5 * std::sin(0.05 * i) * std::cos(0.07 * j) + 0.03 * U(rng));
-  Scene scene(HeightField(-25, -25, 0.1, 0.1, 501, 501, h));
+  Scene scene(gridOf(-25, -25, 0.1, 501, 501, [&](double x, double y) {
+    const double i = std::round((x + 25) / 0.1), j = std::round((y + 25) / 0.1);  // grid indices
+    return 0.5 * std::sin(0.05 * i) * std::cos(0.07 * j) + 0.03 * U(rng);
+  }));
   std::vector<Primitive> prims;
   for (std::uint32_t k = 0; k < 400; ++k)
   {
