@@ -608,7 +608,11 @@ private:
       const at::TerrainObject& o = objects_.get(id);
       topple_reach_ = std::max(topple_reach_, o.height + std::hypot(o.length, o.width));
     }
-    exchange_pub_ = nh_.advertise<avsp_msgs::PartitionExchange>("/lockstep/exchange/" + partition_, 100);
+    // Latched: a peer that connects after our exchange of t = 0 still gets it. The subscriber
+    // count waitForPeerSubscribers() waits for also counts other listeners (a test, rostopic),
+    // so it cannot tell that every peer is there; until all exchanges of 0 are in, nobody
+    // steps, so the latched one is all a late peer can have missed.
+    exchange_pub_ = nh_.advertise<avsp_msgs::PartitionExchange>("/lockstep/exchange/" + partition_, 100, true);
     for (auto& [name, peer] : peers_)
     {
       peer.topic = "/lockstep/exchange/" + name;
@@ -622,7 +626,8 @@ private:
              peers_.size());
   }
 
-  /// Until every peer has subscribed to this partition's exchange (or ~lockstep_timeout).
+  /// Until as many subscribers as peers listen to this partition's exchange (or
+  /// ~lockstep_timeout): the first exchange then mostly goes out once, live (it is latched too).
   bool waitForPeerSubscribers()
   {
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
