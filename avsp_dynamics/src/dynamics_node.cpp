@@ -857,20 +857,22 @@ private:
   {
     constexpr double kMaxAcceleration = 200.0;  // m/s^2, as peersApart()
     const double horizon = t + (step_ahead_intervals_ + 1) * sync_interval_;
+    std::vector<double> grow(vehicles_.size());  // each of ours, once
+    for (std::size_t k = 0; k < vehicles_.size(); ++k)
+    {
+      const SentState& s = soil_sent_states_[k];
+      grow[k] = ad::sweptReach(vehicles_[k]->box, s.linear_velocity, s.angular_velocity, t - soil_sent_,
+                               kMaxAcceleration) +
+                soil_reach_;
+    }
     for (const auto& [name, r] : proxy_reach_)
     {
       const double grow_peer =
           ad::sweptReach(r.box, r.linear_velocity, r.angular_velocity, horizon - r.time, kMaxAcceleration) +
           soil_reach_;
       for (std::size_t k = 0; k < vehicles_.size(); ++k)
-      {
-        const SentState& s = soil_sent_states_[k];
-        const double grow = ad::sweptReach(vehicles_[k]->box, s.linear_velocity, s.angular_velocity,
-                                           t - soil_sent_, kMaxAcceleration) +
-                            soil_reach_;
-        if (!ad::shadowsApart(s.pose, vehicles_[k]->box, grow, r.pose, r.box, grow_peer))
+        if (!ad::shadowsApart(soil_sent_states_[k].pose, vehicles_[k]->box, grow[k], r.pose, r.box, grow_peer))
           return false;
-      }
     }
     return true;
   }
