@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -41,10 +40,8 @@ using avsp::msgs::StartupError;
 
 double finiteParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min_exclusive)
 {
-  // Any number is read (the bounds below say what is allowed); a string or a list is refused.
-  const double value =
-      avsp::msgs::boundedParam(pnh, key, fallback, -std::numeric_limits<double>::max(), std::numeric_limits<double>::max());
-  if (value <= min_exclusive)
+  const double value = avsp::msgs::numberParam(pnh, key, fallback);
+  if (!std::isfinite(value) || value <= min_exclusive)
     throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and > " +
                        std::to_string(min_exclusive));
   return value;

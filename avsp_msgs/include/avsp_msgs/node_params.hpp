@@ -45,22 +45,26 @@ inline std::string parameterKind(const XmlRpc::XmlRpcValue& v)
   }
 }
 
-/// A private double parameter (default `fallback`) that must be finite and in [min, max]. A value
-/// of another type (a string, a list) is refused, not replaced by the default.
+/// A private number parameter (default `fallback`), written as an int or a double; a value of
+/// another type (a string, a list) is refused, not replaced by the default.
+inline double numberParam(const ros::NodeHandle& pnh, const std::string& key, double fallback)
+{
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(key, v))
+    return fallback;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    return static_cast<double>(v);
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+    return static_cast<int>(v);
+  throw StartupError("parameter ~" + key + " must be a number, got " + parameterKind(v));
+}
+
+/// A private double parameter (default `fallback`) that must be finite and in [min, max]
+/// (numberParam()).
 inline double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min,
                            double max)
 {
-  double value = fallback;
-  XmlRpc::XmlRpcValue v;
-  if (pnh.getParam(key, v))
-  {
-    if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
-      value = static_cast<double>(v);
-    else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
-      value = static_cast<int>(v);
-    else
-      throw StartupError("parameter ~" + key + " must be a number, got " + parameterKind(v));
-  }
+  const double value = numberParam(pnh, key, fallback);
   if (!std::isfinite(value) || value < min || value > max)
     throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and in [" +
                        std::to_string(min) + ", " + std::to_string(max) + "]");
