@@ -6,14 +6,19 @@
 // ~vehicles one full-brake command on <v>/avt_341/cmd_vel (latched), waits for /clock to move
 // and exits. So sensors, controllers and the recorder all see the run from sim time 0, however
 // long their start-up took. Before the commands it also waits (up to ~connect_timeout) until
-// every node subscribed to a vehicle's odometry is connected to its publisher: a subscriber
-// registered at the master may still be forming its connection, and at real-time factor 0
-// it would miss the first samples.
+// every publisher holds a connection to every subscriber the master lists, on every topic: a
+// subscriber registered at the master may still be forming its connection, and a message sent
+// before it stands is lost. Most are sent once: the radio's /clock, a V2V broadcast, a lockstep
+// batch; losing one deadlocks a lockstep run (the radio once missed the first /clock ticks and
+// the run stopped at its barrier at 0.05 s), and at real-time factor 0 run_recorder would miss
+// the first samples.
 #include <algorithm>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
 
+#include <avsp_msgs/node_params.hpp>
 #include <geometry_msgs/Twist.h>
 #include <ros/master.h>
 #include <ros/network.h>
@@ -61,25 +66,25 @@ bool activeNodes(std::set<std::string>& out, std::set<std::string>& registered)
     }
   return true;
 }
-/// Outgoing connections a node's publishers hold on `topic` (its getBusInfo), or -1 if unknown.
-int connectionsOf(const std::string& node, const std::string& topic)
+/// Outgoing connections `node`'s publishers hold, per topic (its getBusInfo); false when the
+/// node cannot be asked (not registered any more, or an answer we do not understand).
+bool outgoingConnections(const std::string& node, std::map<std::string, int>& per_topic)
 {
   XmlRpc::XmlRpcValue args, result, payload;
   args[0] = ros::this_node::getName();
   args[1] = node;
   if (!ros::master::execute("lookupNode", args, result, payload, false))
-    return -1;
+    return false;
   std::string host;
   std::uint32_t port = 0;
   if (!ros::network::splitURI(static_cast<std::string>(payload), host, port))
-    return -1;
+    return false;
   XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
   XmlRpc::XmlRpcValue bus_args, bus;
   bus_args[0] = ros::this_node::getName();
   if (!client.execute("getBusInfo", bus_args, bus) || bus.getType() != XmlRpc::XmlRpcValue::TypeArray ||
       bus.size() < 3 || bus[2].getType() != XmlRpc::XmlRpcValue::TypeArray)
-    return -1;
-  int count = 0;
+    return false;
   // Each entry: [id, peer, direction "o"/"i", transport, topic, connected, ...].
   for (int k = 0; k < bus[2].size(); ++k)
   {
@@ -88,38 +93,56 @@ int connectionsOf(const std::string& node, const std::string& topic)
         c[2].getType() != XmlRpc::XmlRpcValue::TypeString || c[4].getType() != XmlRpc::XmlRpcValue::TypeString)
       continue;
     const bool connected = c.size() < 6 || c[5].getType() != XmlRpc::XmlRpcValue::TypeBoolean || static_cast<bool>(c[5]);
-    if (static_cast<std::string>(c[2]) == "o" && static_cast<std::string>(c[4]) == topic && connected)
-      ++count;
+    if (static_cast<std::string>(c[2]) == "o" && connected)
+      ++per_topic[static_cast<std::string>(c[4])];
   }
-  return count;
+  return true;
 }
 
-/// Topics (of `topics`) whose publishers do not yet hold a connection to every subscriber the
-/// master lists (a node subscribed to its own topic needs none); empty when all are connected.
-/// A publisher whose connections cannot be read counts as connected.
-std::vector<std::string> unconnected(const std::vector<std::string>& topics)
+/// Topics whose publishers do not yet hold a connection to every subscriber the master lists
+/// (a node subscribed to its own topic needs none), all topics but /rosout and /rosout_agg;
+/// empty when all are connected. A publisher whose connections cannot be read counts as
+/// connected. Each publishing node is asked once per call.
+std::vector<std::string> unconnected()
 {
   XmlRpc::XmlRpcValue args, result, payload;
   args[0] = ros::this_node::getName();
   if (!ros::master::execute("getSystemState", args, result, payload, false) || payload.size() < 2)
     return {};
-  auto nodesOf = [&payload](int kind, const std::string& topic) {
-    std::set<std::string> out;
+  std::map<std::string, std::set<std::string>> publishers, subscribers;
+  for (int kind = 0; kind < 2; ++kind)
     for (int t = 0; t < payload[kind].size(); ++t)
-      if (static_cast<std::string>(payload[kind][t][0]) == topic)
-        for (int n = 0; n < payload[kind][t][1].size(); ++n)
-          out.insert(static_cast<std::string>(payload[kind][t][1][n]));
-    return out;
-  };
-  std::vector<std::string> out;
-  for (const std::string& topic : topics)
-  {
-    const std::set<std::string> subscribers = nodesOf(1, topic);
-    for (const std::string& p : nodesOf(0, topic))
     {
-      const int have = connectionsOf(p, topic);
-      const int need = static_cast<int>(subscribers.size() - subscribers.count(p));
-      if (have >= 0 && have < need)
+      auto& nodes = (kind == 0 ? publishers : subscribers)[static_cast<std::string>(payload[kind][t][0])];
+      for (int n = 0; n < payload[kind][t][1].size(); ++n)
+        nodes.insert(static_cast<std::string>(payload[kind][t][1][n]));
+    }
+  std::map<std::string, std::map<std::string, int>> bus;  // publishing node -> topic -> connections
+  std::set<std::string> unreadable;
+  std::vector<std::string> out;
+  for (const auto& [topic, pubs] : publishers)
+  {
+    if (topic == "/rosout" || topic == "/rosout_agg")
+      continue;
+    const std::set<std::string>& subs = subscribers[topic];
+    for (const std::string& p : pubs)
+    {
+      const std::size_t need = subs.size() - subs.count(p);
+      if (need == 0 || unreadable.count(p))
+        continue;
+      auto it = bus.find(p);
+      if (it == bus.end())
+      {
+        std::map<std::string, int> per_topic;
+        if (!outgoingConnections(p, per_topic))
+        {
+          unreadable.insert(p);
+          continue;
+        }
+        it = bus.emplace(p, std::move(per_topic)).first;
+      }
+      const auto have = it->second.find(topic);
+      if (have == it->second.end() || static_cast<std::size_t>(have->second) < need)
       {
         out.push_back(topic);
         break;
@@ -140,13 +163,9 @@ int main(int argc, char** argv)
   {
     vehicles = stringList(pnh, "vehicles");
     nodes = stringList(pnh, "nodes");
-    pnh.param("timeout", timeout, 300.0);
-    pnh.param("grace", grace, 10.0);
-    pnh.param("connect_timeout", connect_timeout, 10.0);
-    if (!(connect_timeout >= 0.0))
-      throw std::runtime_error("parameter ~connect_timeout: must be >= 0 (wall s)");
-    if (!(timeout > 0.0))
-      throw std::runtime_error("parameter ~timeout: must be > 0 (wall s)");
+    timeout = avsp::msgs::boundedParam(pnh, "timeout", 300.0, 1e-3, 1e6);
+    grace = avsp::msgs::boundedParam(pnh, "grace", 10.0, 0.0, 1e6);
+    connect_timeout = avsp::msgs::boundedParam(pnh, "connect_timeout", 10.0, 0.0, 1e6);
   }
   catch (const std::exception& e)
   {
@@ -192,11 +211,8 @@ int main(int argc, char** argv)
   }
   if (!ros::ok())
     return 0;
-  std::vector<std::string> odometry;
-  for (const std::string& v : vehicles)
-    odometry.push_back("/" + v + "/avt_341/odometry");
   const ros::WallTime connecting = ros::WallTime::now();
-  for (std::vector<std::string> left = unconnected(odometry); !left.empty() && ros::ok(); left = unconnected(odometry))
+  for (std::vector<std::string> left = unconnected(); !left.empty() && ros::ok(); left = unconnected())
   {
     if ((ros::WallTime::now() - connecting).toSec() > connect_timeout)
     {
@@ -211,7 +227,7 @@ int main(int argc, char** argv)
   }
   if (!ros::ok())
     return 0;
-  ROS_INFO("start_gate: all %zu nodes up after %.1f s (wall); starting the physics", nodes.size(),
+  ROS_INFO("start_gate: all %zu nodes up and connected after %.1f s (wall); starting the physics", nodes.size(),
            (ros::WallTime::now() - start).toSec());
   std::vector<ros::Publisher> pubs;
   geometry_msgs::Twist brake;
