@@ -1008,11 +1008,14 @@ private:
   /// Runs callbacks until `ready` holds for every lockstep vehicle or ~lockstep_timeout
   /// (wall) passes; then the error names what was missing and on which topics.
   /// With `resend_period` > 0 (wall s), every vehicle's last odometry is sent again that often
-  /// while waiting.
+  /// while waiting. With ~publish_clock, /clock is sent again every second (wall) of waiting: a
+  /// node that answers through the clock (v2v_radio_node emits its lockstep batches when /clock
+  /// reaches them) and connected after the last tick went out would otherwise never answer.
   template <typename Ready>
   bool waitForLockstep(Ready ready, const char* missing, double resend_period = 0.0)
   {
     ros::WallTime resend = ros::WallTime::now() + ros::WallDuration(resend_period);
+    ros::WallTime clock_again = ros::WallTime::now() + ros::WallDuration(1.0);
     const auto all_ready = [&] {
       return std::all_of(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return !v->lockstep || ready(*v); });
     };
@@ -1026,6 +1029,11 @@ private:
         for (const auto& v : vehicles_)
           v->odom_pub.publish(v->last_odom);
         resend = ros::WallTime::now() + ros::WallDuration(resend_period);
+      }
+      if (publish_clock_ && ros::WallTime::now() > clock_again)
+      {
+        publishClock();  // the same time again: harmless to every /clock listener
+        clock_again = ros::WallTime::now() + ros::WallDuration(1.0);
       }
       if (ros::WallTime::now() > deadline && !all_ready())
       {

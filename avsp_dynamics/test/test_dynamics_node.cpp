@@ -1,6 +1,7 @@
 // rostest of dynamics_node (test/dynamics_node.test): the vehicle is driven only through
 // avt_341/cmd_vel and judged only by what the node publishes (odometry, /terrain/ruts,
 // /rosout). Time is the node's sim time (odometry stamps); wall deadlines only guard a hang.
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <rosgraph_msgs/Clock.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <geometry_msgs/Twist.h>
@@ -274,9 +276,11 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
 
 /// Runs dynamics_node under a fresh name with private parameters set on the master first
 /// (lists cannot be given on the command line): it must exit 1 and say what is wrong.
-std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
-                                       const std::string& args = "",
-                                       const std::function<void(ros::NodeHandle&, const std::string&)>& more = {})
+/// Sets the private parameters of a one-vehicle dynamics_node on a 20 m gravel square under a
+/// fresh name (`more` adds or overrides some) and returns the command line that runs it.
+std::string nodeCommand(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
+                        const std::string& args,
+                        const std::function<void(ros::NodeHandle&, const std::string&)>& more)
 {
   static int run = 0;
   const std::string name = "bad_dynamics_" + std::to_string(getpid()) + "_" + std::to_string(run++);
@@ -299,8 +303,16 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
   nh.setParam("/" + name + "/publish_clock", false);
   if (more)
     more(nh, "/" + name);
+  return std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " " + args;
+}
+
+/// Runs a dynamics_node that should refuse to start (or stop): its exit code and output.
+std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
+                                       const std::string& args = "",
+                                       const std::function<void(ros::NodeHandle&, const std::string&)>& more = {})
+{
   const std::string log = "/tmp/avsp_bad_dynamics_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " " + args + " > " + log + " 2>&1";
+  const std::string cmd = nodeCommand(vehicles_yaml_model, vehicle_name, args, more) + " > " + log + " 2>&1";
   const int status = std::system(cmd.c_str());
   std::ifstream in(log);
   std::stringstream text;
@@ -476,6 +488,67 @@ TEST(DynamicsNodeStartup, LockstepVehicleThatNeverAnswersStopsTheRunNamingIt)
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("lockstep: no command for t = 0.000 s on /mute/cmd_drive"), std::string::npos) << out;
   EXPECT_LT((ros::WallTime::now() - start).toSec(), 30.0) << "the run hung instead of stopping";
+}
+
+// A barrier that waits sends /clock again (each second, wall), so a node that answers through
+// the clock and connected after the last tick went out still answers: v2v_radio_node emits a
+// lockstep batch only when /clock reaches it, and once missed the ticks to 0.05 s; the run then
+// stood at that barrier until ~lockstep_timeout. Here the test's own /late_clock subscription
+// is made only after the tick of the barrier at 0.05 s went out.
+TEST(DynamicsNodeLockstep, ABarrierThatWaitsSendsTheClockAgain)
+{
+  const auto lockstep = [](ros::NodeHandle& nh, const std::string& ns) {
+    XmlRpc::XmlRpcValue list;
+    list[0] = std::string("late");
+    nh.setParam(ns + "/lockstep_vehicles", list);
+  };
+  const std::string cmd =
+      nodeCommand("fed_alpha", "late", "_publish_clock:=true _lockstep_timeout:=60.0 /clock:=/late_clock", lockstep);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0)
+  {
+    execl("/bin/sh", "sh", "-c", ("exec " + cmd + " > /dev/null 2>&1").c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  ros::NodeHandle nh;
+  std::vector<nav_msgs::Odometry> odom;
+  auto odom_sub = nh.subscribe<nav_msgs::Odometry>(
+      "/late/avt_341/odometry", 1000, [&odom](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
+  auto drive_pub = nh.advertise<avsp_msgs::DriveCommand>("/late/cmd_drive", 10);
+  const auto answer = [&drive_pub](const ros::Time& stamp) {
+    avsp_msgs::DriveCommand c;
+    c.header.stamp = stamp;
+    c.brake = 1.0;
+    drive_pub.publish(c);
+  };
+  // Answer every odometry of time 0 (the node sends it again until answered), then wait for
+  // the barrier at 0.05 s without answering it.
+  std::size_t seen = 0;
+  const bool at_barrier = spinUntil([&] {
+    for (; seen < odom.size(); ++seen)
+      if (odom[seen].header.stamp.isZero())
+        answer(odom[seen].header.stamp);
+    return !odom.empty() && odom.back().header.stamp.toSec() > 0.05 - 1e-6;
+  });
+  std::vector<double> ticks;
+  bool went_on = false;
+  if (at_barrier)
+  {
+    EXPECT_NEAR(odom.back().header.stamp.toSec(), 0.05, 1e-9) << "the node stepped past its barrier";
+    auto clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
+        "/late_clock", 10, [&ticks](const rosgraph_msgs::Clock::ConstPtr& c) { ticks.push_back(c->clock.toSec()); });
+    EXPECT_TRUE(spinUntil([&] { return !ticks.empty(); }, 20.0)) << "no /clock while the barrier waits";
+    answer(odom.back().header.stamp);
+    went_on = spinUntil([&] { return odom.back().header.stamp.toSec() > 0.06 - 1e-6; }, 20.0);
+  }
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(at_barrier) << "no odometry of t = 0.05 s";
+  ASSERT_FALSE(ticks.empty());
+  EXPECT_NEAR(ticks.front(), 0.05, 1e-9) << "the tick sent again is the barrier's time";
+  EXPECT_TRUE(went_on) << "the answer did not release the barrier";
 }
 }  // namespace
 
