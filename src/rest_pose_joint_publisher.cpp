@@ -1,10 +1,12 @@
 // Publishes every movable joint of robot_description at position 0 on `joint_states`, so
 // robot_state_publisher can show a parked vehicle before (or without) the dynamics.
 //
-// Parameters (private): rate (Hz, default 10, > 0).
+// Parameters (private): rate (Hz, default 10, in [0.001, 1000]).
 // Parameters (namespace): robot_description (URDF string, required).
+#include <exception>
 #include <string>
 
+#include <avsp_msgs/node_params.hpp>
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 #include <urdf/model.h>
@@ -15,10 +17,13 @@ int main(int argc, char** argv)
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
   double rate = 10.0;
-  pnh.param("rate", rate, rate);
-  if (!(rate > 0.0) || rate > 1000.0)
+  try
   {
-    ROS_FATAL("rest_pose_joint_publisher: ~rate must be in (0, 1000] Hz, got %f", rate);
+    rate = avsp::msgs::boundedParam(pnh, "rate", 10.0, 1e-3, 1000.0);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("rest_pose_joint_publisher: %s", e.what());
     return 1;
   }
   urdf::Model model;

@@ -5,48 +5,43 @@
 // Parameters (private): parent_frame (string, required), child_frame (string, required),
 // x, y, z (m, default 0), yaw, pitch, roll (rad, default 0).
 #include <cmath>
+#include <exception>
 #include <string>
 
+#include <avsp_msgs/node_params.hpp>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
 #include <tf2/LinearMath/Quaternion.h>
 #include <tf2_ros/static_transform_broadcaster.h>
-
-namespace
-{
-bool readFinite(const ros::NodeHandle& pnh, const std::string& key, double& value)
-{
-  value = 0.0;
-  pnh.param(key, value, 0.0);
-  if (!std::isfinite(value))
-  {
-    ROS_FATAL("static_frame_publisher: parameter ~%s must be finite", key.c_str());
-    return false;
-  }
-  return true;
-}
-}  // namespace
 
 int main(int argc, char** argv)
 {
   ros::init(argc, argv, "static_frame_publisher");
   ros::NodeHandle pnh("~");
   std::string parent, child;
-  if (!pnh.getParam("parent_frame", parent) || parent.empty() || !pnh.getParam("child_frame", child) ||
-      child.empty())
-  {
-    ROS_FATAL("static_frame_publisher: parameters ~parent_frame and ~child_frame are required (non-empty strings)");
-    return 1;
-  }
-  if (parent == child)
-  {
-    ROS_FATAL("static_frame_publisher: ~parent_frame and ~child_frame are both '%s'", parent.c_str());
-    return 1;
-  }
   double x, y, z, yaw, pitch, roll;
-  if (!readFinite(pnh, "x", x) || !readFinite(pnh, "y", y) || !readFinite(pnh, "z", z) ||
-      !readFinite(pnh, "yaw", yaw) || !readFinite(pnh, "pitch", pitch) || !readFinite(pnh, "roll", roll))
+  try
+  {
+    parent = avsp::msgs::stringParam(pnh, "parent_frame", "");
+    child = avsp::msgs::stringParam(pnh, "child_frame", "");
+    if (parent.empty() || child.empty())
+      throw avsp::msgs::StartupError("parameters ~parent_frame and ~child_frame are required (non-empty strings)");
+    if (parent == child)
+      throw avsp::msgs::StartupError("~parent_frame and ~child_frame are both '" + parent + "'");
+    // Any finite number; a wrong type (a string, say) is refused naming the key.
+    const double big = 1e300;
+    x = avsp::msgs::boundedParam(pnh, "x", 0.0, -big, big);
+    y = avsp::msgs::boundedParam(pnh, "y", 0.0, -big, big);
+    z = avsp::msgs::boundedParam(pnh, "z", 0.0, -big, big);
+    yaw = avsp::msgs::boundedParam(pnh, "yaw", 0.0, -big, big);
+    pitch = avsp::msgs::boundedParam(pnh, "pitch", 0.0, -big, big);
+    roll = avsp::msgs::boundedParam(pnh, "roll", 0.0, -big, big);
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("static_frame_publisher: %s", e.what());
     return 1;
+  }
 
   geometry_msgs::TransformStamped t;
   t.header.stamp = ros::Time::now();

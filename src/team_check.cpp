@@ -10,11 +10,13 @@
 //   tolerance  m, allowed TF vs model distance for a frame           default 0.001, > 0
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <set>
 #include <string>
 #include <vector>
 
 #include <avsp_dynamics/vehicle_model.hpp>
+#include <avsp_msgs/node_params.hpp>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -65,18 +67,22 @@ int main(int argc, char** argv)
   std::vector<TeamMember> team;
   std::string config_dir;
   double timeout = 20.0, tolerance = 0.001;
-  pnh.param("timeout", timeout, timeout);
-  pnh.param("tolerance", tolerance, tolerance);
-  if (!readTeam(pnh, team))
-    return 1;
-  if (!pnh.getParam("config_dir", config_dir) || config_dir.empty())
+  try
   {
-    ROS_FATAL("team_check: ~config_dir (folder of <model>.yaml) is required");
+    timeout = avsp::msgs::boundedParam(pnh, "timeout", 20.0, 1e-3, 1e6);
+    tolerance = avsp::msgs::boundedParam(pnh, "tolerance", 0.001, 1e-9, 1e3);
+    config_dir = avsp::msgs::stringParam(pnh, "config_dir", "");
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL("team_check: %s", e.what());
     return 1;
   }
-  if (!(timeout > 0.0) || !(tolerance > 0.0))
+  if (!readTeam(pnh, team))
+    return 1;
+  if (config_dir.empty())
   {
-    ROS_FATAL("team_check: ~timeout and ~tolerance must be > 0 (got %f s, %f m)", timeout, tolerance);
+    ROS_FATAL("team_check: ~config_dir (folder of <model>.yaml) is required");
     return 1;
   }
 

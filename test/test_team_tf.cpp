@@ -1,8 +1,17 @@
 // rostest: the reference team's URDFs through robot_state_publisher give every frame under
 // the vehicle's prefix, at the pose the vehicle model (avsp_dynamics, an independent reading
 // of the same URDF) and the parked pose predict. TF data arrive asynchronously, so each
-// lookup waits for them with a bounded timeout; nothing is timed.
+// lookup waits for them with a bounded timeout; nothing is timed. Also: the bring-up tools
+// (static_frame_publisher, rest_pose_joint_publisher, team_check) refuse bad parameters.
+#include <sys/wait.h>
+#include <unistd.h>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include <avsp_dynamics/vehicle_model.hpp>
@@ -80,6 +89,44 @@ TEST(TeamTf, UnprefixedFramesDoNotExist)
   ASSERT_TRUE(g_buffer->canTransform("map", "fed_alpha/lidar", ros::Time(0), ros::Duration(20.0)));
   EXPECT_FALSE(g_buffer->_frameExists("lidar"));
   EXPECT_FALSE(g_buffer->_frameExists("base_link"));
+}
+
+namespace
+{
+/// Runs `command` (output captured): its exit code and output.
+std::pair<int, std::string> runCommand(const std::string& command)
+{
+  const std::string log = "/tmp/avsp_test_team_tf_" + std::to_string(getpid()) + ".log";
+  const int status = std::system((command + " > " + log + " 2>&1").c_str());
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::remove(log.c_str());
+  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+}
+}  // namespace
+
+// The bring-up tools refuse a parameter of the wrong type naming the key (NodeHandle::param
+// would have used the default silently).
+TEST(BringupNodes, RefuseParametersOfTheWrongTypeNamingTheKey)
+{
+  auto [code, out] = runCommand(std::string(STATIC_FRAME_PUBLISHER_PATH) +
+                                " __name:=bad_frames _parent_frame:=map _child_frame:=odom _x:=east");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~x must be a number, got a string"), std::string::npos) << out;
+  std::tie(code, out) =
+      runCommand(std::string(STATIC_FRAME_PUBLISHER_PATH) + " __name:=bad_frames _parent_frame:=map _child_frame:=map");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("both 'map'"), std::string::npos) << out;
+  std::tie(code, out) = runCommand(std::string(REST_POSE_JOINT_PUBLISHER_PATH) + " __name:=bad_rest _rate:=fast");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~rate must be a number, got a string"), std::string::npos) << out;
+  std::tie(code, out) = runCommand(std::string(REST_POSE_JOINT_PUBLISHER_PATH) + " __name:=bad_rest _rate:=0.0");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~rate"), std::string::npos) << out;
+  std::tie(code, out) = runCommand(std::string(TEAM_CHECK_PATH) + " __name:=bad_check _timeout:=soon");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~timeout must be a number, got a string"), std::string::npos) << out;
 }
 
 int main(int argc, char** argv)
