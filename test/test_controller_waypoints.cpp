@@ -1,17 +1,13 @@
 // rostest of controller_node in waypoint mode (test/controller_waypoints.test): the vehicle is
 // driven only by the controller; the run is judged only from the vehicle's odometry against
 // the waypoints the controller was given. Time is the odometry's sim time; wall deadlines only
-// guard a hang. Bad parameters: the node binary run with std::system must exit 1 naming them.
-#include <sys/wait.h>
-#include <unistd.h>
+// guard a hang. Bad parameters: the node binary, run to completion, must exit 1 naming them.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <functional>
-#include <sstream>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -23,6 +19,8 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <std_msgs/Bool.h>
+
+#include "command_output.hpp"
 
 #include "avsp/control/path.hpp"
 
@@ -71,14 +69,7 @@ std::vector<Waypoint> waypointsOf(const std::string& param)
 /// Runs controller_node as `name` with the private parameters already set; exit code and output.
 std::pair<int, std::string> runNode(const std::string& name)
 {
-  const std::string log = "/tmp/avsp_bad_controller_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(CONTROLLER_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+  return avsp::test::runCommand(std::string(CONTROLLER_NODE_PATH) + " __name:=" + name);
 }
 }  // namespace
 

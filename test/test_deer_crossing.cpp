@@ -2,16 +2,12 @@
 // a braked fed_alpha appears in its lidar cloud where the agent core puts it at each sweep's
 // time, and nowhere else; agents_node's /agents/states, TF and /agents/markers follow the same
 // pure function of sim time. Time is the messages' sim time; wall deadlines only guard a hang.
-// Bad ~agents: the agents_node binary run with std::system must exit 1 naming the key.
-#include <sys/wait.h>
-#include <unistd.h>
+// Bad ~agents: the agents_node binary, run to completion, must exit 1 naming the key.
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <functional>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +23,8 @@
 
 #include <avsp_terrain/agent_params.hpp>
 #include <avsp_terrain/agents.hpp>
+
+#include "command_output.hpp"
 
 namespace at = avsp::terrain;
 
@@ -83,14 +81,7 @@ bool insideAgent(const at::Agent& a, const at::AgentState& s, const Eigen::Vecto
 /// Runs agents_node as `name` with its private parameters already set; exit code and output.
 std::pair<int, std::string> runNode(const std::string& name)
 {
-  const std::string log = "/tmp/avsp_bad_agents_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(AGENTS_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+  return avsp::test::runCommand(std::string(AGENTS_NODE_PATH) + " __name:=" + name);
 }
 }  // namespace
 

@@ -19,6 +19,8 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 
+#include "command_output.hpp"
+
 #include "avsp/environment/environment_model.hpp"
 
 namespace ae = avsp::environment;
@@ -231,14 +233,7 @@ std::pair<int, std::string> runBadNode(const std::function<void(const std::strin
   nh.setParam("/" + name + "/longitude", 7.0);
   nh.setParam("/" + name + "/start_utc", std::string("2025-06-21T10:00:00Z"));
   set_params("/" + name + "/");
-  const std::string log = "/tmp/avsp_bad_environment_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(ENVIRONMENT_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+  return avsp::test::runCommand(std::string(ENVIRONMENT_NODE_PATH) + " __name:=" + name);
 }
 
 TEST(EnvironmentNodeStartup, BadParametersExitNamingTheKey)

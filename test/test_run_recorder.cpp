@@ -35,6 +35,8 @@
 #include <ros/ros.h>
 #include <yaml-cpp/yaml.h>
 
+#include "command_output.hpp"
+
 namespace
 {
 struct Sample
@@ -98,12 +100,7 @@ std::string show(const YAML::Node& n)
 /// Runs run_recorder named `name` to completion; {exit code, its output}.
 std::pair<int, std::string> runRecorder(const std::string& name)
 {
-  const std::string log = "/tmp/avsp_run_recorder_" + name + "_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(RUN_RECORDER_PATH) + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  const std::string out = readFile(log);
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, out };
+  return avsp::test::runCommand(std::string(RUN_RECORDER_PATH) + " __name:=" + name);
 }
 }  // namespace
 

@@ -3,15 +3,8 @@
 // of the same URDF) and the parked pose predict. TF data arrive asynchronously, so each
 // lookup waits for them with a bounded timeout; nothing is timed. Also: the bring-up tools
 // (static_frame_publisher, rest_pose_joint_publisher, team_check) refuse bad parameters.
-#include <sys/wait.h>
-#include <unistd.h>
-#include <cstdio>
-#include <cstdlib>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <tuple>
-#include <utility>
 #include <vector>
 
 #include <avsp_dynamics/vehicle_model.hpp>
@@ -19,6 +12,8 @@
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+
+#include "command_output.hpp"
 
 namespace
 {
@@ -91,20 +86,7 @@ TEST(TeamTf, UnprefixedFramesDoNotExist)
   EXPECT_FALSE(g_buffer->_frameExists("base_link"));
 }
 
-namespace
-{
-/// Runs `command` (output captured): its exit code and output.
-std::pair<int, std::string> runCommand(const std::string& command)
-{
-  const std::string log = "/tmp/avsp_test_team_tf_" + std::to_string(getpid()) + ".log";
-  const int status = std::system((command + " > " + log + " 2>&1").c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
-}
-}  // namespace
+using avsp::test::runCommand;
 
 // The bring-up tools refuse a parameter of the wrong type naming the key (NodeHandle::param
 // would have used the default silently).
