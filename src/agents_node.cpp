@@ -68,8 +68,8 @@ public:
     frame_ = avsp::msgs::stringParam(pnh, "frame", "map");
     if (frame_.empty())
       throw StartupError("parameter ~frame must not be empty");
-    std::string soils_file;
-    soils_file = avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
+    const std::string soils_file =
+        avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     std::unique_ptr<at::SoilLibrary> soils;
     try
     {

@@ -137,8 +137,8 @@ public:
     if (mode != "waypoints" && mode != "leader_follower")
       throw StartupError("parameter ~mode '" + mode + "' must be waypoints or leader_follower");
     const std::string model_name = requiredString(pnh, "model", "vehicle model, <config_dir>/<model>.yaml");
-    std::string config_dir;
-    config_dir = avsp::msgs::stringParam(pnh, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
+    const std::string config_dir =
+        avsp::msgs::stringParam(pnh, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
     const double track_width_factor = boundedParam(pnh, "track_width_factor", 1.0, 1.0, 10.0);
     ac::SteeringGeometry geometry;
     try

@@ -102,6 +102,11 @@ namespace
 using avsp::msgs::boundedParam;
 using avsp::msgs::StartupError;
 
+/// m/s^2: the most a point of a vehicle accelerates, for how far partitions' vehicles can go
+/// (peersApart(), unsentSoilApart()): 20 g, far beyond what driving or a collision between
+/// ground vehicles gives it over an interval.
+constexpr double kMaxAcceleration = 200.0;
+
 /// Number of a vehicle entry's key (int or double XML-RPC value), or the fallback if absent.
 double numberOf(XmlRpc::XmlRpcValue& entry, const std::string& key, double fallback, const std::string& where)
 {
@@ -216,10 +221,11 @@ public:
   DynamicsNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh)
   {
     const std::vector<VehicleSpec> specs = vehicleSpecs(pnh_);
-    std::string config_dir, soils_file;
-    config_dir = avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
+    const std::string config_dir =
+        avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
     config_dir_ = config_dir;
-    soils_file = avsp::msgs::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
+    const std::string soils_file =
+        avsp::msgs::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     try
     {
       soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
@@ -824,9 +830,6 @@ private:
    */
   bool peersApart(double from, double to) const
   {
-    // m/s^2: 20 g, far beyond what driving or a collision between ground vehicles gives a
-    // point of a vehicle over an interval.
-    constexpr double kMaxAcceleration = 200.0;
     std::vector<double> grow(vehicles_.size());  // each of ours, once
     for (std::size_t k = 0; k < vehicles_.size(); ++k)
     {
@@ -855,7 +858,6 @@ private:
    */
   bool unsentSoilApart(double t) const
   {
-    constexpr double kMaxAcceleration = 200.0;  // m/s^2, as peersApart()
     const double horizon = t + (step_ahead_intervals_ + 1) * sync_interval_;
     std::vector<double> grow(vehicles_.size());  // each of ours, once
     for (std::size_t k = 0; k < vehicles_.size(); ++k)

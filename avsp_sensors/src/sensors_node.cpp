@@ -170,9 +170,10 @@ public:
     body_reflectivity_ = body_reflectivity;
     const std::optional<as::EnuFrame> origin = readOrigin(asn::needsOrigin(specs));
 
-    std::string config_dir, soils_file;
-    config_dir = avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
-    soils_file = avsp::msgs::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
+    const std::string config_dir =
+        avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
+    const std::string soils_file =
+        avsp::msgs::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
 
     // Vehicles: their descriptions give the mounts and the bodies others see.
     for (std::size_t k = 0; k < entries.size(); ++k)

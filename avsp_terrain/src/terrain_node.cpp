@@ -180,8 +180,8 @@ public:
 private:
   static std::string soilsFile(const ros::NodeHandle& pnh)
   {
-    std::string path;
-    path = avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
+    const std::string path =
+        avsp::msgs::stringParam(pnh, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
     return path;
   }
 
@@ -198,8 +198,7 @@ private:
 
   void setUpWeather()
   {
-    std::string weather_soil;
-    weather_soil = avsp::msgs::stringParam(pnh_, "weather_soil", "sandy_loam");
+    const std::string weather_soil = avsp::msgs::stringParam(pnh_, "weather_soil", "sandy_loam");
     if (!soils_.contains(weather_soil))
       throw StartupError("parameter ~weather_soil: no soil '" + weather_soil + "' in the soil library");
     region_size_ = finiteParam(pnh_, "weather_region_size", 25.0, 0.0);
