@@ -17,13 +17,13 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
-#include <rosgraph_msgs/Clock.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/JointState.h>
 
@@ -274,10 +274,9 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
             0.2);
 }
 
-/// Runs dynamics_node under a fresh name with private parameters set on the master first
-/// (lists cannot be given on the command line): it must exit 1 and say what is wrong.
 /// Sets the private parameters of a one-vehicle dynamics_node on a 20 m gravel square under a
-/// fresh name (`more` adds or overrides some) and returns the command line that runs it.
+/// fresh name on the master (lists cannot be given on the command line; `more` adds or
+/// overrides some) and returns the command line that runs it.
 std::string nodeCommand(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
                         const std::string& args,
                         const std::function<void(ros::NodeHandle&, const std::string&)>& more)
@@ -306,7 +305,8 @@ std::string nodeCommand(const std::string& vehicles_yaml_model, const std::strin
   return std::string(DYNAMICS_NODE_PATH) + " __name:=" + name + " " + args;
 }
 
-/// Runs a dynamics_node that should refuse to start (or stop): its exit code and output.
+/// Runs a dynamics_node that should refuse to start (or stop): its exit code and output (it
+/// must exit 1 and say what is wrong).
 std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
                                        const std::string& args = "",
                                        const std::function<void(ros::NodeHandle&, const std::string&)>& more = {})
