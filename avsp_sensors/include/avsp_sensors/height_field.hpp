@@ -180,12 +180,18 @@ private:
   /// Exact crossing inside level-0 cell (ci, cj) for t in [ta, tb]; false if none.
   bool cellHit(std::size_t ci, std::size_t cj, const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g,
                double ta, double tb, TerrainHit& hit) const;
+  /// The hierarchical walk of intersectFrom() from t (clipped ray [t_first, t1]), for a ray
+  /// moving along x and y with signs SX, SY (-1, 0, +1).
+  template <int SX, int SY>
+  bool walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first, double t, double t1,
+            TerrainHit& hit) const;
 
   double origin_x_, origin_y_, dx_, dy_;
   std::size_t columns_, rows_;
   std::size_t cells_x_, cells_y_;
   double cells_xd_, cells_yd_;  ///< cells_x_, cells_y_ as doubles (the walk clips to them)
   double cell_diagonal_;        ///< m, sqrt(dx^2 + dy^2)
+  double inv_dx_, inv_dy_;      ///< 1/m: 1 / dx, 1 / dy
   std::vector<float> heights_;
   /// levels_[0] describes the cells (nothing stored), levels_[L] for 1 <= L <= mipLevels() the
   /// mip levels, and one more a single block of +inf above the top, so that the walk's climbs
