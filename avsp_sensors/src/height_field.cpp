@@ -429,24 +429,23 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
   double t = std::max(t0, t_clear);
   if (t > t1)
     return false;
-  // The walk, compiled once per direction of travel along x and y (-1, 0, +1): the signs then
-  // fold into the code instead of being selected at every step.
+  // The walk, compiled once per direction of travel along x and y (-1, 0, +1) and for rays
+  // going up or down: the signs then fold into the code instead of being selected at every step.
+  using Walk = bool (HeightField::*)(const Eigen::Vector3d&, const Eigen::Vector3d&, const GridRay&, double, double,
+                                     double, TerrainHit&) const;
+  static constexpr Walk kWalks[2][9] = {
+    { &HeightField::walk<-1, -1, false>, &HeightField::walk<-1, 0, false>, &HeightField::walk<-1, 1, false>,
+      &HeightField::walk<0, -1, false>, &HeightField::walk<0, 0, false>, &HeightField::walk<0, 1, false>,
+      &HeightField::walk<1, -1, false>, &HeightField::walk<1, 0, false>, &HeightField::walk<1, 1, false> },
+    { &HeightField::walk<-1, -1, true>, &HeightField::walk<-1, 0, true>, &HeightField::walk<-1, 1, true>,
+      &HeightField::walk<0, -1, true>, &HeightField::walk<0, 0, true>, &HeightField::walk<0, 1, true>,
+      &HeightField::walk<1, -1, true>, &HeightField::walk<1, 0, true>, &HeightField::walk<1, 1, true> }
+  };
   const int sx = (DX > 0.0) - (DX < 0.0), sy = (DY > 0.0) - (DY < 0.0);
-  switch (3 * sx + sy)
-  {
-    case -4: return walk<-1, -1>(o, d, g, t_first, t, t1, hit);
-    case -3: return walk<-1, 0>(o, d, g, t_first, t, t1, hit);
-    case -2: return walk<-1, 1>(o, d, g, t_first, t, t1, hit);
-    case -1: return walk<0, -1>(o, d, g, t_first, t, t1, hit);
-    case 0: return walk<0, 0>(o, d, g, t_first, t, t1, hit);
-    case 1: return walk<0, 1>(o, d, g, t_first, t, t1, hit);
-    case 2: return walk<1, -1>(o, d, g, t_first, t, t1, hit);
-    case 3: return walk<1, 0>(o, d, g, t_first, t, t1, hit);
-    default: return walk<1, 1>(o, d, g, t_first, t, t1, hit);
-  }
+  return (this->*kWalks[d.z() >= 0.0 ? 1 : 0][3 * sx + sy + 4])(o, d, g, t_first, t, t1, hit);
 }
 
-template <int SX, int SY>
+template <int SX, int SY, bool RISING>
 bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first, double t,
                        double t1, TerrainHit& hit) const
 {
@@ -465,7 +464,7 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
   constexpr std::int64_t step_x = px ? 1 : -1, step_y = py ? 1 : -1;
   const auto ncx = static_cast<std::int64_t>(cells_x_), ncy = static_cast<std::int64_t>(cells_y_);
   const double oz = o.z(), dz = d.z();
-  const bool rising = dz >= 0.0;
+  constexpr bool rising = RISING;
   // Level-0 cell holding the ray at t, kept inside [lo, hi) so that rounding of the position
   // cannot put it in a block the traversal has not reached (or has left).
   auto cellOf = [](double p, std::int64_t lo, std::int64_t hi) {
@@ -481,11 +480,15 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
   };
   // How far the ray can drop while crossing a block of level L: at most its diagonal times the
   // ray's slope (0 for rays going up). Used only to choose levels, never to skip.
-  const double horizontal = std::sqrt(d.x() * d.x() + d.y() * d.y());
-  const double drop_per_cell = d.z() >= 0.0 ? 0.0 : horizontal > 0.0 ? cell_diagonal_ * (-d.z()) / horizontal : kInf;
+  double drop_per_cell = 0.0;
+  if (!rising)
+  {
+    const double horizontal = std::sqrt(d.x() * d.x() + d.y() * d.y());
+    drop_per_cell = horizontal > 0.0 ? cell_diagonal_ * (-d.z()) / horizontal : kInf;
+  }
   // Whether block (bi, bj) of level L >= 1 lies wholly below the ray, which is at height z now.
   auto clears = [&](int L, std::int64_t bi, std::int64_t bj, double z) {
-    return mip(L, bi, bj) + kSkipMargin + drop_per_cell * kBlockSize[L] < z;
+    return mip(L, bi, bj) + kSkipMargin + (rising ? 0.0 : drop_per_cell * kBlockSize[L]) < z;
   };
   // Start at the coarsest block around the start that the ray is likely to clear: a coarser one
   // reaches the ray (or the ray drops to it while crossing), so testing it would only lead to

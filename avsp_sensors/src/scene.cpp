@@ -345,7 +345,8 @@ __attribute__((always_inline)) inline double Scene::castTerrain(const Ray& ray, 
     out.range = th.t;
     out.point = th.point;
     out.normal = th.normal;
-    out.reflectivity = terrainReflectivity(th.i, th.j, th.point);
+    // The uniform case without a call: it is most scenes' and most rays'.
+    out.reflectivity = soil_map_.empty() ? reflectivities_.terrain : terrainReflectivity(th.i, th.j, th.point);
   }
   return best;
 }
@@ -355,7 +356,9 @@ void Scene::castFanRay(const Ray& ray, double h, double t_clear, double& terrain
 {
   out = RayHit();
   const double best = castTerrain(ray, t_clear, terrain_reach, out);
-  castSolids(ray, h, best, out, &candidates);
+  // Most fans meet no primitive and most scenes have no bodies: no call then.
+  if (!candidates.empty() || !bodies_.empty())
+    castSolids(ray, h, best, out, &candidates);
 }
 
 RayHit Scene::castUnchecked(const Ray& ray) const

@@ -181,8 +181,8 @@ private:
   bool cellHit(std::size_t ci, std::size_t cj, const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g,
                double ta, double tb, TerrainHit& hit) const;
   /// The hierarchical walk of intersectFrom() from t (clipped ray [t_first, t1]), for a ray
-  /// moving along x and y with signs SX, SY (-1, 0, +1).
-  template <int SX, int SY>
+  /// moving along x and y with signs SX, SY (-1, 0, +1), upward or level (RISING) or downward.
+  template <int SX, int SY, bool RISING>
   bool walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first, double t, double t1,
             TerrainHit& hit) const;
 
