@@ -474,6 +474,16 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
   };
   const float* const heights = heights_.data();
   const std::size_t columns = columns_;
+  // The walk is bound by the latency of loading the points of cells it has not met yet (about
+  // a third of its time went to those loads): it asks for them a few steps early. A prefetch
+  // never faults, so an address beyond the grid's edge costs nothing; the arithmetic is done
+  // on integers, not on pointers past the array.
+  const auto row = static_cast<std::ptrdiff_t>(columns);
+  constexpr std::ptrdiff_t kLineFloats = 64 / sizeof(float);
+  auto prefetch = [](const float* s, std::ptrdiff_t floats) {
+    __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(s) +
+                                                     static_cast<std::uintptr_t>(floats) * sizeof(float)));
+  };
   // Stored maximum of block (bi, bj) of level L >= 1 (+inf above the top level).
   auto mip = [&](int L, std::int64_t bi, std::int64_t bj) -> double {
     return mips[levels[L].index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj))];
@@ -557,6 +567,14 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
         const double mid_x = static_cast<double>(2 * bi + 1) * half, mid_y = static_cast<double>(2 * bj + 1) * half;
         bi = 2 * bi + (mid_x < nx && X0 + t * DX >= mid_x ? 1 : 0);
         bj = 2 * bj + (mid_y < ny && Y0 + t * DY >= mid_y ? 1 : 0);
+        if (level == 1)
+        {
+          // Its cells come next: their three rows of points, ahead of the cell tests.
+          const float* s = heights + static_cast<std::size_t>(2 * bj) * columns + static_cast<std::size_t>(2 * bi);
+          prefetch(s, 0);
+          prefetch(s, row);
+          prefetch(s, 2 * row);
+        }
         enterLevel();
         continue;
       }
@@ -564,6 +582,17 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
     else
     {
       const float* s = heights + static_cast<std::size_t>(bj) * columns + static_cast<std::size_t>(bi);
+      // The points the next cells need: two rows ahead along y, a cache line ahead along x.
+      if (move_y)
+      {
+        prefetch(s, py ? 2 * row : -row);
+        prefetch(s, py ? 3 * row : -2 * row);
+      }
+      if (move_x)
+      {
+        prefetch(s, px ? kLineFloats : -kLineFloats);
+        prefetch(s, row + (px ? kLineFloats : -kLineFloats));
+      }
       const float cell_max = std::max(std::max(s[0], s[1]), std::max(s[columns], s[columns + 1]));
       if (z_low <= cell_max + kSkipMargin)
       {
