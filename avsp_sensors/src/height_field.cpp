@@ -480,6 +480,7 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
   // on integers, not on pointers past the array.
   const auto row = static_cast<std::ptrdiff_t>(columns);
   constexpr std::ptrdiff_t kLineFloats = 64 / sizeof(float);
+  constexpr auto kTileFloats = static_cast<std::ptrdiff_t>(Level::kTile * Level::kTile);
   auto prefetch = [](const float* s, std::ptrdiff_t floats) {
     __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(s) +
                                                      static_cast<std::uintptr_t>(floats) * sizeof(float)));
@@ -558,7 +559,15 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
     const double z_low = oz + (rising ? t : t_out) * dz;
     if (level > 0)
     {
-      if (z_low <= mip(level, bi, bj) + kSkipMargin)
+      const Level& lv = levels[level];
+      const float* m = mips + lv.index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj));
+      // The same place in the neighbouring tiles along x and y: the blocks the walk meets next
+      // at this level, when they are not in this tile.
+      if (move_x)
+        prefetch(m, px ? kTileFloats : -kTileFloats);
+      if (move_y)
+        prefetch(m, (py ? kTileFloats : -kTileFloats) * static_cast<std::ptrdiff_t>(lv.tiles_x));
+      if (z_low <= *m + kSkipMargin)
       {
         // The ray may dip into this block: look at its children, starting with the one the
         // ray is in now (the lower one when the upper would lie beyond the grid).
