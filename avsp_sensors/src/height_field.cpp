@@ -327,15 +327,20 @@ bool HeightField::cellHit(std::size_t ci, std::size_t cj, const Eigen::Vector3d&
       const double disc = B * B - 4.0 * A * C;
       if (disc >= 0.0)
       {
-        // Numerically stable pair of roots; C > 0 so q != 0 unless B = disc = 0 (then A C = 0).
+        // Numerically stable pair of roots: C / q, the one nearer 0, and q / A. C > 0 so q != 0
+        // unless B = disc = 0 (then A C = 0). The first crossing is the near root when that
+        // is not before the cell (when both are within the tolerance of 0, either is the start
+        // of the stretch), else the far one: the far one's division only then.
         const double q = -0.5 * (B + std::copysign(std::sqrt(disc), B));
-        double r1 = q / A, r2 = q != 0.0 ? C / q : kInf;
-        if (r1 > r2)
-          std::swap(r1, r2);
-        if (r1 >= -kRootTolerance)
-          s_hit = r1;
-        else if (r2 >= -kRootTolerance)
-          s_hit = r2;
+        const double r_near = q != 0.0 ? C / q : -kInf;
+        if (r_near >= -kRootTolerance)
+          s_hit = r_near;
+        else
+        {
+          const double r_far = q / A;
+          if (r_far >= -kRootTolerance)
+            s_hit = r_far;
+        }
       }
     }
     if (s_hit > len + kRootTolerance || s_hit < -kRootTolerance)
@@ -567,6 +572,17 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
         prefetch(m, px ? kTileFloats : -kTileFloats);
       if (move_y)
         prefetch(m, (py ? kTileFloats : -kTileFloats) * static_cast<std::ptrdiff_t>(lv.tiles_x));
+      // What a descent would read first: the children's tile one level down (all four children
+      // of a block share a tile), or at level 1 the block's three rows of points.
+      if (level > 1)
+        prefetch(mips + levels[level - 1].index(static_cast<std::size_t>(2 * bi), static_cast<std::size_t>(2 * bj)), 0);
+      else
+      {
+        const float* s = heights + static_cast<std::size_t>(2 * bj) * columns + static_cast<std::size_t>(2 * bi);
+        prefetch(s, 0);
+        prefetch(s, row);
+        prefetch(s, 2 * row);
+      }
       if (z_low <= *m + kSkipMargin)
       {
         // The ray may dip into this block: look at its children, starting with the one the
@@ -576,14 +592,6 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
         const double mid_x = static_cast<double>(2 * bi + 1) * half, mid_y = static_cast<double>(2 * bj + 1) * half;
         bi = 2 * bi + (mid_x < nx && X0 + t * DX >= mid_x ? 1 : 0);
         bj = 2 * bj + (mid_y < ny && Y0 + t * DY >= mid_y ? 1 : 0);
-        if (level == 1)
-        {
-          // Its cells come next: their three rows of points, ahead of the cell tests.
-          const float* s = heights + static_cast<std::size_t>(2 * bj) * columns + static_cast<std::size_t>(2 * bi);
-          prefetch(s, 0);
-          prefetch(s, row);
-          prefetch(s, 2 * row);
-        }
         enterLevel();
         continue;
       }
