@@ -133,8 +133,6 @@ void Scene::setTerrainReflectivity(std::vector<std::uint8_t> soil_map, std::vect
 
 float Scene::terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vector3d& p) const
 {
-  if (soil_map_.empty())
-    return reflectivities_.terrain;
   // The grid point nearest the hit (of the cell's four corners).
   const double fx = (p.x() - terrain_.originX()) / terrain_.dx() - static_cast<double>(i);
   const double fy = (p.y() - terrain_.originY()) / terrain_.dy() - static_cast<double>(j);

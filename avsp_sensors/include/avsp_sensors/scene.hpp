@@ -154,6 +154,8 @@ private:
   /// With the terrain traversal starting at t_clear (HeightField::intersectFrom); sets
   /// terrain_reach to the terrain hit's range, or max_range when the terrain is not hit.
   RayHit castUnchecked(const Ray& ray, double t_clear, double& terrain_reach) const;
+  /// Reflectivity of the soil map at terrain hit p in cell (i, j); only with a soil map (the
+  /// uniform value is read by the caller, without a call).
   float terrainReflectivity(std::size_t i, std::size_t j, const Eigen::Vector3d& p) const;
 
   /// A static primitive that a fan's rays may enter: where the fan's ground line crosses its
