@@ -35,12 +35,23 @@ ContactSoil::ContactSoil(const SoilParameters& soil) : model_(soil.model)
 {
   // The library validates what it loads; a palette may also be built by hand (tests, moisture
   // updates), and a NaN here would silently poison every force of the contact.
+  requireNonNegative(soil, "rolling_resistance", soil.rolling_resistance);
+  if (soil.model == SinkageModel::kRigid)
+  {
+    requirePositive(soil, "friction_peak", soil.friction_peak);
+    requirePositive(soil, "friction_sliding", soil.friction_sliding);
+    if (soil.friction_sliding > soil.friction_peak)
+      reject(soil, "friction_sliding", "at most friction_peak", soil.friction_sliding);
+    friction_peak = soil.friction_peak;
+    friction_sliding = soil.friction_sliding;
+    rolling_resistance = soil.rolling_resistance;
+    return;
+  }
   requirePositive(soil, "h0", soil.h0);
   requirePositive(soil, "rho0", soil.rho0);
   requireNonNegative(soil, "elastic_e", soil.elastic_e);
   requireNonNegative(soil, "b1", soil.b1);
   requireNonNegative(soil, "b2", soil.b2);
-  requireNonNegative(soil, "rolling_resistance", soil.rolling_resistance);
   requireNonNegative(soil, "cohesion", soil.cohesion);
   requireNonNegative(soil, "friction_angle", soil.friction_angle);
   if (!(soil.friction_angle < 0.5 * M_PI))
@@ -55,6 +66,7 @@ ContactSoil::ContactSoil(const SoilParameters& soil) : model_(soil.model)
     requireNonNegative(soil, "k_phi", soil.k_phi);
     if (!(soil.k_c > 0.0 || soil.k_phi > 0.0))
       reject(soil, "k_c or k_phi", "> 0 (the soil would carry no load)", 0.0);
+    requirePositive(soil, "k_unload", soil.k_unload);
   }
   cohesion = soil.cohesion;
   tan_phi = std::tan(soil.friction_angle);
@@ -68,6 +80,7 @@ ContactSoil::ContactSoil(const SoilParameters& soil) : model_(soil.model)
   n = soil.n;
   k_c = soil.k_c;
   k_phi = soil.k_phi;
+  k_unload = soil.k_unload;
   for (const auto& [sigma, rho] : soil.compression.points())
   {
     sigma_.push_back(sigma);
@@ -156,6 +169,61 @@ double ContactSoil::stressForPenetration(double plastic, double deformation, dou
 double ContactSoil::bekkerPressure(double modulus, double z) const
 {
   return z > 0.0 ? modulus * std::pow(z, n) : 0.0;
+}
+
+PointLoad ContactSoil::bekkerLoad(double modulus, double plastic, double penetration) const
+{
+  PointLoad out;
+  if (!(penetration > 0.0))
+    return out;
+  const double depth = plastic + penetration;
+  const double virgin = modulus * std::pow(depth, n);
+  const double elastic = k_unload * penetration;
+  out.unload = k_unload;
+  if (elastic < virgin)
+  {
+    out.sigma = elastic;
+    out.slope = k_unload;
+  }
+  else
+  {
+    out.sigma = virgin;
+    out.slope = n * virgin / depth;
+    out.virgin = true;
+  }
+  return out;
+}
+
+PointLoad ContactSoil::simpleLoad(double plastic, double deformation, double sigma_max, double penetration) const
+{
+  PointLoad out;
+  out.sigma = stressForPenetration(plastic, deformation, sigma_max, penetration);
+  const double a = elasticSinkage(1.0, deformation);  // m/Pa, the elastic part's give
+  out.unload = a > 1.0 / kMaxPointStiffness ? 1.0 / a : kMaxPointStiffness;
+  if (out.sigma >= kRigidStress)
+  {
+    out.slope = kMaxPointStiffness;
+    return out;
+  }
+  // de/dsigma at the solution: T3 always; beyond sigma_max also T4's b1 and T2's compaction,
+  // h0 rho0 rho'(sigma) / rho^2 on the curve's segment (0 where the point is not compacting).
+  double give = a;
+  if (out.sigma > sigma_max)
+  {
+    out.virgin = true;
+    give += b1;
+    std::size_t k = 1;
+    while (k < sigma_.size() && sigma_[k] < out.sigma)
+      ++k;
+    if (k < sigma_.size())
+    {
+      const double rho = alpha_[k] + beta_[k] * out.sigma;
+      if (h0 * (1.0 - rho0 / rho) > plastic)
+        give += h0 * rho0 * beta_[k] / (rho * rho);
+    }
+  }
+  out.slope = give > 1.0 / kMaxPointStiffness ? 1.0 / give : kMaxPointStiffness;
+  return out;
 }
 
 }  // namespace terrain

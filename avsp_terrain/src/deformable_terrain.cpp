@@ -70,15 +70,6 @@ bool withinEdge(double inside, double spacing)
   return inside >= -kOnEdge * spacing;
 }
 
-/// Share of a grid point's cell inside a band edge (point `inside` m within the edge, cells
-/// `spacing` m apart across it): 1/2 on the edge, rising linearly; the outermost point inside
-/// (inside < spacing) also takes the part of the next cell out, so a lattice line of points
-/// across a band sums to exactly band width / spacing for any offset.
-double edgeWeight(double inside, double spacing)
-{
-  return inside < (1.0 - kOnEdge) * spacing ? inside / spacing + 0.5 : 1.0;
-}
-
 /// The palette prepared for the contact; errors name the palette entry.
 std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette)
 {
@@ -371,13 +362,32 @@ struct DeformableTerrain::Footprint
   double ca = 1.0, sa = 0.0;            ///< cos and sin of the heading
   double half_length = 0.0;             ///< m: the wheel's radius, or half the track patch's length
   double half_width = 0.0;              ///< m
+  double slope_u = 0.0, slope_v = 0.0;  ///< a track face's dz/du, dz/dv (tilted to its normal)
   double bekker_b = 0.0;                ///< m, b of k_c / b: wheel width; a track's smaller dimension
   double track_length = 0.0;            ///< m, whole track's ground contact (tracks)
   double segment_offset = 0.0;          ///< m, patch centre from the whole track's centre, + forward
   double v_long = 0.0, v_lat = 0.0;     ///< m/s, in the footprint's frame
   double v_theoretical = 0.0;           ///< m/s, T9 or T10
   double travel = 1.0;                  ///< +1 moving forward, -1 backward
+  double shear_long = 0.0, shear_lat = 0.0;  ///< shear slip (WheelPatch::shear_slip), footprint frame
 };
+
+namespace
+{
+/// The kinematic shear slip of a footprint moving at (v_long, v_lat) with running gear at v_t:
+/// j = s x with s = (v_t - v_long, -v_lat) / max(|v_long|, |v_t|, v0) (Wong's T8 and the lateral
+/// slip tan(alpha) (1 - s) when driving, tan(alpha) when skidding: a locked wheel still grips
+/// sideways), finite at rest.
+void kinematicShearSlip(double v_long, double v_lat, double v_t, double& s_long, double& s_lat)
+{
+  const double scale = std::max({ std::abs(v_long), std::abs(v_t), kSlipRegularisationSpeed });
+  s_long = (v_t - v_long) / scale;
+  s_lat = -v_lat / scale;
+}
+
+/// Two-point Gauss-Legendre abscissae on [-1, 1].
+constexpr double kGauss = 0.57735026918962576451;
+}  // namespace
 
 namespace
 {
@@ -486,10 +496,13 @@ void DeformableTerrain::vegetation(const Footprint& fp, bool deform, ObjectSet& 
 
 void DeformableTerrain::spreadFlow()
 {
-  // f(z_f, d) of T5: each point's flowed volume goes to its 8 neighbours weighted by 1/d, so
-  // what leaves one point arrives exactly at others (volume leaving = volume arriving). The
-  // arrivals of the whole contact are summed in a small window around the loaded points first
-  // and applied once per receiving point: no tile lookups per share.
+  // f(z_f, d) of T5: each point's flowed volume goes to its neighbours weighted by 1/d, so
+  // what leaves one point arrives exactly at others (volume leaving = volume arriving). Soil
+  // squeezed from under the running gear goes to the free surface beside it: neighbours that
+  // are themselves under the footprint get no share while the point has one that is not (an
+  // interior point with none shares among all 8). The arrivals of the whole contact are summed
+  // in a small window around the loaded points first and applied once per receiving point: no
+  // tile lookups per share.
   std::size_t imin = base_.columns(), imax = 0, jmin = base_.rows(), jmax = 0;
   for (const LoadedPoint& p : loaded_)
   {
@@ -503,15 +516,9 @@ void DeformableTerrain::spreadFlow()
   const std::size_t wi1 = std::min(imax + 1, base_.columns() - 1), wj1 = std::min(jmax + 1, base_.rows() - 1);
   const std::size_t width = wi1 - wi0 + 1;
   arrivals_.assign(width * (wj1 - wj0 + 1), 0.0);
-  // The sum of the 8 weights of an interior point, in the loop's order below.
-  static const double kInteriorTotal = [] {
-    double t = 0.0;
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
-        if (di != 0 || dj != 0)
-          t += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-    return t;
-  }();
+  under_.assign(arrivals_.size(), 0);
+  for (const LoadedPoint& p : loaded_)
+    under_[(p.j - wj0) * width + (p.i - wi0)] = 1;
   const double area = base_.dx() * base_.dy();
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
   double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
@@ -521,39 +528,58 @@ void DeformableTerrain::spreadFlow()
     if (!(p.flow_volume > 0.0))
       continue;
     const long i = p.i, j = p.j;
-    double* centre = arrivals_.data() + (j - static_cast<long>(wj0)) * w + (i - static_cast<long>(wi0));
-    if (i > 0 && j > 0 && i + 1 < columns && j + 1 < rows)
+    const long offset = (j - static_cast<long>(wj0)) * w + (i - static_cast<long>(wi0));
+    double* centre = arrivals_.data() + offset;
+    const std::uint8_t* mask = under_.data() + offset;
+    // The neighbours that exist, and of those the ones beside the footprint.
+    double weights[9] = {}, total = 0.0, free_total = 0.0;
+    bool free_[9] = {};
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di)
+      {
+        if ((di == 0 && dj == 0) || i + di < 0 || j + dj < 0 || i + di >= columns || j + dj >= rows)
+          continue;
+        const int k = (dj + 1) * 3 + (di + 1);
+        weights[k] = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
+        total += weights[k];
+        free_[k] = mask[dj * w + di] == 0;
+        if (free_[k])
+          free_total += weights[k];
+      }
+    // Sheared soil is dragged the way the slip goes, past the rest of the footprint, to the
+    // first point beside it in that direction (the soil a spinning wheel digs out lands behind
+    // it, not under the same wheel); the rest, pressed out, goes to the free surface around.
+    double shear = 0.0;
+    long drop = 0;  // window offset of where the sheared soil lands
+    if (p.shear_fraction > 0.0 && (drag_di_ != 0 || drag_dj_ != 0))
     {
-      // Per unit weight: volume (m^3) and height (m) at a neighbour; two divisions per point.
-      const double volume = p.flow_volume / kInteriorTotal, height = volume / area;
-      // The 8 neighbours in a fixed order, weights 1/sqrt(2) diagonally and 1 (x 1.0: exact) along.
-      const double diagonal = height * M_SQRT1_2;
-      double* south = centre - w;
-      double* north = centre + w;
-      south[-1] += diagonal;
-      south[0] += height;
-      south[1] += diagonal;
-      centre[-1] += height;
-      centre[1] += height;
-      north[-1] += diagonal;
-      north[0] += height;
-      north[1] += diagonal;
-      arrived += volume * kInteriorTotal;
-      continue;
+      long a = i, b = j;
+      while (a + drag_di_ >= static_cast<long>(wi0) && a + drag_di_ <= static_cast<long>(wi1) &&
+             b + drag_dj_ >= static_cast<long>(wj0) && b + drag_dj_ <= static_cast<long>(wj1))
+      {
+        a += drag_di_;
+        b += drag_dj_;
+        if (!under_[(b - static_cast<long>(wj0)) * w + (a - static_cast<long>(wi0))])
+          break;
+      }
+      if (a != i || b != j)
+      {
+        shear = p.shear_fraction * p.flow_volume;
+        drop = (b - j) * w + (a - i);
+      }
     }
-    // On the grid's border only the neighbours that exist share the volume.
-    const auto inside = [&](long ni, long nj) { return ni >= 0 && nj >= 0 && ni < columns && nj < rows; };
-    double total = 0.0;
+    const double pressed = p.flow_volume - shear;
+    const bool outward = free_total > 0.0;
+    const double pressed_height = pressed / (outward ? free_total : total) / area;
     for (int dj = -1; dj <= 1; ++dj)
       for (int di = -1; di <= 1; ++di)
-        if ((di != 0 || dj != 0) && inside(i + di, j + dj))
-          total += (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-    const double volume = p.flow_volume / total, height = volume / area;
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
-        if ((di != 0 || dj != 0) && inside(i + di, j + dj))
-          centre[dj * w + di] += height * ((di != 0 && dj != 0) ? M_SQRT1_2 : 1.0);
-    arrived += volume * total;
+      {
+        const int k = (dj + 1) * 3 + (di + 1);
+        if (weights[k] > 0.0 && (!outward || free_[k]))
+          centre[dj * w + di] += pressed_height * weights[k];
+      }
+    centre[drop] += shear / area;
+    arrived += p.flow_volume;
   }
   arrived_volume_ += arrived;
   for (std::size_t j = wj0; j <= wj1; ++j)
@@ -602,6 +628,17 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   fp.v_lat = -wheel.velocity.x() * fp.sa + wheel.velocity.y() * fp.ca;
   fp.v_theoretical = wheelTheoreticalSpeed(wheel.radius, wheel.spin_rate);  // T9
   fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) : (wheel.spin_rate < 0 ? -1.0 : 1.0);
+  if (wheel.shear_slip_given)
+  {
+    requireFinite(kFn, "wheel.shear_slip", wheel.shear_slip.x());
+    requireFinite(kFn, "wheel.shear_slip", wheel.shear_slip.y());
+    fp.shear_long = wheel.shear_slip.x();
+    fp.shear_lat = wheel.shear_slip.y();
+  }
+  else
+  {
+    kinematicShearSlip(fp.v_long, fp.v_lat, fp.v_theoretical, fp.shear_long, fp.shear_lat);
+  }
   ContactForces out;
   collect(fp, out);
   forcesAndDeform(fp, dt, deform, objects, out);
@@ -621,6 +658,10 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
     rejectArgument(kFn, "track.sprocket_teeth", "> 0", track.sprocket_teeth);
   requireFinite(kFn, "track.sprocket_spin_rate", track.sprocket_spin_rate);
   requireFinite(kFn, "track.segment_offset", track.segment_offset);
+  requireFinite(kFn, "track.normal", track.normal);
+  if (!(std::abs(track.normal.norm() - 1.0) < 1e-6) || !(track.normal.z() >= 0.25))
+    rejectArgument(kFn, "track.normal", "a unit vector with z >= 0.25 (a face at most 75 deg from level); its z is",
+                   track.normal.z());
   if (!(dt >= 0.0) || !std::isfinite(dt))
     rejectArgument(kFn, "dt", "finite and >= 0", dt);
   const double whole = track.track_length == 0.0 ? track.length : track.track_length;
@@ -649,35 +690,139 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
   fp.v_theoretical = trackTheoreticalSpeed(track.sprocket_pitch, track.sprocket_teeth, track.sprocket_spin_rate);
   fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) :
                                              (track.sprocket_spin_rate < 0 ? -1.0 : 1.0);
+  // The face through the centre with normal n: z = cz - (n_x dx + n_y dy) / n_z.
+  fp.slope_u = -(track.normal.x() * fp.ca + track.normal.y() * fp.sa) / track.normal.z();
+  fp.slope_v = -(-track.normal.x() * fp.sa + track.normal.y() * fp.ca) / track.normal.z();
+  if (track.shear_slip_given)
+  {
+    requireFinite(kFn, "track.shear_slip", track.shear_slip.x());
+    requireFinite(kFn, "track.shear_slip", track.shear_slip.y());
+    fp.shear_long = track.shear_slip.x();
+    fp.shear_lat = track.shear_slip.y();
+  }
+  else
+  {
+    kinematicShearSlip(fp.v_long, fp.v_lat, fp.v_theoretical, fp.shear_long, fp.shear_lat);
+  }
   ContactForces out;
   collect(fp, out);
   forcesAndDeform(fp, dt, deform, objects, out);
   return out;
 }
 
+void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j0, std::size_t j1)
+{
+  window_i0_ = i0;
+  window_j0_ = j0;
+  window_columns_ = i1 - i0 + 1;
+  window_rows_ = j1 - j0 + 1;
+  window_.resize(window_columns_ * window_rows_);
+  WindowPoint* out = window_.data();
+  for (std::size_t j = j0; j <= j1; ++j)
+  {
+    const float* base_row = base_.pointHeights().data() + j * base_.columns();
+    const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
+    std::size_t tile_column = tiles_x_;  // none yet
+    const Tile* tile = nullptr;
+    for (std::size_t i = i0; i <= i1; ++i, ++out)
+    {
+      if (i / kTileSize != tile_column)
+      {
+        tile_column = i / kTileSize;
+        tile = tiles_[tile_row + tile_column].get();
+      }
+      const PointDeformation d = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
+      *out = WindowPoint{ base_row[i], d.plastic, d.displaced, d.sigma_max };
+    }
+  }
+}
+
+DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y, const Footprint& fp,
+                                                              double behind) const
+{
+  // Bilinear between the four window points around (x, y); clamped to the window (a sample
+  // within half a cell of the grid's edge takes the edge's cell).
+  const double gx = (x - base_.originX()) / base_.dx() - static_cast<double>(window_i0_);
+  const double gy = (y - base_.originY()) / base_.dy() - static_cast<double>(window_j0_);
+  const double max_x = static_cast<double>(window_columns_ - 1), max_y = static_cast<double>(window_rows_ - 1);
+  const double cx = std::clamp(gx, 0.0, max_x), cy = std::clamp(gy, 0.0, max_y);
+  const std::size_t a = std::min(static_cast<std::size_t>(cx), window_columns_ > 1 ? window_columns_ - 2 : 0);
+  const std::size_t b = std::min(static_cast<std::size_t>(cy), window_rows_ > 1 ? window_rows_ - 2 : 0);
+  const double u = window_columns_ > 1 ? cx - static_cast<double>(a) : 0.0;
+  const double v = window_rows_ > 1 ? cy - static_cast<double>(b) : 0.0;
+  const std::size_t da = window_columns_ > 1 ? 1 : 0, db = window_rows_ > 1 ? window_columns_ : 0;
+  const WindowPoint* corner[4] = { window_.data() + b * window_columns_ + a, nullptr, nullptr, nullptr };
+  corner[1] = corner[0] + da;
+  corner[2] = corner[0] + db;
+  corner[3] = corner[0] + da + db;
+  double weight[4] = { (1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v };
+  if (behind != 0.0)
+  {
+    // A sample behind the wheel's bottom (behind > 0: its distance back along the travel)
+    // lies in soil the bottom has already pressed; a grid point ahead of the bottom records
+    // only the rim's passing flank. Interpolated across the bottom, the rut's floor there
+    // would come out shallower than the imprint (a spurious support right behind the bottom),
+    // so such a sample is interpolated from the points behind the bottom alone.
+    const double ox = base_.originX() + (static_cast<double>(window_i0_ + a)) * base_.dx() - fp.cx;
+    const double oy = base_.originY() + (static_cast<double>(window_j0_ + b)) * base_.dy() - fp.cy;
+    const double corner_x[4] = { ox, ox + base_.dx(), ox, ox + base_.dx() };
+    const double corner_y[4] = { oy, oy, oy + base_.dy(), oy + base_.dy() };
+    double kept = 0.0;
+    for (int k = 0; k < 4; ++k)
+    {
+      const double along = (corner_x[k] * fp.ca + corner_y[k] * fp.sa) * fp.travel;
+      if (along > 0.0)
+        weight[k] = 0.0;
+      kept += weight[k];
+    }
+    if (kept > 0.0)
+      for (double& w : weight)
+        w /= kept;
+    else
+      weight[0] = weight[1] = weight[2] = weight[3] = 0.25;
+  }
+  WindowPoint out;
+  for (int k = 0; k < 4; ++k)
+  {
+    out.base += weight[k] * corner[k]->base;
+    out.plastic += weight[k] * corner[k]->plastic;
+    out.displaced += weight[k] * corner[k]->displaced;
+    out.sigma_max += weight[k] * corner[k]->sigma_max;
+  }
+  return out;
+}
+
 void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
 {
-  // Kinematics: T8 slip from the theoretical speed (T9/T10), slip angle from the lateral velocity.
-  out.slip = longitudinalSlip(fp.v_theoretical, fp.v_long);
-  out.slip_angle =
-      (std::abs(fp.v_long) + std::abs(fp.v_lat) > 1e-9) ? std::atan2(fp.v_lat, std::abs(fp.v_long)) : 0.0;
+  // Kinematics: T8 slip from the theoretical speed (T9/T10), regularised near rest, and the
+  // slip angle from the lateral velocity.
+  out.slip = regularisedSlip(fp.v_theoretical, fp.v_long);
+  out.slip_angle = std::atan2(fp.v_lat, std::max(std::abs(fp.v_long), kSlipRegularisationSpeed));
 
   loaded_.clear();
   const double ca = fp.ca, sa = fp.sa;
+  const double dx = base_.dx(), dy = base_.dy();
+  // Spacing of grid points across and along the footprint (exact when it is axis-aligned).
+  const double lateral_spacing = dx * std::abs(sa) + dy * std::abs(ca);
+  const double along_spacing = dx * std::abs(ca) + dy * std::abs(sa);
+  const double half_cell = 0.5 * along_spacing;
+  // A wheel's points reach half a cell beyond its rim: their cells are partly under it.
+  const double reach = fp.wheel ? fp.half_length + half_cell : fp.half_length;
   // Axis-aligned bounds of the footprint rectangle (the wheel's is 2r x w), widened by the
   // on-edge tolerance so that the index range keeps a row of points lying on an edge.
-  const double dx = base_.dx(), dy = base_.dy();
-  const double ext_x = fp.half_length * std::abs(ca) + fp.half_width * std::abs(sa) + kOnEdge * (dx + dy);
-  const double ext_y = fp.half_length * std::abs(sa) + fp.half_width * std::abs(ca) + kOnEdge * (dx + dy);
+  const double across_reach = fp.half_width + 0.5 * lateral_spacing;  // cells partly under the band
+  const double ext_x = reach * std::abs(ca) + across_reach * std::abs(sa) + kOnEdge * (dx + dy);
+  const double ext_y = reach * std::abs(sa) + across_reach * std::abs(ca) + kOnEdge * (dx + dy);
   const double ox = base_.originX(), oy = base_.originY();
   std::size_t i0 = 0, i1 = 0, j0 = 0, j1 = 0;
   if (!gridRange(fp.cx - ext_x, fp.cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
       !gridRange(fp.cy - ext_y, fp.cy + ext_y, oy, dy, base_.rows(), j0, j1))
     return;
   const double r = fp.half_length, r2 = r * r;
-  // Spacing of grid points across and along the footprint (exact when it is axis-aligned).
-  const double lateral_spacing = dx * std::abs(sa) + dy * std::abs(ca);
-  const double along_spacing = dx * std::abs(ca) + dy * std::abs(sa);
+  if (fp.wheel)
+    fillWindow(i0 > 0 ? i0 - 1 : 0, std::min(i1 + 1, base_.columns() - 1), j0 > 0 ? j0 - 1 : 0,
+               std::min(j1 + 1, base_.rows() - 1));
+  double rigid_weight = 0.0, soil_weight = 0.0, rigid_best = 0.0;
   for (std::size_t j = j0; j <= j1; ++j)
   {
     const double py = oy + j * dy - fp.cy;
@@ -692,9 +837,39 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       const double px = ox + i * dx - fp.cx;
       const double u = px * ca + py_sa;
       const double v = -px * sa + py_ca;
-      if (!withinEdge(fp.half_width - std::abs(v), lateral_spacing) ||
-          (fp.wheel ? std::abs(u) >= r : !withinEdge(r - std::abs(u), along_spacing)))
+      // Across the running gear each point carries the share of its cell (v +- half a spacing)
+      // the band covers: the shares of a lattice line sum to the width / spacing at any offset,
+      // also for a band narrower than a cell (a small robot's wheel on a 0.1 m grid). A point
+      // whose cell is partly under the band records the pressing (the next step must find that
+      // soil pressed, or the same wheel would keep bearing on virgin soil there); its share of
+      // any flow is its share of the cell.
+      const double across = std::min(fp.half_width, std::abs(v) + 0.5 * lateral_spacing) -
+                            std::max(-fp.half_width, std::abs(v) - 0.5 * lateral_spacing);
+      if (!(across > kOnEdge * lateral_spacing) ||
+          (fp.wheel ? std::abs(u) >= reach : !withinEdge(r - std::abs(u), along_spacing)))
         continue;
+      const double lateral_weight = std::min(across / lateral_spacing, 1.0);
+      const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
+      const ContactSoil& soil = contact_soils_[soil_index];
+      // Rigid or soil under the running gear's bottom (a wheel's lowest half radius, a plate).
+      if (!fp.wheel || std::abs(u) <= 0.5 * r)
+      {
+        if (soil.model() == SinkageModel::kRigid)
+        {
+          rigid_weight += lateral_weight;
+          if (lateral_weight > rigid_best)
+          {
+            rigid_best = lateral_weight;
+            out.rigid_soil = soil_index;
+          }
+        }
+        else
+        {
+          soil_weight += lateral_weight;
+        }
+      }
+      if (soil.model() == SinkageModel::kRigid)
+        continue;  // pavement: nothing sinks, the tyre deflects (the vehicle's contact)
       // The point's tile changes every kTileSize columns: one directory lookup per tile.
       if (i / kTileSize != tile_column)
       {
@@ -704,67 +879,118 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       const PointDeformation state = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
       const double base_z = base_row[i];
       const double surface = base_z - state.plastic - state.displaced;
+      const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
+      const bool bekker = soil.model() == SinkageModel::kBekker;
+      const double modulus = bekker ? soil.bekkerModulus(fp.bekker_b) : 0.0;
+      const auto load = [&](double penetration) {
+        return bekker ? soil.bekkerLoad(modulus, state.plastic, penetration) :
+                        soil.simpleLoad(state.plastic, deformation, state.sigma_max, penetration);
+      };
+      LoadedPoint p{};
+      p.i = static_cast<std::uint32_t>(i);
+      p.j = static_cast<std::uint32_t>(j);
+      p.soil = soil_index;
+      p.weight = lateral_weight;
+      double bottom = 0.0;
       if (fp.wheel)
       {
-        // Most of a wheel's 2r x w box is not under its rim: rule those points out on squares
-        // (the rim is above a surface h below the axle where r^2 - u^2 <= h^2) before the sqrt.
-        const double below_axle = fp.cz - surface;
-        if (below_axle > 0.0 && below_axle * below_axle >= r2 - u * u)
+        // The point stands for its cell, u +- half a cell along the footprint: the cell carries
+        // the mean pressure of two samples at its quarter points, each with the soil's state
+        // interpolated (bilinearly) between the grid points around it and the rim's own height
+        // there. A rut's floor between points then follows the imprint the points record, and
+        // the wheel's edge cuts a cell where it really does: a 0.1 m grid integrates a wheel's
+        // pressure about as finely as a 0.05 m one, instead of each point taking its whole cell
+        // at its own pressure or nothing.
+        bottom = fp.cz - std::sqrt(std::max(r2 - u * u, 0.0));
+        p.penetration = std::abs(u) < r ? surface - bottom : 0.0;
+        p.deforms = p.penetration > 0.0;
+        const PointLoad at_point = p.deforms ? load(p.penetration) : PointLoad{};
+        p.sigma_point = at_point.sigma;
+        p.virgin = at_point.virgin;
+        const double gx = ox + i * dx, gy = oy + j * dy;
+        for (const double offset : { -0.25 * along_spacing, 0.25 * along_spacing })
+        {
+          const double us = u + offset;
+          if (!(std::abs(us) < r))
+            continue;
+          const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, fp, us * fp.travel < 0.0 ? 1.0 : 0.0);
+          const double pen = w.base - w.plastic - w.displaced - (fp.cz - std::sqrt(r2 - us * us));
+          if (!(pen > 0.0))
+            continue;
+          const PointLoad at = bekker ? soil.bekkerLoad(modulus, w.plastic, pen) :
+                                        soil.simpleLoad(w.plastic, w.plastic + w.displaced, w.sigma_max, pen);
+          p.sigma += 0.5 * at.sigma;
+          p.slope += 0.5 * at.slope;
+          p.unload += 0.5 * at.unload;
+          // The rim's horizontal / vertical push where this sample presses (Bekker compaction).
+          if (bekker)
+            p.rim_slope += 0.5 * at.sigma * std::clamp(us * fp.travel / std::sqrt(r2 - us * us), -kMaxRimSlope, kMaxRimSlope);
+        }
+        if (!(p.sigma > 0.0) && !p.deforms)
           continue;
+        if (p.sigma > 0.0)
+          p.rim_slope /= p.sigma;
+        const double lo = std::max(u - half_cell, -r), hi = std::min(u + half_cell, r);
+        p.along0 = fp.travel > 0.0 ? lo : -hi;
+        p.along1 = fp.travel > 0.0 ? hi : -lo;
       }
-      const double bottom = fp.wheel ? fp.cz - std::sqrt(r2 - u * u) : fp.cz;
-      const double penetration = surface - bottom;
-      if (!(penetration > 0.0))
-        continue;
-      const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
-      const ContactSoil& soil = contact_soils_[soil_index];
-      LoadedPoint p{ static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j), soil_index,
-                     edgeWeight(fp.half_width - std::abs(v), lateral_spacing), u * fp.travel, 0.0, 0.0, penetration,
-                     0.0, 0.0, 0.0, 0.0, 0.0 };
-      if (!fp.wheel)
+      else
       {
+        bottom = fp.cz + fp.slope_u * u + fp.slope_v * v;
+        p.penetration = surface - bottom;
+        if (!(p.penetration > 0.0))
+          continue;
+        p.deforms = true;
+        const PointLoad at_point = load(p.penetration);
+        p.sigma = p.sigma_point = at_point.sigma;
+        p.slope = at_point.slope;
+        p.unload = at_point.unload;
+        p.virgin = at_point.virgin;
         // A track's strip, m behind the whole track's leading edge (T11's j = s x keeps growing
-        // over segments); the points nearest the patch's ends reach to them (edgeWeight).
-        const double x = 0.5 * fp.track_length - (fp.segment_offset * fp.travel + p.along);
-        const double to_lead = r - p.along, to_trail = r + p.along;
+        // over segments); the points nearest the patch's ends reach to them.
+        const double along = u * fp.travel;
+        const double x = 0.5 * fp.track_length - (fp.segment_offset * fp.travel + along);
+        const double to_lead = r - along, to_trail = r + along;
         const double near_end = (1.0 - kOnEdge) * along_spacing;
         p.x0 = to_lead < near_end ? x - to_lead : x - 0.5 * along_spacing;
         p.x1 = to_trail < near_end ? x + to_trail : x + 0.5 * along_spacing;
         p.weight *= (p.x1 - p.x0) / along_spacing;
       }
-      if (soil.model() == SinkageModel::kBekker)
-      {
-        // Rigid-plastic Bekker: the pressure of the sinkage reached.
-        p.depth = state.plastic + penetration;
-        p.sigma = soil.bekkerPressure(soil.bekkerModulus(fp.bekker_b), p.depth);
-        if (fp.wheel)
-          p.rim_slope = std::clamp(p.along / std::sqrt(r2 - u * u), -kMaxRimSlope, kMaxRimSlope);
-      }
-      else
-      {
-        const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
-        p.sigma = soil.stressForPenetration(state.plastic, deformation, state.sigma_max, penetration);
-        p.elastic = soil.elasticSinkage(p.sigma, deformation);
-      }
+      if (!(p.sigma > 0.0))
+        continue;
+      p.depth = state.plastic + p.penetration;
+      p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0) :
+                           soil.elasticSinkage(p.sigma_point, deformation);
       loaded_.push_back(p);
-      out.sinkage = std::max(out.sinkage, base_z - bottom);
+      if (p.deforms)
+        out.sinkage = std::max(out.sinkage, base_z - bottom);
       out.elastic_sinkage = std::max(out.elastic_sinkage, p.elastic);
     }
   }
+  if (rigid_weight > 0.0)
+    out.rigid_share = rigid_weight / (rigid_weight + soil_weight);
   out.contact_points = static_cast<int>(loaded_.size());
-  if (fp.wheel && !loaded_.empty())
+  if (loaded_.empty())
+    return;
+  if (fp.wheel)
   {
-    // A wheel's contact starts where the soil does: strips behind the foremost loaded point.
-    double front = -1e300;
+    // A wheel's contact starts where the soil does: strips behind the foremost loaded stretch.
+    double front = -1e300, back = 1e300;
     for (const LoadedPoint& p : loaded_)
-      front = std::max(front, p.along);
-    front += 0.5 * dx;
+    {
+      front = std::max(front, p.along1);
+      back = std::min(back, p.along0);
+    }
     for (LoadedPoint& p : loaded_)
     {
-      const double x = front - p.along;
-      p.x0 = std::max(x - 0.5 * dx, 0.0);
-      p.x1 = x + 0.5 * dx;
+      p.x0 = front - p.along1;
+      p.x1 = front - p.along0;
     }
+    out.contact_length = front - back;
+  }
+  else
+  {
+    out.contact_length = fp.track_length;
   }
 }
 
@@ -778,8 +1004,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   double max_penetration = 0.0;
   for (const LoadedPoint& p : loaded_)
     max_penetration = std::max(max_penetration, p.penetration);
-  const double lateral_slip = (1.0 - std::abs(out.slip)) * std::tan(out.slip_angle);
-  const double slip_magnitude = std::hypot(out.slip, lateral_slip);
+  const double slip_magnitude = std::hypot(fp.shear_long, fp.shear_lat);
   // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one
   // per soil and strip length for the half-strip factor, kept in a small cache: a footprint's
   // rows alternate between a few strip lengths (interior, and the shorter ones at its edges).
@@ -801,8 +1026,12 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   {
     const ContactSoil& soil = contact_soils_[p.soil];
     const double strength = soil.cohesion + std::max(p.sigma, 0.0) * soil.tan_phi;
-    const double load = p.sigma * area * p.weight;
+    const double cell = area * p.weight;
+    const double load = p.sigma * cell;
     out.normal_force += load;
+    out.shear_strength += strength * cell;
+    out.normal_stiffness += p.slope * cell;
+    out.unload_stiffness += p.unload * cell;
     total_weight += p.weight;
     if (soil.model() == SinkageModel::kSimple)
     {
@@ -815,7 +1044,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     }
     else
     {
-      compaction += area * p.weight / fp.track_length * p.sigma * p.depth / (soil.n + 1.0);
+      compaction += cell / fp.track_length * p.sigma * p.depth / (soil.n + 1.0);
     }
     if (slip_magnitude > 0.0)
     {
@@ -845,9 +1074,9 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
       const double mean =
           meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0, e_mid * strip->inv_half_factor);
-      const double tau = strength * mean;
-      out.longitudinal_force += fp.travel * (out.slip / slip_magnitude) * tau * area * p.weight;
-      out.lateral_force -= (lateral_slip / slip_magnitude) * tau * area * p.weight;
+      const double tau = strength * mean * cell / slip_magnitude;
+      out.longitudinal_force += fp.shear_long * tau;
+      out.lateral_force += fp.shear_lat * tau;
     }
   }
   // T12 with the depth of the soil ahead (largest penetration): for one simple soil this is
@@ -868,6 +1097,9 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   Tile* tile = nullptr;
   for (LoadedPoint& p : loaded_)
   {
+    p.flow_volume = 0.0;
+    if (!p.deforms)
+      continue;  // only part of its cell is under the rim: the point itself is not pressed
     const ContactSoil& soil = contact_soils_[p.soil];
     const std::size_t t = tileIndex(p.i, p.j);
     if (t != tile_index)
@@ -878,25 +1110,54 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     }
     PointDeformation& state = (*tile)[(p.j % kTileSize) * kTileSize + p.i % kTileSize];
     const float sigma_before = state.sigma_max;
-    const double sigma_max = std::max<double>(p.sigma, sigma_before);
-    double flow = soil.b2 * p.sigma * slip_speed * dt;
+    const double sigma_max = std::max<double>(p.sigma_point, sigma_before);
+    const double shear_flow = soil.b2 * p.sigma_point * slip_speed * dt * std::min(p.weight, 1.0);
+    double flow = shear_flow;
     if (soil.model() == SinkageModel::kBekker)
     {
-      state.plastic = std::max(state.plastic, static_cast<float>(p.depth));  // the sinkage stays
+      // A yielding point keeps its depth less the elastic springback; a reloaded one keeps its
+      // state (it is back at its rebounded surface once the wheel has gone).
+      if (p.virgin)
+        state.plastic = std::max(state.plastic, static_cast<float>(p.depth - p.elastic));
     }
     else
     {
-      flow += soil.b1 * std::max(p.sigma - sigma_before, 0.0);
+      flow += soil.b1 * std::max(p.sigma_point - sigma_before, 0.0) * std::min(p.weight, 1.0);
       state.plastic = std::max(state.plastic, static_cast<float>(soil.plasticSinkage(sigma_max)));
     }
     state.sigma_max = static_cast<float>(sigma_max);
     state.displaced += static_cast<float>(flow);
     // What the point lost, as stored (float), is what transport hands on.
     p.flow_volume = static_cast<double>(static_cast<float>(flow)) * area;
+    p.shear_fraction = flow > 0.0 ? shear_flow / flow : 0.0;
     flowed_volume_ += p.flow_volume;
   }
   if (options_.transport)
+  {
+    // Sheared soil is dragged along with the running gear's slip over the ground: a wheel or
+    // track spinning forward throws it back (ruts deepen under slip, soil lands behind).
+    const double slip_long = fp.v_long - fp.v_theoretical, slip_lat = fp.v_lat;
+    const double magnitude = std::hypot(slip_long, slip_lat);
+    const double fx = magnitude > 0.0 ? (slip_long * fp.ca - slip_lat * fp.sa) / magnitude : 0.0;
+    const double fy = magnitude > 0.0 ? (slip_long * fp.sa + slip_lat * fp.ca) / magnitude : 0.0;
+    // The grid step (one of the 8) nearest that direction.
+    drag_di_ = drag_dj_ = 0;
+    double best = 0.0;
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di)
+      {
+        if (di == 0 && dj == 0)
+          continue;
+        const double cosine = (di * base_.dx() * fx + dj * base_.dy() * fy) / std::hypot(di * base_.dx(), dj * base_.dy());
+        if (cosine > best)
+        {
+          best = cosine;
+          drag_di_ = di;
+          drag_dj_ = dj;
+        }
+      }
     spreadFlow();
+  }
 }
 
 std::size_t DeformableTerrain::deformedPoints() const

@@ -53,20 +53,24 @@ double frictionAngle(const Section& s)
   return deg * M_PI / 180.0;
 }
 
-SoilParameters readSoil(const Section& s, const std::string& name)
+/// The `rigid` section: what running gear meets on pavement, concrete or rock.
+void readRigid(const Section& s, SoilParameters& p)
 {
-  s.allowOnly({ "source", "model", "simple", "strength", "bekker", "moisture" });
-  SoilParameters p;
-  p.name = name;
-  p.source = s.string("source");
-  const std::string model = s.string("model");
-  if (model == "simple")
-    p.model = SinkageModel::kSimple;
-  else if (model == "bekker")
-    p.model = SinkageModel::kBekker;
-  else
-    s.fail("model", "must be 'simple' or 'bekker', got '" + model + "'");
+  const Section rigid = s.map("rigid");
+  rigid.allowOnly({ "friction_peak", "friction_sliding", "rolling_resistance" });
+  p.friction_peak = rigid.positive("friction_peak");
+  if (p.friction_peak > 2.0)
+    rigid.fail("friction_peak", "must be at most 2 (no tyre on any surface grips harder)");
+  p.friction_sliding = rigid.positive("friction_sliding");
+  if (p.friction_sliding > p.friction_peak)
+    rigid.fail("friction_sliding", "must not exceed friction_peak");
+  p.rolling_resistance = rigid.nonNegative("rolling_resistance");
+  if (p.rolling_resistance > 0.5)
+    rigid.fail("rolling_resistance", "must be at most 0.5");
+}
 
+void readDeformable(const Section& s, SoilParameters& p)
+{
   const Section simple = s.map("simple");
   simple.allowOnly({ "h0", "rho0", "compression", "elastic_e", "b1", "b2", "rolling_resistance" });
   p.h0 = simple.positive("h0");
@@ -105,12 +109,41 @@ SoilParameters readSoil(const Section& s, const std::string& name)
   p.shear_modulus = strength.positive("shear_modulus");
 
   const Section bekker = s.map("bekker");
-  bekker.allowOnly({ "n", "k_c_kn", "k_phi_kn" });
+  bekker.allowOnly({ "n", "k_c_kn", "k_phi_kn", "k_unload_kn" });
   p.n = bekker.positive("n");
   p.k_c = 1e3 * bekker.nonNegative("k_c_kn");
   p.k_phi = 1e3 * bekker.nonNegative("k_phi_kn");
   if (!(p.k_c > 0.0 || p.k_phi > 0.0))
     bekker.fail("k_phi_kn", "k_c and k_phi cannot both be 0 (the soil would carry no load)");
+  p.k_unload = 1e3 * bekker.positive("k_unload_kn");
+}
+
+SoilParameters readSoil(const Section& s, const std::string& name)
+{
+  SoilParameters p;
+  p.name = name;
+  const std::string model = s.string("model");
+  if (model == "simple")
+    p.model = SinkageModel::kSimple;
+  else if (model == "bekker")
+    p.model = SinkageModel::kBekker;
+  else if (model == "rigid")
+    p.model = SinkageModel::kRigid;
+  else
+    s.fail("model", "must be 'simple', 'bekker' or 'rigid', got '" + model + "'");
+  if (p.model == SinkageModel::kRigid)
+  {
+    // Nothing of a soil's deformation or strength applies to pavement: those sections would
+    // be numbers nobody reads.
+    s.allowOnly({ "source", "model", "rigid", "moisture" });
+    readRigid(s, p);
+  }
+  else
+  {
+    s.allowOnly({ "source", "model", "simple", "strength", "bekker", "moisture" });
+    readDeformable(s, p);
+  }
+  p.source = s.string("source");
 
   const Section m = s.map("moisture");
   m.allowOnly({ "initial", "dry", "saturated", "wetting_per_mm", "drying_time_constant_h", "table" });
@@ -126,6 +159,8 @@ SoilParameters readSoil(const Section& s, const std::string& name)
   if (!table.IsSequence())
     m.fail("table", "must be a list (empty when moisture does not change the soil)");
   const std::vector<Section> rows = table.size() > 0 ? m.sequence("table") : std::vector<Section>{};
+  if (!rows.empty() && p.model == SinkageModel::kRigid)
+    m.fail("table", "must be [] for a rigid surface (moisture changes a soil's strength, not pavement's)");
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
     const Section& r = rows[k];

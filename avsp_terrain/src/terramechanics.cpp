@@ -68,6 +68,12 @@ double longitudinalSlip(double v_theoretical, double v_actual)
   return std::clamp(s, -1.0, 1.0);
 }
 
+double regularisedSlip(double v_theoretical, double v_actual, double v0)
+{
+  const double scale = std::max({ std::abs(v_actual), std::abs(v_theoretical), v0 });
+  return std::clamp((v_theoretical - v_actual) / scale, -1.0, 1.0);
+}
+
 double wheelTheoreticalSpeed(double radius, double omega)
 {
   return radius * omega;
@@ -137,6 +143,45 @@ double rigidWheelStaticSinkage(const SoilParameters& soil, double radius, double
   {
     const double mid = 0.5 * (lo + hi);
     (rigidWheelOnBekkerSoil(soil, radius, width, mid).normal_force < load ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+RigidWheelLoad rollingWheelOnBekkerSoil(const SoilParameters& soil, double radius, double width, double sinkage,
+                                        int samples)
+{
+  RigidWheelLoad out = rigidWheelOnBekkerSoil(soil, radius, width, sinkage, samples);
+  if (!(sinkage > 0.0) || !(soil.k_unload > 0.0))
+    return out;
+  // Behind the bottom the soil, pressed to z0 at p_max, springs back by p_max / k_unload and
+  // presses on the rim with p_max - k_unload (z0 - z) until the rim has risen that far.
+  const double z0 = std::min(sinkage, radius);
+  const double p_max = bekkerPressure(soil, width, z0);
+  const double rise = std::min(p_max / soil.k_unload, z0);
+  const double theta2 = std::acos(1.0 - rise / radius);
+  const double dtheta = theta2 / samples;
+  for (int k = 0; k < samples; ++k)
+  {
+    const double theta = (k + 0.5) * dtheta;
+    const double p = std::max(p_max - soil.k_unload * radius * (1.0 - std::cos(theta)), 0.0);
+    out.normal_force += p * std::cos(theta) * width * radius * dtheta;
+    out.compaction_resistance -= p * std::sin(theta) * width * radius * dtheta;  // pushes forward
+  }
+  return out;
+}
+
+double rollingWheelSinkage(const SoilParameters& soil, double radius, double width, double load)
+{
+  if (!(load > 0.0))
+    return 0.0;
+  if (rollingWheelOnBekkerSoil(soil, radius, width, radius).normal_force < load)
+    throw std::domain_error("rollingWheelSinkage: soil '" + soil.name +
+                            "' cannot carry the load before the wheel sinks to its axle");
+  double lo = 0.0, hi = radius;
+  for (int k = 0; k < 100 && hi - lo > 1e-12; ++k)
+  {
+    const double mid = 0.5 * (lo + hi);
+    (rollingWheelOnBekkerSoil(soil, radius, width, mid).normal_force < load ? lo : hi) = mid;
   }
   return 0.5 * (lo + hi);
 }

@@ -73,6 +73,12 @@ TEST(SoilLibrary, AllEightSoilsLoadInSiUnits)
   EXPECT_NEAR(sand.friction_angle, 28.0 * M_PI / 180.0, 1e-15);
   EXPECT_DOUBLE_EQ(sand.compression.density(0.0), sand.rho0);
   EXPECT_NEAR(sand.compression.density(7.5e4), 1705.0, 1e-9);  // halfway between table points
+  EXPECT_DOUBLE_EQ(sand.k_unload, 2.0e8);  // N/m^3
+  const auto& asphalt = lib.get("asphalt");
+  EXPECT_EQ(asphalt.model, SinkageModel::kRigid);
+  EXPECT_DOUBLE_EQ(asphalt.friction_peak, 0.85);
+  EXPECT_DOUBLE_EQ(asphalt.friction_sliding, 0.75);
+  EXPECT_DOUBLE_EQ(asphalt.rolling_resistance, 0.015);
   EXPECT_THROW(lib.get("lava"), SoilError);
 }
 
@@ -80,8 +86,8 @@ TEST(SoilLibrary, BadFilesNameFileAndKey)
 {
   std::string err = loadError(edited("cohesion_kpa: 4.14", "cohesion_kpa: -4.14"));
   EXPECT_NE(err.find("soils.clay.strength.cohesion_kpa"), std::string::npos) << err;
-  err = loadError(edited("model: bekker\n", "model: magic\n"));
-  EXPECT_NE(err.find("soils.dry_sand.model"), std::string::npos) << err;
+  err = loadError(edited("model: rigid\n", "model: magic\n"));
+  EXPECT_NE(err.find("soils.asphalt.model"), std::string::npos) << err;
   err = loadError(edited("[5.0e4, 1680]", "[5.0e4, 1500]"));
   EXPECT_NE(err.find("soils.dry_sand.simple.compression"), std::string::npos) << err;
   EXPECT_NE(err.find("must not decrease"), std::string::npos) << err;
@@ -89,9 +95,30 @@ TEST(SoilLibrary, BadFilesNameFileAndKey)
   EXPECT_NE(err.find("friction_angle_deg"), std::string::npos) << err;
   err = loadError(edited("shear_modulus: 0.03}", "shear_modulu: 0.03}"));
   EXPECT_NE(err.find("unknown key"), std::string::npos) << err;
-  err = loadError(edited("    bekker: {n: 1.6, k_c_kn: 4.37, k_phi_kn: 196.72}\n", ""));
+  err = loadError(edited("    bekker: {n: 1.6, k_c_kn: 4.37, k_phi_kn: 196.72, k_unload_kn: 4.0e4}\n", ""));
   EXPECT_NE(err.find("soils.snow.bekker"), std::string::npos) << err;
   EXPECT_NE(err.find("missing"), std::string::npos) << err;
+  // The unloading stiffness: required, and > 0 (a Bekker soil that never springs back would
+  // ratchet a parked wheel down step after step).
+  err = loadError(edited("k_phi_kn: 196.72, k_unload_kn: 4.0e4}", "k_phi_kn: 196.72}"));
+  EXPECT_NE(err.find("soils.snow.bekker.k_unload_kn"), std::string::npos) << err;
+  EXPECT_NE(err.find("missing"), std::string::npos) << err;
+  err = loadError(edited("k_phi_kn: 196.72, k_unload_kn: 4.0e4}", "k_phi_kn: 196.72, k_unload_kn: -4.0e4}"));
+  EXPECT_NE(err.find("soils.snow.bekker.k_unload_kn"), std::string::npos) << err;
+  // Rigid surfaces: their tyre parameters, each named.
+  err = loadError(edited("friction_peak: 0.85", "friction_peak: -0.85"));
+  EXPECT_NE(err.find("soils.asphalt.rigid.friction_peak"), std::string::npos) << err;
+  err = loadError(edited("friction_sliding: 0.75", "friction_sliding: 0.95"));
+  EXPECT_NE(err.find("soils.asphalt.rigid.friction_sliding"), std::string::npos) << err;
+  EXPECT_NE(err.find("must not exceed friction_peak"), std::string::npos) << err;
+  err = loadError(edited("friction_sliding: 0.75, ", ""));
+  EXPECT_NE(err.find("soils.asphalt.rigid.friction_sliding"), std::string::npos) << err;
+  EXPECT_NE(err.find("missing"), std::string::npos) << err;
+  err = loadError(edited("rolling_resistance: 0.015}", "rolling_resistance: nan}"));
+  EXPECT_NE(err.find("soils.asphalt.rigid.rolling_resistance"), std::string::npos) << err;
+  err = loadError(edited("    model: rigid\n", "    model: rigid\n    strength: {cohesion_kpa: 1.0, friction_angle_deg: 30.0, shear_modulus: 0.01}\n"));
+  EXPECT_NE(err.find("soils.asphalt.strength"), std::string::npos) << err;
+  EXPECT_NE(err.find("unknown key"), std::string::npos) << err;
   err = loadError(edited("drying_time_constant_h: 48.0", "drying_time_constant_h: -48.0"));
   EXPECT_NE(err.find("soils.sandy_loam.moisture.drying_time_constant_h"), std::string::npos) << err;
   err = loadError(edited("- {moisture: 0.55, cohesion_kpa: 2.07", "- {moisture: 0.55, cohesion_kpa: oops"));

@@ -17,6 +17,17 @@ namespace terrain
 /// Pa: a simple-model point that cannot absorb a penetration at any stress (compacted to its
 /// hard layer with no elastic or bearing-flow give left) carries this stress.
 constexpr double kRigidStress = 1e8;
+/// Pa/m: the largest pressure-sinkage slope a point reports (a point with no give left).
+constexpr double kMaxPointStiffness = 1e10;
+
+/// A point's pressure at a penetration and how it changes with it.
+struct PointLoad
+{
+  double sigma = 0.0;     ///< Pa
+  double slope = 0.0;     ///< Pa/m, d sigma / d penetration going deeper (loading)
+  double unload = 0.0;    ///< Pa/m, d sigma / d penetration coming back up (unloading: elastic)
+  bool virgin = false;    ///< the point yields (first loading): its permanent sinkage grows
+};
 
 /**
  * @brief A validated soil with the constants of the contact's inner loop precomputed.
@@ -39,7 +50,8 @@ public:
    * @brief Prepares `soil`.
    * @throw std::invalid_argument naming the soil and the field when a parameter is not finite
    *        or out of range (h0, rho0 > 0; compression curve present; E, b1, b2, f, c >= 0;
-   *        0 <= phi < 90 deg; K > 0; Bekker n > 0, k_c, k_phi >= 0 and not both 0)
+   *        0 <= phi < 90 deg; K > 0; Bekker n > 0, k_c, k_phi >= 0 and not both 0,
+   *        k_unload > 0; rigid: 0 < friction_sliding <= friction_peak, f >= 0)
    */
   explicit ContactSoil(const SoilParameters& soil);
 
@@ -75,6 +87,20 @@ public:
   /// Bekker-Wong pressure k z^n (Pa) for modulus k from bekkerModulus() and sinkage z (m).
   double bekkerPressure(double modulus, double z) const;
 
+  /**
+   * @brief A Bekker point pressed `penetration` m (> 0) below its surface, which lies `plastic` m
+   *        (its permanent sinkage) below the undeformed one: reloading along k_unload until the
+   *        first-loading law k (plastic + penetration)^n is reached, then along that law:
+   *        sigma = min(k_unload penetration, k (plastic + penetration)^n). A point that yields
+   *        keeps plastic + penetration - sigma / k_unload once unloaded (it springs back by
+   *        sigma / k_unload), so a parked wheel rests on an elastic floor instead of digging.
+   * @param modulus bekkerModulus() of the contact
+   */
+  PointLoad bekkerLoad(double modulus, double plastic, double penetration) const;
+
+  /// Simple model: the point's load at `penetration` (stressForPenetration()) with its slopes.
+  PointLoad simpleLoad(double plastic, double deformation, double sigma_max, double penetration) const;
+
   // Constants read by the contact's inner loop (SI, as in SoilParameters).
   double cohesion = 0.0;            ///< c, Pa
   double tan_phi = 0.0;             ///< tan(friction angle)
@@ -88,6 +114,9 @@ public:
   double n = 0.0;                   ///< Bekker exponent
   double k_c = 0.0;                 ///< N/m^(n+1)
   double k_phi = 0.0;               ///< N/m^(n+2)
+  double k_unload = 0.0;            ///< N/m^3, Bekker unloading/reloading
+  double friction_peak = 0.0;       ///< rigid surfaces
+  double friction_sliding = 0.0;    ///< rigid surfaces
 
 private:
   /// kg/m^3 at stress sigma: the compression curve, same arithmetic as CompressionCurve (so

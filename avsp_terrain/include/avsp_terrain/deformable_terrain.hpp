@@ -33,11 +33,20 @@ struct WheelPatch
   double heading = 0.0;      ///< rad, direction the wheel rolls towards, from map x (CCW)
   double spin_rate = 0.0;    ///< rad/s, positive rolls the wheel forward
   Eigen::Vector3d velocity;  ///< m/s, velocity of the wheel centre in map
+  /// The shear slip (longitudinal, lateral) the soil's shear is mobilised at (T7, T11): the
+  /// direction of the shear force on the wheel (+x forward, +y to its left) and its magnitude,
+  /// j = |s| x behind the contact's leading edge. Used when `shear_slip_given`; otherwise the
+  /// kinematic slip of the speeds (regularisedSlip(), lateral -v_lat over the same speed).
+  /// A vehicle gives its own when the shear must lag the kinematics (a wheel at rest holds by
+  /// the soil's displacement, not by a ratio of two speeds near 0).
+  Eigen::Vector2d shear_slip = Eigen::Vector2d::Zero();
+  bool shear_slip_given = false;
 };
 
 /**
- * @brief A track's ground contact, or one segment of it: a flat, horizontal rectangle (the
- *        track's ground face) pressed into the soil, driven by a sprocket (T10).
+ * @brief A track's ground contact, or one segment of it: a flat rectangle (the track's ground
+ *        face), level or tilted to a given normal, pressed into the soil, driven by a sprocket
+ *        (T10). A plate with no sprocket speed is a sliding plate (a hull's belly).
  *
  * A vehicle may split a track into segments (one per road wheel, each at its own height):
  * give each its place on the whole track (track_length, segment_offset) so that the shear
@@ -56,6 +65,11 @@ struct TrackPatch
   Eigen::Vector3d velocity;         ///< m/s, velocity of the patch in map
   double track_length = 0.0;        ///< m, ground contact length of the whole track; 0: this patch is all of it
   double segment_offset = 0.0;      ///< m, this patch's centre from the whole track's centre, + forward
+  /// Unit normal of the ground face (up, n_z >= 0.25): a segment lying on a slope follows it.
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  /// As WheelPatch::shear_slip (longitudinal along heading).
+  Eigen::Vector2d shear_slip = Eigen::Vector2d::Zero();
+  bool shear_slip_given = false;
 };
 
 /// What the soil (and vegetation) does to one wheel or track patch this step. Forces act on the
@@ -69,9 +83,19 @@ struct ContactForces
   double grass_resistance = 0.0;    ///< N, the part of resistance_force due to grass patches
   double sinkage = 0.0;             ///< m, deepest grid point below the undeformed surface (incl. elastic)
   double elastic_sinkage = 0.0;     ///< m, largest elastic part under the patch (recovers on unloading)
-  double slip = 0.0;                ///< T8, [-1, 1]
-  double slip_angle = 0.0;          ///< rad
+  double slip = 0.0;                ///< T8 regularised at low speed (regularisedSlip()), [-1, 1]
+  double slip_angle = 0.0;          ///< rad, atan(v_lat / max(|v_long|, kSlipRegularisationSpeed))
   int contact_points = 0;           ///< grid points under load
+  /// N: Mohr-Coulomb limit of the loaded soil, sum of (c + sigma tan phi) A: the most its shear
+  /// can give in any direction at any slip (T7 at full shear displacement).
+  double shear_strength = 0.0;
+  double contact_length = 0.0;      ///< m, loaded length along travel (a track: the whole track's)
+  double normal_stiffness = 0.0;    ///< N/m, d normal_force / d sinkage pressing deeper (loading)
+  double unload_stiffness = 0.0;    ///< N/m, the same coming back up (the soil's elastic part)
+  /// Share (0-1) of the footprint on rigid surfaces (near a wheel's bottom, or the whole plate):
+  /// the soil there carries nothing, a tyre or track pad pressed on it does (the vehicle's model).
+  double rigid_share = 0.0;
+  int rigid_soil = -1;              ///< palette index of that surface, -1 when none
   std::vector<std::uint32_t> toppled_objects;   ///< object ids this step pushed over
   std::vector<std::uint32_t> standing_objects;  ///< object ids under the footprint still standing
 };
@@ -273,19 +297,35 @@ private:
   {
     std::uint32_t i, j;
     std::uint8_t soil;   ///< palette index
+    bool deforms;        ///< the point itself is under the running gear (its state changes)
+    bool virgin;         ///< ... on first loading (it yields: its permanent sinkage grows)
     double weight;       ///< share of the point's cell under the footprint, (0, 2.25)
-    double along;        ///< m, position along the direction of travel (footprint frame)
+    double along0, along1;  ///< m, its loaded stretch along the direction of travel (footprint frame)
     double x0, x1;       ///< m, its strip behind the leading edge (shear displacement, T11)
-    double penetration;  ///< m, below the current unloaded surface
-    double sigma;        ///< Pa
-    double elastic;      ///< m
-    double depth;        ///< m, Bekker soils: sinkage reached (plastic + penetration)
+    double penetration;  ///< m, below the current unloaded surface, at the point
+    double sigma;        ///< Pa, mean over the loaded part of its cell
+    double sigma_point;  ///< Pa, at the point (what its state records)
+    double slope;        ///< Pa/m, d sigma / d penetration, loading
+    double unload;       ///< Pa/m, unloading
+    double elastic;      ///< m, the part of the sinkage that springs back
+    double depth;        ///< m, Bekker soils: sinkage below the undeformed surface (plastic + penetration)
     double rim_slope;    ///< wheel on Bekker soil: horizontal / vertical rim pressure, + opposes travel
     double flow_volume;  ///< m^3 that flowed away this step (T4), for transport (T5)
+    double shear_fraction;  ///< of flow_volume, the slip-driven part (T4's b2 term)
   };
 
   /// Where a contact is and how it moves, shared by wheels and tracks.
   struct Footprint;
+  /// A grid point's height and state as a wheel's contact samples them between points.
+  struct WindowPoint
+  {
+    double base = 0.0, plastic = 0.0, displaced = 0.0, sigma_max = 0.0;
+  };
+  /// Copies the points (i0..i1, j0..j1) into window_ (a wheel's footprint and one point round it).
+  void fillWindow(std::size_t i0, std::size_t i1, std::size_t j0, std::size_t j1);
+  /// The window's state at (x, y), bilinear between its four points; `behind` != 0: a sample
+  /// behind the footprint's bottom, interpolated from the points behind it only.
+  WindowPoint windowState(double x, double y, const Footprint& fp, double behind) const;
 
   /// @throw std::out_of_range naming `function` and the point when (i, j) is outside the grid
   void checkPoint(const char* function, std::size_t i, std::size_t j) const;
@@ -313,6 +353,10 @@ private:
   double arrived_volume_ = 0.0;
   std::vector<LoadedPoint> loaded_;  ///< scratch of the current contact (kept: no allocation per call)
   std::vector<double> arrivals_;     ///< scratch: soil arriving per point of the contact's window, m
+  std::vector<WindowPoint> window_;  ///< scratch: the points round a wheel's footprint (fillWindow)
+  std::vector<std::uint8_t> under_;  ///< scratch of spreadFlow(): 1 where a point of the window is loaded
+  int drag_di_ = 0, drag_dj_ = 0;  ///< the grid step along which this contact's slip drags soil
+  std::size_t window_i0_ = 0, window_j0_ = 0, window_columns_ = 0, window_rows_ = 0;
   // Change tracking: per tile, its state at the start of the interval once it changed in it.
   bool tracking_ = false;
   std::vector<std::unique_ptr<Tile>> before_;  ///< same indexing as tiles_, null = unchanged

@@ -25,7 +25,8 @@ public:
 enum class SinkageModel
 {
   kSimple,  ///< compaction + elastic + flow (MODELS.md T2-T6)
-  kBekker   ///< p = (k_c / b + k_phi) z^n (MODELS.md T13)
+  kBekker,  ///< p = (k_c / b + k_phi) z^n on first loading, k_unload z below it (MODELS.md T13)
+  kRigid    ///< pavement, concrete, rock: no sinkage; tyres and track pads deflect instead
 };
 
 /// Hydrostatic compression curve rho(sigma) of the simple model (T2), piecewise linear.
@@ -79,7 +80,7 @@ struct SoilParameters
   double elastic_e = 0.0;       ///< 1/Pa (T3)
   double b1 = 0.0;              ///< m/Pa, bearing flow factor (T4)
   double b2 = 0.0;              ///< 1/Pa, shearing flow factor (T4)
-  double rolling_resistance = 0.0;  ///< f (T12)
+  double rolling_resistance = 0.0;  ///< f (T12); rigid surfaces: a tyre's rolling resistance coefficient
   // Strength (T7).
   double cohesion = 0.0;        ///< c, Pa
   double friction_angle = 0.0;  ///< phi, rad
@@ -88,6 +89,13 @@ struct SoilParameters
   double n = 0.0;               ///< sinkage exponent
   double k_c = 0.0;             ///< N/m^(n+1)
   double k_phi = 0.0;           ///< N/m^(n+2)
+  /// N/m^3: Bekker soils' unloading and reloading stiffness: below the largest sinkage reached a
+  /// point springs back and is reloaded at p = k_unload z_r (z_r below its rebounded surface), as
+  /// the elastic modulus K of Project Chrono's SCM terrain; first loading follows k z^n.
+  double k_unload = 0.0;
+  // Rigid surfaces (model kRigid): what a tyre or a track pad meets there.
+  double friction_peak = 0.0;     ///< peak coefficient of adhesion
+  double friction_sliding = 0.0;  ///< locked-wheel (sliding) coefficient, <= friction_peak
   MoistureSpec moisture;
 };
 

@@ -53,6 +53,17 @@ double janosiTractiveEffort(const SoilParameters& soil, double area, double leng
  */
 double longitudinalSlip(double v_theoretical, double v_actual);
 
+/// m/s: below this speed of travel and of the running gear, slip is taken relative to it (a
+/// wheel at rest, or creeping, reads a slip near 0 instead of a ratio of two speeds near 0).
+constexpr double kSlipRegularisationSpeed = 0.1;
+
+/**
+ * @brief T8 regularised at low speed: (v_t - v) / max(|v|, |v_t|, v0), clamped to [-1, 1]. Equal
+ *        to longitudinalSlip() whenever the faster of the two speeds exceeds v0 and both have the
+ *        same sign; near rest it goes to 0 with the speeds instead of jumping to +-1.
+ */
+double regularisedSlip(double v_theoretical, double v_actual, double v0 = kSlipRegularisationSpeed);
+
 /// T9: wheel theoretical speed r omega (m/s) for radius r (m) and spin rate omega (rad/s).
 double wheelTheoreticalSpeed(double radius, double omega);
 
@@ -94,6 +105,22 @@ RigidWheelLoad rigidWheelOnBekkerSoil(const SoilParameters& soil, double radius,
  * @throw std::domain_error if the load exceeds what the wheel carries sunk to its axle
  */
 double rigidWheelStaticSinkage(const SoilParameters& soil, double radius, double width, double load);
+
+/**
+ * @brief A rigid wheel rolling at sinkage z0 in Bekker-Wong soil that springs back on unloading
+ *        (SoilParameters::k_unload): the front arc as rigidWheelOnBekkerSoil(), and behind the
+ *        bottom the soil, rebounding from p_max = k z0^n by p_max / k_unload, presses on the rim
+ *        with p_max - k_unload (z0 - z) (Wong's unloading line); that rear pressure carries load
+ *        and pushes the wheel forward. Without k_unload (0) it is rigidWheelOnBekkerSoil().
+ */
+RigidWheelLoad rollingWheelOnBekkerSoil(const SoilParameters& soil, double radius, double width, double sinkage,
+                                        int samples = 4000);
+
+/**
+ * @brief Sinkage (m) at which rollingWheelOnBekkerSoil() carries `load` (N), by bisection.
+ * @throw std::domain_error if the load exceeds what the wheel carries sunk to its axle
+ */
+double rollingWheelSinkage(const SoilParameters& soil, double radius, double width, double load);
 
 /// T13: Bekker's closed form z0 = [3W / ((3 - n)(k_c + b k_phi) sqrt(D))]^(2/(2n+1)), m.
 double bekkerStaticSinkageClosedForm(const SoilParameters& soil, double diameter, double width, double load);
