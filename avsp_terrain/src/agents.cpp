@@ -106,6 +106,35 @@ void bounds(AgentType type, Eigen::Vector3d& lo, Eigen::Vector3d& hi)
 }
 }  // namespace
 
+double agentMass(AgentType type)
+{
+  switch (type)
+  {
+    case AgentType::kDeer:
+      return 100.0;
+    case AgentType::kPedestrian:
+      return 80.0;
+    case AgentType::kTruck:
+      return 10000.0;
+  }
+  return 100.0;
+}
+
+double agentPushForce(AgentType type)
+{
+  const double weight = agentMass(type) * 9.81;
+  switch (type)
+  {
+    case AgentType::kDeer:
+      return weight;
+    case AgentType::kPedestrian:
+      return 0.5 * weight;
+    case AgentType::kTruck:
+      return 0.7 * weight;
+  }
+  return weight;
+}
+
 Eigen::Vector3d agentSize(AgentType type)
 {
   Eigen::Vector3d lo, hi;

@@ -92,14 +92,35 @@ std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette
   return prepared;
 }
 
+/// Below this s x / K the shear's strip means are summed as their series: 1 - K/(s D)(e0 - e1)
+/// would lose a relative (1e-16 / (s x / K)) to cancellation (1e-4 at a creeping contact's slip).
+constexpr double kShearSeriesLimit = 1e-3;
+
 /// Mean of (1 - exp(-s x / K)) over the strip [x0, x1] (meanShearStress() without its
-/// strength factor), from s / K, K / (s (x1 - x0)) and e0 = exp(-s x0 / K), e1 = exp(-s x1 / K)
-/// the caller has; for s x / K -> 0 the bracket vanishes like s: the limit form avoids the
-/// cancellation.
-double meanShearFactor(double s_over_k, double x0, double x1, double scale, double e0, double e1)
+/// strength factor), from a = s / K, K / (s (x1 - x0)) and e0 = exp(-s x0 / K), e1 = exp(-s x1 / K)
+/// the caller has, and its derivative in s (`slope`). For a x1 < kShearSeriesLimit the series
+/// a M1 - a^2 M2 / 2 + a^3 M3 / 6 - a^4 M4 / 24 (M_k the strip's mean of x^k) to rounding.
+double meanShearFactor(double s_over_k, double x0, double x1, double scale, double e0, double e1, double inv_k,
+                       double& slope)
 {
-  if (s_over_k * x1 < 1e-8)
-    return s_over_k * (x0 + x1) * 0.5;
+  const double a = s_over_k;
+  if (a * x1 < kShearSeriesLimit)
+  {
+    double m[5];  // mean of x^k over [x0, x1], k = 1..4
+    const double span = x1 - x0;
+    double p0 = x0, p1 = x1;
+    for (int k = 1; k <= 4; ++k)
+    {
+      p0 *= x0;
+      p1 *= x1;
+      m[k] = span > 0.0 ? (p1 - p0) / ((k + 1) * span) : p1 / x1;
+    }
+    slope = inv_k * (m[1] - a * m[2] + a * a * m[3] / 2.0 - a * a * a * m[4] / 6.0);
+    return a * m[1] - a * a * m[2] / 2.0 + a * a * a * m[3] / 6.0 - a * a * a * a * m[4] / 24.0;
+  }
+  // d/ds of 1 - K / (s D) (e0 - e1): K / (s^2 D) (e0 - e1) + (x0 e0 - x1 e1) / (s D).
+  const double s = a / inv_k;
+  slope = scale / s * (e0 - e1) + (x0 * e0 - x1 * e1) / (s * (x1 - x0));
   return 1.0 - scale * (e0 - e1);
 }
 }  // namespace
@@ -370,6 +391,8 @@ struct DeformableTerrain::Footprint
   double v_theoretical = 0.0;           ///< m/s, T9 or T10
   double travel = 1.0;                  ///< +1 moving forward, -1 backward
   double shear_long = 0.0, shear_lat = 0.0;  ///< shear slip (WheelPatch::shear_slip), footprint frame
+  double swept = 0.0;                   ///< m the footprint travels over this step (|v_long| dt)
+  double ground_slope = 0.0;            ///< a wheel's ground dz/du along its heading
 };
 
 namespace
@@ -384,6 +407,9 @@ void kinematicShearSlip(double v_long, double v_lat, double v_t, double& s_long,
   s_long = (v_t - v_long) / scale;
   s_lat = -v_lat / scale;
 }
+
+/// m/s: below this a wheel is not rolling over its rut (it is pressed, or at rest).
+constexpr double kRollingSpeed = 0.01;
 
 /// Two-point Gauss-Legendre abscissae on [-1, 1].
 constexpr double kGauss = 0.57735026918962576451;
@@ -628,6 +654,11 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
   fp.v_lat = -wheel.velocity.x() * fp.sa + wheel.velocity.y() * fp.ca;
   fp.v_theoretical = wheelTheoreticalSpeed(wheel.radius, wheel.spin_rate);  // T9
   fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) : (wheel.spin_rate < 0 ? -1.0 : 1.0);
+  if (wheel.travel != 0)
+    fp.travel = wheel.travel > 0 ? 1.0 : -1.0;
+  fp.swept = std::abs(fp.v_long) * dt;
+  requireFinite(kFn, "wheel.ground_slope", wheel.ground_slope);
+  fp.ground_slope = wheel.ground_slope;
   if (wheel.shear_slip_given)
   {
     requireFinite(kFn, "wheel.shear_slip", wheel.shear_slip.x());
@@ -690,6 +721,8 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
   fp.v_theoretical = trackTheoreticalSpeed(track.sprocket_pitch, track.sprocket_teeth, track.sprocket_spin_rate);
   fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) :
                                              (track.sprocket_spin_rate < 0 ? -1.0 : 1.0);
+  if (track.travel != 0)
+    fp.travel = track.travel > 0 ? 1.0 : -1.0;
   // The face through the centre with normal n: z = cz - (n_x dx + n_y dy) / n_z.
   fp.slope_u = -(track.normal.x() * fp.ca + track.normal.y() * fp.sa) / track.normal.z();
   fp.slope_v = -(-track.normal.x() * fp.sa + track.normal.y() * fp.ca) / track.normal.z();
@@ -819,6 +852,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       !gridRange(fp.cy - ext_y, fp.cy + ext_y, oy, dy, base_.rows(), j0, j1))
     return;
   const double r = fp.half_length, r2 = r * r;
+  const bool rolling = std::abs(fp.v_long) > kRollingSpeed;
   if (fp.wheel)
     fillWindow(i0 > 0 ? i0 - 1 : 0, std::min(i1 + 1, base_.columns() - 1), j0 > 0 ? j0 - 1 : 0,
                std::min(j1 + 1, base_.rows() - 1));
@@ -895,42 +929,73 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       if (fp.wheel)
       {
         // The point stands for its cell, u +- half a cell along the footprint: the cell carries
-        // the mean pressure of two samples at its quarter points, each with the soil's state
-        // interpolated (bilinearly) between the grid points around it and the rim's own height
-        // there. A rut's floor between points then follows the imprint the points record, and
-        // the wheel's edge cuts a cell where it really does: a 0.1 m grid integrates a wheel's
-        // pressure about as finely as a 0.05 m one, instead of each point taking its whole cell
-        // at its own pressure or nothing.
+        // the mean pressure over it, integrated by two Gauss points on each stretch between the
+        // places where the pressure has a kink (the rim's bottom, behind which the soil has
+        // been pressed already, and where the rim meets the point's surface), each with the
+        // soil's state interpolated (bilinearly) between the grid points around it and the rim's
+        // own height there. A rut's floor between points then follows the imprint the points
+        // record, and the wheel's edge cuts a cell where it really does: a 0.1 m grid
+        // integrates a wheel's pressure about as finely as a fine one, instead of each point
+        // taking its whole cell at its own pressure or nothing.
         bottom = fp.cz - std::sqrt(std::max(r2 - u * u, 0.0));
         p.penetration = std::abs(u) < r ? surface - bottom : 0.0;
         p.deforms = p.penetration > 0.0;
-        const PointLoad at_point = p.deforms ? load(p.penetration) : PointLoad{};
+        // If the rim's bottom passed over the point during the step, the point records the
+        // bottom's depth (not the rim's flank where it is now): a rut's floor then has no ripple
+        // of the step's travel, on which the next wheel would bounce.
+        const double along = u * fp.travel;
+        const double recorded = p.deforms && along <= 0.0 && along + fp.swept >= 0.0 ? surface - (fp.cz - r) :
+                                                                                        p.penetration;
+        const PointLoad at_point = p.deforms ? load(recorded) : PointLoad{};
         p.sigma_point = at_point.sigma;
         p.virgin = at_point.virgin;
+        p.depth = state.plastic + recorded;
         const double gx = ox + i * dx, gy = oy + j * dy;
-        for (const double offset : { -0.25 * along_spacing, 0.25 * along_spacing })
+        const double lo = std::max(u - half_cell, -r), hi = std::min(u + half_cell, r);
+        double breaks[5] = { lo, 0.0, 0.0, 0.0, hi };
+        int count = 1;
+        const double below_axle = fp.cz - surface;
+        const double edge = below_axle > 0.0 && below_axle < r ? std::sqrt(r2 - below_axle * below_axle) : r;
+        for (const double at : { -edge, 0.0, edge })
+          if (at > lo && at < hi)
+            breaks[count++] = at;
+        breaks[count] = hi;
+        std::sort(breaks + 1, breaks + count);
+        for (int k = 0; k < count; ++k)
         {
-          const double us = u + offset;
-          if (!(std::abs(us) < r))
+          const double mid = 0.5 * (breaks[k] + breaks[k + 1]), half = 0.5 * (breaks[k + 1] - breaks[k]);
+          if (!(half > 0.0))
             continue;
-          const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, fp, us * fp.travel < 0.0 ? 1.0 : 0.0);
-          const double pen = w.base - w.plastic - w.displaced - (fp.cz - std::sqrt(r2 - us * us));
-          if (!(pen > 0.0))
-            continue;
-          const PointLoad at = bekker ? soil.bekkerLoad(modulus, w.plastic, pen) :
-                                        soil.simpleLoad(w.plastic, w.plastic + w.displaced, w.sigma_max, pen);
-          p.sigma += 0.5 * at.sigma;
-          p.slope += 0.5 * at.slope;
-          p.unload += 0.5 * at.unload;
-          // The rim's horizontal / vertical push where this sample presses (Bekker compaction).
-          if (bekker)
-            p.rim_slope += 0.5 * at.sigma * std::clamp(us * fp.travel / std::sqrt(r2 - us * us), -kMaxRimSlope, kMaxRimSlope);
+          for (const double us : { mid - kGauss * half, mid + kGauss * half })
+          {
+            const double offset = us - u;
+            // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
+            // wheel at rest (pressed straight down) is the same front and back.
+            const bool behind = rolling && us * fp.travel < 0.0;
+            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, fp, behind ? 1.0 : 0.0);
+            const double pen = w.base - w.plastic - w.displaced - (fp.cz - std::sqrt(r2 - us * us));
+            if (!(pen > 0.0))
+              continue;
+            const PointLoad at = bekker ? soil.bekkerLoad(modulus, w.plastic, pen) :
+                                          soil.simpleLoad(w.plastic, w.plastic + w.displaced, w.sigma_max, pen);
+            const double share = half / along_spacing;  // of the cell, this sample's
+            p.sigma += share * at.sigma;
+            p.slope += share * at.slope;
+            p.unload += share * at.unload;
+            // The rim's push along / across the ground where this sample presses (Bekker
+            // compaction): tan(theta - beta), theta the rim's angle from the vertical, beta the
+            // ground's slope, both along the travel.
+            if (bekker)
+            {
+              const double rim = us * fp.travel / std::sqrt(r2 - us * us), ground = fp.ground_slope * fp.travel;
+              p.rim_slope += share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
+            }
+          }
         }
         if (!(p.sigma > 0.0) && !p.deforms)
           continue;
         if (p.sigma > 0.0)
           p.rim_slope /= p.sigma;
-        const double lo = std::max(u - half_cell, -r), hi = std::min(u + half_cell, r);
         p.along0 = fp.travel > 0.0 ? lo : -hi;
         p.along1 = fp.travel > 0.0 ? hi : -lo;
       }
@@ -958,7 +1023,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       }
       if (!(p.sigma > 0.0))
         continue;
-      p.depth = state.plastic + p.penetration;
+      if (!fp.wheel)
+        p.depth = state.plastic + p.penetration;
       p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0) :
                            soil.elasticSinkage(p.sigma_point, deformation);
       loaded_.push_back(p);
@@ -1046,6 +1112,8 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     {
       compaction += cell / fp.track_length * p.sigma * p.depth / (soil.n + 1.0);
     }
+    if (!(slip_magnitude > 0.0))
+      out.shear_slope += strength * 0.5 * (p.x0 + p.x1) / soil.shear_modulus * cell;  // d|F|/ds at s = 0
     if (slip_magnitude > 0.0)
     {
       const double half = 0.5 * (p.x1 - p.x0);
@@ -1072,18 +1140,22 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       const double inv_k = strip->inv_k;
       const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
       const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
-      const double mean =
-          meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0, e_mid * strip->inv_half_factor);
+      double dmean = 0.0;
+      const double mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0,
+                                          e_mid * strip->inv_half_factor, inv_k, dmean);
       const double tau = strength * mean * cell / slip_magnitude;
       out.longitudinal_force += fp.shear_long * tau;
       out.lateral_force += fp.shear_lat * tau;
+      out.shear_slope += strength * dmean * cell;
     }
   }
   // T12 with the depth of the soil ahead (largest penetration): for one simple soil this is
   // (c + mean sigma tan phi) w z_rel + f A mean sigma. A wheel pressed into Bekker soil at rest
-  // is pushed back as much as forward: no net compaction resistance, never a negative one.
+  // is pushed back as much as forward: no net compaction resistance. Its size, whichever way the
+  // wheel is about to move (at rest the travel's sign is a rounding's), is what the soil resists
+  // with.
   out.resistance_force =
-      bulldozing / total_weight * (2.0 * fp.half_width) * max_penetration + rolling + std::max(compaction, 0.0);
+      bulldozing / total_weight * (2.0 * fp.half_width) * max_penetration + rolling + std::abs(compaction);
 
   if (objects)
     vegetation(fp, deform, *objects, out);

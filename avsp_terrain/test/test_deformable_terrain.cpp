@@ -959,6 +959,18 @@ TEST(DeformableTerrain, ShearFollowsItsSlipAndNeverExceedsTheStrength)
   EXPECT_NEAR(magnitude, janosiTractiveEffort(gravel, track.length * track.width, track.length, given.normal_force, 0.05),
               1e-9 * magnitude);
   EXPECT_LT(magnitude, given.shear_strength);
+  // Its slope in |s|, for the vehicle's implicit shear rows: a finite difference agrees.
+  for (const double scale : { 1.0, 1e-6 })
+  {
+    track.shear_slip = scale * Eigen::Vector2d(0.03, -0.04);
+    const ContactForces at = t.trackContact(track, 0.001, false);
+    track.shear_slip *= 1.0 + 1e-6;
+    const ContactForces further = t.trackContact(track, 0.001, false);
+    const double slope = (std::hypot(further.longitudinal_force, further.lateral_force) -
+                          std::hypot(at.longitudinal_force, at.lateral_force)) /
+                         (1e-6 * 0.05 * scale);
+    EXPECT_NEAR(at.shear_slope, slope, 1e-4 * slope) << "slip " << 0.05 * scale;
+  }
   // Kinematic slip, braked: a locked track sliding forward and sideways still grips sideways
   // (T8 = -1 must not take the lateral force away).
   track.shear_slip_given = false;

@@ -58,6 +58,21 @@ struct AgentBox
  */
 const std::vector<AgentBox>& agentBoxes(AgentType type);
 
+/**
+ * @brief kg, an agent's mass as a body the vehicles meet: a deer 100 kg (a northern white-tailed
+ *        buck; does 40-90 kg, bucks 68-136 kg), a pedestrian 80 kg (US adults average 76-89 kg,
+ *        CDC NHANES 2011-2014), a truck 10 t (a loaded FHWA class 6 medium truck, 8.8-11.8 t).
+ */
+double agentMass(AgentType type);
+
+/**
+ * @brief N, the most an agent pushes with to hold its path (the dynamics drive it along its path
+ *        up to this, so a vehicle can push it aside): a deer its weight, a pedestrian half of it,
+ *        a truck 0.7 of it (a tyre's grip on a road). Assumptions of the right order, not
+ *        measurements.
+ */
+double agentPushForce(AgentType type);
+
 /// Full edges (x, y, z) of the box bounding agentBoxes(type), agent frame, m.
 Eigen::Vector3d agentSize(AgentType type);
 /// Centre of that bounding box in the agent frame, m.

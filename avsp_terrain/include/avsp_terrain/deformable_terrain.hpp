@@ -41,6 +41,14 @@ struct WheelPatch
   /// the soil's displacement, not by a ratio of two speeds near 0).
   Eigen::Vector2d shear_slip = Eigen::Vector2d::Zero();
   bool shear_slip_given = false;
+  /// Which way the contact's leading edge faces (+1 ahead, -1 behind: where the shear
+  /// displacement starts, T11); 0: the way the wheel moves (a caller that keeps it through a
+  /// standstill's tiny reversals keeps the shear from jumping front to back).
+  int travel = 0;
+  /// dz/du of the ground along the heading (+ uphill ahead): Bekker's compaction resistance is
+  /// the rim's push along the ground, so on a slope the rim's angles count from its normal (the
+  /// vertical pressures would otherwise count the slope's own share of the weight as resistance).
+  double ground_slope = 0.0;
 };
 
 /**
@@ -70,6 +78,8 @@ struct TrackPatch
   /// As WheelPatch::shear_slip (longitudinal along heading).
   Eigen::Vector2d shear_slip = Eigen::Vector2d::Zero();
   bool shear_slip_given = false;
+  /// As WheelPatch::travel.
+  int travel = 0;
 };
 
 /// What the soil (and vegetation) does to one wheel or track patch this step. Forces act on the
@@ -89,6 +99,7 @@ struct ContactForces
   /// N: Mohr-Coulomb limit of the loaded soil, sum of (c + sigma tan phi) A: the most its shear
   /// can give in any direction at any slip (T7 at full shear displacement).
   double shear_strength = 0.0;
+  double shear_slope = 0.0;         ///< N per unit slip: d |shear force| / d |shear slip| at this slip (T11)
   double contact_length = 0.0;      ///< m, loaded length along travel (a track: the whole track's)
   double normal_stiffness = 0.0;    ///< N/m, d normal_force / d sinkage pressing deeper (loading)
   double unload_stiffness = 0.0;    ///< N/m, the same coming back up (the soil's elastic part)
