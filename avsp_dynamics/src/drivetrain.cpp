@@ -25,6 +25,7 @@ DriveCommand clampedCommand(const DriveCommand& command)
   out.throttle = clampField(command.throttle, 0.0, 1.0, "throttle");
   out.brake = clampField(command.brake, 0.0, 1.0, "brake");
   out.steering = clampField(command.steering, -1.0, 1.0, "steering");
+  out.reverse = command.reverse;
   return out;
 }
 
@@ -50,6 +51,15 @@ double wheelTorqueAvailable(const DrivetrainSpec& drivetrain, double wheel_speed
   const double governed = drivetrain.gear_ratio * drivetrain.max_speed / radius;
   return drivetrain.efficiency * drivetrain.gear_ratio * engineTorqueLimit(drivetrain, engine_speed) *
          governorFactor(engine_speed, governed);
+}
+
+double driveTorque(const DrivetrainSpec& drivetrain, double throttle, bool reverse, double wheel_speed, double radius)
+{
+  if (!reverse)
+    return throttle * wheelTorqueAvailable(drivetrain, wheel_speed, radius);
+  DrivetrainSpec backwards = drivetrain;
+  backwards.max_speed = drivetrain.reverse_max_speed;
+  return -throttle * wheelTorqueAvailable(backwards, wheel_speed, radius);
 }
 
 AckermannGeometry::AckermannGeometry(const VehicleModel& model)

@@ -1,5 +1,7 @@
 #include "sim_vehicle_base.hpp"
 
+#include <limits>
+
 namespace avsp
 {
 namespace dynamics
@@ -45,75 +47,387 @@ Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Ei
   return (Eigen::Vector3d::UnitZ() - slope_fwd * forward - slope_left * left).normalized();
 }
 
-dJointID addSoilJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double mass, const ContactFrame& frame,
-                      const terrain::ContactForces& soil, double stiffness, double min_slip,
-                      const WorldOptions& options, dJointFeedback* feedback, bool normal_spring)
+Eigen::Vector2d GroundContact::prepare(double v_long, double v_theoretical, double step)
 {
-  const double h = options.step;
-  const double f_n = soil.normal_force;
-  const double kp = std::max({ stiffness, f_n / kMaxVirtualDepth, 1e3 });
-  const double kd = 2.0 * options.contact_damping_ratio * std::sqrt(kp * mass);
+  step_ = step;
+  constexpr double kTravelTurn = 0.05;  // m/s
+  if (std::abs(v_long) > kTravelTurn)
+    travel_ = v_long > 0.0 ? 1 : -1;
+  else if (std::abs(v_theoretical) > kTravelTurn)
+    travel_ = v_theoretical > 0.0 ? 1 : -1;
+  // Implicit relaxation over the step (stable at any speed): u <- (u + h v) / (1 + h D / L).
+  const double speed = std::max(std::abs(v_long), std::abs(v_theoretical));
+  const double length = std::max(relaxation_, kMinRelaxationLength);
+  decay_ = 1.0 / (1.0 + step * speed / length);
+  decayed_ = decay_ * u_;
+  Eigen::Vector2d slip = -decayed_ / std::max(soil_length_, kMinRelaxationLength);
+  const double magnitude = slip.norm();
+  if (magnitude > 1.0)
+    slip /= magnitude;
+  return slip;
+}
 
-  dContact ct{};
-  ct.surface.mode = dContactSoftERP | dContactSoftCFM | dContactMu2 | dContactFDir1 | dContactSlip1 | dContactSlip2;
-  // Normal row = implicit spring (kp) + damper (kd) whose force at the current state is the
-  // soil's: depth = F / kp. Stiff soils (asphalt) stay stable at any step: the solver takes
-  // the stiffness implicitly instead of the step overshooting it.
-  if (normal_spring)
+void GroundContact::reset()
+{
+  u_.setZero();
+  decayed_.setZero();
+  active_ = false;
+  normal_ = firm_normal_ = resistance_ = 0.0;
+}
+
+BrushForce brushForce(const Eigen::Vector2d& u, double normal, const FirmGroundSpec& spec, double friction_peak,
+                      double friction_sliding)
+{
+  BrushForce out;
+  if (!(normal > 0.0))
+    return out;
+  const double length = spec.relaxation_length;
+  const double kappa = -u.x() / length, tan_alpha = -u.y() / length;
+  const double combined = std::min(std::hypot(kappa, tan_alpha), 1.0);
+  const double mu = friction_peak - (friction_peak - friction_sliding) * combined;
+  out.capacity = friction_peak * normal;
+  const double cx = spec.longitudinal_stiffness * normal, cy = spec.cornering_stiffness * normal;
+  const double scale = 3.0 * mu * normal;
+  const double sx = cx * kappa / scale, sy = cy * tan_alpha / scale;
+  const double sigma = std::hypot(sx, sy);
+  // d(sigma_x)/d(u_x) = -C_x / (3 mu F_z L): the force's slope in u, taken at this mu.
+  const double gx = cx / (scale * length), gy = cy / (scale * length);
+  if (sigma < 1.0)
   {
-    ct.surface.soft_erp = h * kp / (h * kp + kd);
-    ct.surface.soft_cfm = 1.0 / (h * kp + kd);
-    ct.geom.depth = f_n / kp;
+    // F = mu F_z q(sigma) (sx, sy), q = 3 - 3 sigma + sigma^2; dF_x/dsx = mu F_z (q + q' sx^2 / sigma).
+    const double q = 3.0 - 3.0 * sigma + sigma * sigma, dq = -3.0 + 2.0 * sigma;
+    out.force = mu * normal * q * Eigen::Vector2d(sx, sy);
+    const double wx = sigma > 0.0 ? sx * sx / sigma : 0.0, wy = sigma > 0.0 ? sy * sy / sigma : 0.0;
+    out.stiffness = mu * normal * Eigen::Vector2d((q + dq * wx) * gx, (q + dq * wy) * gy);
   }
   else
   {
-    // Inert: no push-out, and a compliance so large the row can only take a force of the
-    // order of 1e-3 N per m/s of approach (the exact solver needs its matrix regular).
-    ct.surface.soft_erp = 0.0;
-    ct.surface.soft_cfm = 1e3;
-    ct.geom.depth = 0.0;
+    out.force = mu * normal * Eigen::Vector2d(sx, sy) / sigma;
+    const double s3 = sigma * sigma * sigma;
+    out.stiffness = mu * normal * Eigen::Vector2d(sy * sy / s3 * gx, sx * sx / s3 * gy);
   }
+  return out;
+}
+
+bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double body_mass,
+                             double mass_share, const ContactFrame& frame, const terrain::ContactForces& soil,
+                             const FirmContact& firm, const FirmGroundSpec& firm_spec, const WorldOptions& options,
+                             dJointFeedback* feedback, bool& fault)
+{
+  fault = false;
+  active_ = false;
+  normal_ = firm_normal_ = resistance_ = 0.0;
+  const double h = options.step, zeta = options.contact_damping_ratio;
+  // Normal: the soil's force, and on rigid ground the tyre's (its deflection times its stiffness,
+  // for the share of the footprint there).
+  const double soil_normal = soil.normal_force > 0.0 ? soil.normal_force : 0.0;
+  const bool on_firm = firm.surface && firm.share > 0.0 && firm.depth > 0.0;
+  const double k_firm = on_firm ? firm.share * firm_spec.vertical_stiffness : 0.0;
+  const double firm_normal = on_firm ? k_firm * firm.depth : 0.0;
+  const double f_n = soil_normal + firm_normal;
+  if (!(f_n > 0.0))
+  {
+    reset();
+    return false;
+  }
+  // The soil's implicit stiffness: its loading slope, raised where the (stiffer) unloading line
+  // would be too stiff for the step to follow explicitly (h^2 k / m < 1 on the difference).
+  const double k_load = soil_normal > 0.0 ? std::max(soil.normal_stiffness, 0.0) : 0.0;
+  const double k_soil = soil_normal > 0.0 ? std::max(k_load, soil.unload_stiffness - body_mass / (h * h)) : 0.0;
+  const double kp = std::max({ k_soil + k_firm, f_n / kMaxVirtualDepth, 1e3 });
+  const double kd = 2.0 * zeta * (std::sqrt(k_load * body_mass) + std::sqrt(k_firm * body_mass));
+
+  // Tangential: the soil's shear at the relaxed displacement (the terrain was given it), the
+  // tyre's on rigid ground, their stiffness in u and the strength that bounds them.
+  Eigen::Vector2d force = Eigen::Vector2d::Zero(), stiffness = Eigen::Vector2d::Zero();
+  double capacity = 0.0, soil_length = std::max(soil_length_, kMinRelaxationLength);
+  if (soil_normal > 0.0)
+  {
+    force = Eigen::Vector2d(soil.longitudinal_force, soil.lateral_force);
+    capacity = soil.shear_strength;
+    const double radial = soil.shear_slope / soil_length;  // N/m of displacement, along it
+    const double du = decayed_.norm(), magnitude = force.norm();
+    const double transverse = du > 1e-12 ? magnitude / du : radial;
+    for (int r = 0; r < 2; ++r)
+    {
+      const double along = du > 1e-12 ? decayed_[r] * decayed_[r] / (du * du) : 1.0;
+      stiffness[r] = radial * along + transverse * (1.0 - along);
+    }
+  }
+  if (on_firm)
+  {
+    const BrushForce tyre = brushForce(decayed_, firm_normal, firm_spec, firm.surface->friction_peak,
+                                       firm.surface->friction_sliding);
+    force += tyre.force;
+    stiffness += tyre.stiffness;
+    capacity += tyre.capacity;
+  }
+  if (!force.allFinite() || !stiffness.allFinite() || !std::isfinite(capacity) || !std::isfinite(f_n) ||
+      !std::isfinite(kp) || !std::isfinite(kd))
+  {
+    fault = true;
+    reset();
+    return false;
+  }
+
+  dContact ct{};
+  ct.surface.mode = dContactSoftERP | dContactSoftCFM | dContactMu2 | dContactFDir1 | dContactSlip1 | dContactSlip2 |
+                    dContactMotion1 | dContactMotion2;
+  // Normal row = implicit spring (kp) + damper (kd) whose force at the current state is the
+  // ground's: depth = F / kp. Stiff soils and tyres stay stable at any step: the solver takes
+  // the stiffness implicitly instead of the step overshooting it.
+  ct.surface.soft_erp = h * kp / (h * kp + kd);
+  ct.surface.soft_cfm = 1.0 / (h * kp + kd);
+  ct.geom.depth = f_n / kp;
   for (int a = 0; a < 3; ++a)
   {
     ct.geom.pos[a] = frame.point[a];
     ct.geom.normal[a] = frame.normal[a];
     ct.fdir1[a] = frame.t1[a];
   }
-  // Friction rows: force-dependent slip v = slip * F reproduces the soil's force at the
-  // current slip velocity (slip = |v| / |F|) and, being implicit, can only bring the slip
-  // velocity towards zero within the step, never across it; the bound |F| keeps the row
-  // from giving more than the soil does at this slip (T7's limit). The row takes the soil's
-  // magnitude and always opposes the contact's sliding: shear on a wheel never pushes along
-  // the slip (at near-zero or reversing speeds T8's sign is ill-conditioned; applied as an
-  // explicit force it fed the wheel's spin back on itself within a few steps).
-  const double soil_force[2] = { soil.longitudinal_force, soil.lateral_force };
-  const Eigen::Vector3d dirs[2] = { frame.t1, frame.t2 };
-  double bound[2] = { 0.0, 0.0 }, slip[2] = { 0.0, 0.0 };
+  // Friction rows: F = F(u~) - c (a - 1) u / h - (J a h + c a) v, the force at the relaxed
+  // displacement less its stiffness J and a damper c on du/dt over the step, implicit in the
+  // step's sliding velocity v: ODE's surface motion m and force-dependent slip k with
+  // v = m - k F. The damper acts on the displacement's change, not on v, so steady rolling keeps
+  // the soil's own force; at rest it damps the ground's elastic hold critically (zeta).
+  const double a = decay_, b = decay_ * h;
+  const double magnitude = force.norm();
+  const bool has_direction = magnitude > 1e-9 * capacity;
+  double bound[2], slip[2], motion[2];
   for (int r = 0; r < 2; ++r)
   {
-    // A row bounded by a force far below the load (rounding, no slip) is left out: its
-    // [-bound, bound] box is degenerate for the exact LCP solver.
-    bound[r] = std::abs(soil_force[r]) > 1e-6 * f_n ? std::abs(soil_force[r]) : 0.0;
-    if (bound[r] > 0.0)
-      slip[r] = std::abs(frame.point_velocity.dot(dirs[r])) / bound[r];
+    const double k = std::max(stiffness[r], 1e-6 * f_n / std::max(limit_, kMinRelaxationLength));
+    const double c = 2.0 * zeta * std::sqrt(k * mass_share);
+    slip[r] = 1.0 / (b * k + a * c);
+    motion[r] = (force[r] - c * (a - 1.0) * u_[r] / h) * slip[r];
+    // The strength shared along the force's direction (a friction ellipse; a row never gets
+    // less than 0.3 of it, so a new demand across the force can still be met).
+    bound[r] = capacity * (has_direction ? std::max(std::abs(force[r]) / magnitude, 0.3) : 1.0);
   }
   ct.surface.mu = bound[0];
   ct.surface.mu2 = bound[1];
-  ct.surface.slip1 = std::max(slip[0], min_slip);
-  ct.surface.slip2 = std::max(slip[1], min_slip);
+  ct.surface.slip1 = slip[0];
+  ct.surface.slip2 = slip[1];
+  ct.surface.motion1 = motion[0];
+  ct.surface.motion2 = motion[1];
+  if (!std::isfinite(slip[0]) || !std::isfinite(slip[1]) || !std::isfinite(motion[0]) || !std::isfinite(motion[1]))
+  {
+    fault = true;
+    reset();
+    return false;
+  }
   const dJointID joint = dJointCreateContact(world, contacts, &ct);
   dJointAttach(joint, body, nullptr);
   dJointSetFeedback(joint, feedback);
-  return joint;
+
+  active_ = true;
+  t1_ = frame.t1;
+  t2_ = frame.t2;
+  normal_ = f_n;
+  firm_normal_ = firm_normal;
+  resistance_ = (soil_normal > 0.0 ? soil.resistance_force : 0.0) +
+                (on_firm ? firm.surface->rolling_resistance * firm_normal : 0.0);
+  // Relaxation lengths for the next step: the soil's loaded length, a tyre's own, by load.
+  if (soil_normal > 0.0)
+    soil_length_ = std::max(soil.contact_length, kMinRelaxationLength);
+  relaxation_ = (soil_normal * (soil_normal > 0.0 ? soil_length_ : 0.0) +
+                 firm_normal * (on_firm ? firm_spec.relaxation_length : 0.0)) / f_n;
+  limit_ = std::max(soil_normal > 0.0 ? soil_length_ : 0.0, on_firm ? firm_spec.relaxation_length : 0.0);
+  return true;
 }
 
-void applyResistance(dBodyID body, double mass, double resistance, const Eigen::Vector3d& t1,
-                     const Eigen::Vector3d& velocity, double step)
+void GroundContact::finish(const Eigen::Vector3d& point_velocity)
 {
-  const double v_travel = velocity.dot(t1);
-  const double fade = std::max(kResistanceFadeSpeed, step * resistance / mass);
-  const double r_force = -resistance * std::clamp(v_travel / fade, -1.0, 1.0);
-  dBodyAddForce(body, r_force * t1.x(), r_force * t1.y(), r_force * t1.z());
+  if (!active_)
+    return;
+  const Eigen::Vector2d v(point_velocity.dot(t1_), point_velocity.dot(t2_));
+  u_ = decayed_ + decay_ * step_ * v;
+  const double magnitude = u_.norm();
+  if (magnitude > limit_)
+    u_ *= limit_ / magnitude;  // full slip: the displacement of a sliding contact
+}
+
+namespace
+{
+/// m: a hull plate this far above the ground under its lowest corner is not in contact.
+constexpr double kHullClearanceCheck = 0.05;
+/// Steel (or aluminium) belly plates on pavement: Coulomb friction about 0.5 (an assumption; the
+/// common tables give 0.4-0.6 for metal on concrete), stiff (5 mm under the whole weight).
+constexpr double kHullFriction = 0.5;
+constexpr double kHullDeflectionUnderWeight = 0.005;
+}  // namespace
+
+HullContact::HullContact(const VehicleModel& model, const Eigen::Vector3d& chassis_com)
+  : chassis_com_(chassis_com), total_mass_(model.total_mass)
+{
+  for (const CollisionBox& box : model.collision_boxes)
+  {
+    const Eigen::Matrix3d r = box.pose.linear();
+    const Eigen::Vector3d bottom = box.pose.translation() - 0.5 * box.size.z() * r.col(2);
+    const int along = std::max(1, static_cast<int>(std::lround(box.size.x() / 1.0)));
+    for (int a = 0; a < along; ++a)
+      for (int b = 0; b < 2; ++b)
+      {
+        Plate p;
+        p.length = box.size.x() / along;
+        p.width = 0.5 * box.size.y();
+        p.along = r.col(0);
+        p.across = r.col(1);
+        p.up = r.col(2);
+        p.centre = bottom + (-0.5 * box.size.x() + (a + 0.5) * p.length) * p.along +
+                   (b == 0 ? -0.25 : 0.25) * box.size.y() * p.across;
+        plates_.push_back(p);
+      }
+  }
+  firm_.vertical_stiffness = model.total_mass * 9.81 / kHullDeflectionUnderWeight / std::max<std::size_t>(1, plates_.size());
+  firm_.longitudinal_stiffness = 30.0;
+  firm_.cornering_stiffness = 30.0;
+  firm_.relaxation_length = 0.5;
+  steel_.name = "steel on pavement";
+  steel_.model = terrain::SinkageModel::kRigid;
+  steel_.friction_peak = kHullFriction;
+  steel_.friction_sliding = kHullFriction;
+}
+
+void HullContact::beforeStep(dWorldID world, dJointGroupID contacts, dBodyID chassis,
+                             terrain::DeformableTerrain& terrain, const WorldOptions& options, StepTimes* times,
+                             std::vector<std::string>& warnings, const std::string& vehicle)
+{
+  normal_ = 0.0;
+  const double h = options.step;
+  const Eigen::Matrix3d r = rotationOf(chassis);
+  const Eigen::Vector3d x = vec(dBodyGetPosition(chassis));
+  const Eigen::Vector3d base = x - r * chassis_com_;  // base_link origin
+  for (Plate& p : plates_)
+  {
+    p.contact = false;
+    const Eigen::Vector3d centre = base + r * p.centre;
+    const Eigen::Vector3d up = r * p.up, along = r * p.along, across = r * p.across;
+    if (up.z() < 0.25)
+    {
+      p.ground.reset();  // the hull on its side or roof: not a belly any more
+      continue;
+    }
+    // Cheap rejection: the plate's lowest corner well above the ground there.
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const double su : { -0.5, 0.5 })
+      for (const double sv : { -0.5, 0.5 })
+      {
+        const Eigen::Vector3d c = centre + su * p.length * along + sv * p.width * across;
+        if (const auto g = terrain.height(c.x(), c.y()))
+          lowest = std::min(lowest, c.z() - *g);
+      }
+    if (!(lowest < kHullClearanceCheck))
+    {
+      p.ground.reset();
+      continue;
+    }
+    dVector3 pv;
+    dBodyGetPointVel(chassis, centre.x(), centre.y(), centre.z(), pv);
+    const Eigen::Vector3d velocity = vec(pv);
+    Eigen::Vector3d forward(along.x(), along.y(), 0.0);
+    if (forward.norm() < 1e-6)
+      continue;
+    forward.normalize();
+    ContactFrame frame;
+    frame.normal = groundNormal(terrain, centre, forward, 0.5 * p.length, 0.5 * p.width);
+    frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
+    frame.t2 = frame.normal.cross(frame.t1);
+    frame.point = centre;
+    frame.point_velocity = velocity;
+    terrain::TrackPatch patch;
+    patch.centre = centre;
+    patch.heading = std::atan2(forward.y(), forward.x());
+    patch.length = p.length;
+    patch.width = p.width;
+    patch.sprocket_pitch = 1.0;  // no sprocket: a plate sliding over the ground
+    patch.sprocket_teeth = 1;
+    patch.sprocket_spin_rate = 0.0;
+    patch.velocity = velocity;
+    patch.normal = up;
+    patch.shear_slip = p.ground.prepare(velocity.dot(frame.t1), 0.0, h);
+    patch.shear_slip_given = true;
+    patch.travel = p.ground.travel();
+    const auto start = times ? Clock::now() : Clock::time_point();
+    const terrain::ContactForces soil = terrain.trackContact(patch, h, options.deform_terrain);
+    if (times)
+      times->contact += seconds(start, Clock::now());
+    FirmContact firm;
+    if (soil.rigid_soil >= 0 && soil.rigid_share > 0.0)
+    {
+      firm.surface = &steel_;
+      firm.share = soil.rigid_share;
+      if (const auto g = terrain.height(centre.x(), centre.y()))
+        firm.depth = (*g - centre.z()) * frame.normal.z();
+    }
+    bool fault = false;
+    p.contact = p.ground.addJoint(world, contacts, chassis, total_mass_, total_mass_ / plates_.size(), frame, soil,
+                                  firm, firm_, options, &p.feedback, fault);
+    if (fault && !p.fault_reported)
+    {
+      p.fault_reported = true;
+      warnings.push_back("vehicle '" + vehicle +
+                         "': a hull plate's ground contact gave a non-finite force; it was left out of that step "
+                         "(reported once)");
+    }
+    if (!p.contact)
+      continue;
+    p.point = centre;
+    normal_ += p.ground.normalForce();
+    // Compaction and bulldozing ahead of the plate, where it acts (the belly, not the centre of mass).
+    const double fade = std::max(kResistanceFadeSpeed, h * p.ground.resistance() / total_mass_);
+    const double push = -p.ground.resistance() * std::clamp(velocity.dot(frame.t1) / fade, -1.0, 1.0);
+    dBodyAddForceAtPos(chassis, push * frame.t1.x(), push * frame.t1.y(), push * frame.t1.z(), centre.x(), centre.y(),
+                       centre.z());
+  }
+}
+
+void HullContact::afterStep(dBodyID chassis, bool stepped)
+{
+  if (!stepped)
+    return;
+  for (Plate& p : plates_)
+  {
+    if (!p.contact)
+      continue;
+    dVector3 pv;
+    dBodyGetPointVel(chassis, p.point.x(), p.point.y(), p.point.z(), pv);
+    p.ground.finish(vec(pv));
+  }
+}
+
+void ResistanceMotor::set(dWorldID world, dBodyID body, double resistance, const Eigen::Vector3d& t1, double cfm)
+{
+  if (!(resistance > 0.0))
+  {
+    off();
+    return;
+  }
+  if (!motor_)
+  {
+    motor_ = dJointCreateLMotor(world, nullptr);
+    dJointAttach(motor_, body, nullptr);
+    dJointSetLMotorNumAxes(motor_, 1);
+    dJointSetLMotorParam(motor_, dParamVel, 0.0);
+    dJointSetFeedback(motor_, &feedback_);
+  }
+  dJointEnable(motor_);
+  on_ = true;
+  dJointSetLMotorAxis(motor_, 0, 0, t1.x(), t1.y(), t1.z());
+  dJointSetLMotorParam(motor_, dParamFMax, resistance);
+  dJointSetLMotorParam(motor_, dParamCFM, cfm);
+}
+
+void ResistanceMotor::off()
+{
+  if (motor_)
+    dJointDisable(motor_);
+  on_ = false;
+}
+
+double ResistanceMotor::applied(const Eigen::Vector3d& t1) const
+{
+  return on_ ? vec(feedback_.f1).dot(t1) : 0.0;
 }
 
 }  // namespace sim

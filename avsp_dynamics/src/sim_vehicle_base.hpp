@@ -38,13 +38,28 @@ public:
   /// Actuator torques, explicit forces and this step's soil contact joints (into `contacts`,
   /// emptied by World after the step); adds the soil contacts' times to `times` if given.
   virtual void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times) = 0;
-  /// Reads the bodies back into state(); @throw std::runtime_error if the physics diverged
-  virtual void afterStep(double time) = 0;
+  /**
+   * @brief Reads the bodies back into state().
+   * @param stepped true after an ODE step (the contacts' shear states advance), false when the
+   *        bodies were set from outside (World::setVelocity)
+   * @throw std::runtime_error if the physics diverged
+   */
+  virtual void afterStep(double time, bool stepped) = 0;
   virtual const VehicleState& state() const = 0;
   /// The bodies that collide with obstacles and other vehicles (obstacle_collision.hpp).
   virtual VehicleBodies collisionBodies() const = 0;
   /// What obstacles and other vehicles did over the last step, into state().
   virtual void setCollisionReport(const CollisionReport& report) = 0;
+  /// Warnings raised since the last call (a contact's fault once per contact), oldest first.
+  std::vector<std::string> takeWarnings()
+  {
+    std::vector<std::string> out;
+    out.swap(warnings_);
+    return out;
+  }
+
+protected:
+  std::vector<std::string> warnings_;
 };
 
 /**
@@ -62,15 +77,15 @@ using Clock = std::chrono::steady_clock;
 
 static_assert(sizeof(dReal) == sizeof(double), "avsp_dynamics needs ODE built in double precision (libode-dev)");
 
-/// m: the stiffness probe lowers the wheel (or track segment) this much (far above float
-/// rounding of the terrain's state, ~1e-9 m, far below any sinkage that matters).
-constexpr double kProbeDepth = 1e-5;
-/// m: the normal row's virtual penetration (soil force / stiffness) never exceeds this, so a
-/// contact whose probe found no stiffness (no new grid point loaded) still acts as a spring.
+/// m: a contact's normal row's virtual penetration (normal force / stiffness) never exceeds
+/// this, so a contact whose soil reports little stiffness (a point just entering) still acts as
+/// a spring.
 constexpr double kMaxVirtualDepth = 0.02;
-/// m/s: resistance (T12) is a kinetic force; below this speed it fades linearly to 0 so a
-/// wheel at rest is not pushed back and forth by a force whose direction flips each step.
+/// m/s: a hull plate's resistance (explicit, at the plate) fades linearly to 0 below this speed
+/// so a hull at rest is not pushed back and forth by a force whose direction flips each step.
 constexpr double kResistanceFadeSpeed = 0.1;
+/// m: the shortest relaxation length a contact's shear uses (a wheel barely touching).
+constexpr double kMinRelaxationLength = 0.05;
 
 inline Eigen::Vector3d vec(const dReal* v)
 {
@@ -121,30 +136,6 @@ struct LumpedBody
 /// Mass, centre of mass and inertia (parallel-axis theorem) of `bodies`; mass 0 if none.
 LumpedBody lump(const std::vector<const Body*>& bodies);
 
-/// Reuse of a contact's soil stiffness probe (see soilContact in README.md): a probe costs as
-/// much as the contact, so it is kept while the contact keeps its load (within 10 %) for up
-/// to `interval` steps.
-struct StiffnessProbe
-{
-  double stiffness = 0.0;     ///< N/m, 0 = none
-  double probed_force = 0.0;  ///< N, soil normal force when probed
-  int steps_since_probe = 0;
-
-  /// Counts this step; true when a new probe is due at soil force f_n (N).
-  bool due(double f_n, int interval)
-  {
-    ++steps_since_probe;
-    return stiffness <= 0.0 || steps_since_probe >= interval || std::abs(f_n - probed_force) > 0.1 * probed_force;
-  }
-  /// Records a probe: soil force `probed` (N) kProbeDepth deeper than the contact's f_n.
-  void record(double probed, double f_n)
-  {
-    stiffness = (probed - f_n) / kProbeDepth;
-    probed_force = f_n;
-    steps_since_probe = 0;
-  }
-};
-
 /// One running-gear contact's frame this step (world axes).
 struct ContactFrame
 {
@@ -166,29 +157,180 @@ struct ContactFrame
 Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Eigen::Vector3d& centre,
                              const Eigen::Vector3d& forward, double ahead, double beside);
 
-/**
- * @brief Hands one contact's soil forces to ODE as a contact joint on `body` (README.md, "Soil
- *        contact"): the normal force as an implicit spring-damper of stiffness kp (the soil's,
- *        at least f_n / kMaxVirtualDepth and 1e3 N/m) whose force at the current state is the
- *        soil's; traction and lateral force as friction rows bounded by the soil's forces, with
- *        force-dependent slip = the sliding velocity per newton (never below min_slip).
- * @param mass kg, the body's: the damper is contact_damping_ratio of its mode on kp
- * @param normal_spring false: the joint's normal row is left inert (a damper of 1e-3 N s/m):
- *        the caller carries the normal force by other means (tracked_vehicle.cpp's hold on
- *        rigid-plastic soil); the friction rows are the same
- * @return the contact joint (in `contacts`), with `feedback` attached
- */
-dJointID addSoilJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double mass, const ContactFrame& frame,
-                      const terrain::ContactForces& soil, double stiffness, double min_slip,
-                      const WorldOptions& options, dJointFeedback* feedback, bool normal_spring = true);
+/// What a running gear meets on rigid ground (a soil of model rigid): the surface's adhesion and
+/// rolling resistance, and how far its tyre (or pad) is pressed into it.
+struct FirmContact
+{
+  const terrain::SoilParameters* surface = nullptr;  ///< the rigid soil, nullptr: none under it
+  double share = 0.0;  ///< of the footprint on it (DeformableTerrain's rigid_share)
+  double depth = 0.0;  ///< m, tyre deflection: radius - distance from centre to the ground plane
+};
 
 /**
- * @brief Resistance (T12) as a force at the body's centre opposing its travel along t1: the
- *        soil's compaction and bulldozing pressures, faded to 0 below kResistanceFadeSpeed (or
- *        the speed the force would reverse within a step) so that a body at rest is not pushed.
+ * @brief One running gear's contact with the ground (a wheel, or the track under one road
+ *        wheel): the shear's transient state and what ODE gets each step (README.md, "Ground
+ *        contact"). Used as prepare() -> terrain contact -> addJoint() -> ODE step -> finish().
+ *
+ * Tangentially the gear's surface is displaced u (m, in the contact's t1, t2) relative to the
+ * ground it grips, relaxing as du/dt = v - (D / L) u (v the contact point's sliding velocity,
+ * D = max(|v_long|, |v_theoretical|) the speed at which fresh ground enters, L the relaxation
+ * length: the soil's loaded length, a tyre's own on rigid ground). The force is the soil's shear
+ * at slip -u / L (T7, T11; the terrain integrates it) plus, on rigid ground, a brush tyre's at
+ * the same displacement; in steady rolling u / L is the slip (T8), at rest u is a displacement
+ * the ground resists elastically, so a braked vehicle holds on a slope up to the soil's
+ * strength instead of creeping at a ratio of two speeds near 0. Each friction row is that force
+ * linearised in u and made implicit in the step's velocity (ODE's surface motion and
+ * force-dependent slip), bounded by the Mohr-Coulomb strength c A + N tan(phi) (+ mu N on
+ * rigid ground), shared between the rows along the force's direction (a friction ellipse).
  */
-void applyResistance(dBodyID body, double mass, double resistance, const Eigen::Vector3d& t1,
-                     const Eigen::Vector3d& velocity, double step);
+class GroundContact
+{
+public:
+  /// The shear slip (longitudinal, lateral; force direction) for the terrain this step, after
+  /// relaxing the displacement over the step at travel speed v_long and running-gear speed v_t.
+  Eigen::Vector2d prepare(double v_long, double v_theoretical, double step);
+
+  /**
+   * @brief This step's contact joint on `body`: the soil's normal force (implicit spring of the
+   *        soil's stiffness) and, on rigid ground, the tyre's (its vertical stiffness); the
+   *        friction rows as above. Also applies the rolling and bulldozing resistance.
+   * @param body_mass kg, the wheel's (or road wheel's): the normal row's damping
+   * @param mass_share kg, the share of the vehicle this contact holds tangentially
+   * @return false (no joint, displacement forgotten) when nothing carries the gear, or when a
+   *         force came out non-finite (`fault` set; nothing reaches ODE)
+   */
+  bool addJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double body_mass, double mass_share,
+                const ContactFrame& frame, const terrain::ContactForces& soil, const FirmContact& firm,
+                const FirmGroundSpec& firm_spec, const WorldOptions& options, dJointFeedback* feedback, bool& fault);
+
+  /// After the step: the displacement from the contact point's velocity then (m/s, world).
+  void finish(const Eigen::Vector3d& point_velocity);
+  /// Off the ground: the displacement is gone.
+  void reset();
+
+  const Eigen::Vector2d& displacement() const { return u_; }
+  /// +1 or -1: the way the contact's leading edge faces (for the terrain's patch), kept through
+  /// a standstill: it turns only when the gear moves the other way faster than 5 cm/s.
+  int travel() const { return travel_; }
+  double normalForce() const { return normal_; }       ///< N, soil and tyre, this step
+  double firmNormalForce() const { return firm_normal_; }  ///< N, the tyre's part
+  double resistance() const { return resistance_; }    ///< N, applied at the centre this step
+
+private:
+  Eigen::Vector2d u_ = Eigen::Vector2d::Zero();        ///< m, displacement after the last step
+  Eigen::Vector2d decayed_ = Eigen::Vector2d::Zero();  ///< m, relaxed over this step (before the gear moves)
+  double decay_ = 1.0;         ///< this step's relaxation factor 1 / (1 + h D / L)
+  double step_ = 0.0;          ///< s
+  double soil_length_ = 0.0;   ///< m, the soil's relaxation length (its loaded length last step)
+  double relaxation_ = 0.0;    ///< m, this contact's relaxation length (soil and tyre, by load)
+  double limit_ = 0.0;         ///< m, largest displacement (full slip)
+  bool active_ = false;        ///< a joint was made this step
+  int travel_ = 1;
+  Eigen::Vector3d t1_ = Eigen::Vector3d::UnitX(), t2_ = Eigen::Vector3d::UnitY();
+  double normal_ = 0.0, firm_normal_ = 0.0, resistance_ = 0.0;
+};
+
+/// A brush tyre's force (N, force direction) at displacement u (m) on rigid ground under normal
+/// load `normal` (N), and its stiffness diagonal (N/m, >= 0) in the two rows.
+struct BrushForce
+{
+  Eigen::Vector2d force = Eigen::Vector2d::Zero();
+  Eigen::Vector2d stiffness = Eigen::Vector2d::Zero();
+  double capacity = 0.0;  ///< N, peak adhesion x load
+};
+/**
+ * @brief The brush model with combined slip (Pacejka, Tire and Vehicle Dynamics, ch. 3; Fiala):
+ *        theoretical slips kappa = -u_x / L, tan(alpha) = -u_y / L, sigma = |(C_x kappa,
+ *        C_y tan alpha)| / (3 mu F_z), F = mu F_z (3 sigma - 3 sigma^2 + sigma^3) up to full
+ *        sliding at sigma = 1, along (C_x kappa, C_y tan alpha); mu falls linearly from the
+ *        peak to the sliding coefficient as the combined slip goes from 0 to 1 (Fiala's).
+ */
+BrushForce brushForce(const Eigen::Vector2d& u, double normal, const FirmGroundSpec& spec, double friction_peak,
+                      double friction_sliding);
+
+/**
+ * @brief The hull's underside against the ground: the bottom face of every chassis collision box
+ *        (URDF <collision>, model.collision_boxes), split into plates about 1 m long and half the
+ *        face wide, each a sliding plate in the soil contact (terrain.trackContact with no
+ *        sprocket: Bekker pressure, Mohr-Coulomb shear, ruts where the belly drags) or on rigid
+ *        ground a stiff steel-on-pavement contact, through GroundContact like the running gear.
+ *        A vehicle sunk to its belly, or high-centred on a ridge, rests on it and is stopped by
+ *        its friction. Plates more than 5 cm above the ground cost two height lookups a step.
+ */
+class HullContact
+{
+public:
+  /// @param chassis_com m, the chassis body's origin (its centre of mass) in base_link
+  HullContact(const VehicleModel& model, const Eigen::Vector3d& chassis_com);
+  /// This step's plate contacts on `chassis` (joints into `contacts`).
+  void beforeStep(dWorldID world, dJointGroupID contacts, dBodyID chassis, terrain::DeformableTerrain& terrain,
+                  const WorldOptions& options, StepTimes* times, std::vector<std::string>& warnings,
+                  const std::string& vehicle);
+  /// After the step (stepped: after an ODE step): the plates' shear states.
+  void afterStep(dBodyID chassis, bool stepped);
+  /// N, the ground's normal force on the hull this step (0: the hull touches nothing).
+  double normalForce() const { return normal_; }
+
+private:
+  struct Plate
+  {
+    Eigen::Vector3d centre;  ///< m, on the box's bottom face, base_link at rest
+    Eigen::Vector3d along;   ///< unit, the box's x in base_link
+    Eigen::Vector3d across;  ///< unit, the box's y in base_link
+    Eigen::Vector3d up;      ///< unit, into the box from its bottom face, base_link
+    double length = 0.0, width = 0.0;  ///< m
+    GroundContact ground;
+    bool contact = false;
+    bool fault_reported = false;
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< m, world, where the contact acts this step
+    dJointFeedback feedback{};
+  };
+  std::vector<Plate> plates_;
+  Eigen::Vector3d chassis_com_;
+  double total_mass_ = 0.0;
+  double normal_ = 0.0;
+  FirmGroundSpec firm_;             ///< steel on pavement
+  terrain::SoilParameters steel_;   ///< the friction of steel on pavement (a rigid "soil")
+};
+
+/**
+ * @brief Resistance (T12, Bekker's compaction, a tyre's rolling resistance) on a running gear:
+ *        a linear motor on the body's centre along the travel t1, holding its velocity there at
+ *        0 with at most the resistance: implicit, so the soil's resistance stops a vehicle that
+ *        pushes less than it (a vehicle stalled on a slope does not creep on a faded force) and
+ *        opposes its travel in full when it moves, with no chatter at rest. Enabled only while
+ *        the resistance is > 0 (it joins the body's island).
+ */
+class ResistanceMotor
+{
+public:
+  ResistanceMotor() = default;
+  ResistanceMotor(const ResistanceMotor&) = delete;
+  ResistanceMotor& operator=(const ResistanceMotor&) = delete;
+  ResistanceMotor(ResistanceMotor&& other) noexcept : motor_(other.motor_), on_(other.on_)
+  {
+    other.motor_ = nullptr;
+    if (motor_)
+      dJointSetFeedback(motor_, &feedback_);
+  }
+  ~ResistanceMotor()
+  {
+    if (motor_)
+      dJointDestroy(motor_);
+  }
+  /// This step's resistance (N, >= 0) on `body` along unit t1 (world); `cfm` keeps the exact
+  /// solver's matrix regular (m/s per N at which it may creep when redundant).
+  void set(dWorldID world, dBodyID body, double resistance, const Eigen::Vector3d& t1, double cfm);
+  void off();
+  /// N along t1 (the last set()'s) the motor applied over the last step (negative: against
+  /// the travel), 0 when off.
+  double applied(const Eigen::Vector3d& t1) const;
+
+private:
+  dJointID motor_ = nullptr;
+  bool on_ = false;
+  dJointFeedback feedback_{};
+};
 
 /**
  * @brief Speed servo of one drive side (a skid-steer side's motor, a track's sprocket): PI,

@@ -49,11 +49,18 @@ StuckDetector::StuckDetector(double slip_threshold, double hold_time)
     throw std::invalid_argument("StuckDetector: hold_time must be > 0 s, got " + std::to_string(hold_time));
 }
 
+bool highCentred(const VehicleModel& model, const VehicleState& state)
+{
+  const Eigen::Vector3d v = state.linear_velocity;
+  return state.hull_normal_force > kHighCentredLoadShare * model.total_mass * 9.81 &&
+         std::hypot(v.x(), v.y()) < kHighCentredSpeed;
+}
+
 bool StuckDetector::update(const VehicleModel& model, const VehicleState& state, double time)
 {
   double slip = 0.0;
-  const bool spinning =
-      state.command.throttle > 0.0 && meanDrivenSlip(model, state, slip) && slip >= slip_threshold_;
+  const bool spinning = state.command.throttle > 0.0 && ((meanDrivenSlip(model, state, slip) && slip >= slip_threshold_) ||
+                                                        highCentred(model, state));
   if (!spinning)
     since_ = -1.0;
   else if (since_ < 0.0)

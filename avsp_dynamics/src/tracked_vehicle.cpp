@@ -32,12 +32,9 @@ constexpr double kAttachDampingRatio = 0.5;
 constexpr double kStopStiffnessFactor = 20.0;
 /// m/s or rad/s: velocity error the constraint regularizations allow at full load (as wheeled).
 constexpr double kRegularization = 1e-5;
-/// m/s: a segment on rigid-plastic soil leaving its rut faster than this is not held (the soil
-/// does not follow a rising plate); slower, it rests on the rut's floor.
-constexpr double kSeparationSpeed = 0.01;
-/// m/s: below this ground and belt speed a segment is at rest: its traction rows may take up
-/// to the soil's full shear strength (fading to T7's slip-dependent force at this speed).
-constexpr double kRestSpeed = 0.05;
+/// m/s: the running gear's internal resistance is kinetic: it fades in linearly below this belt
+/// speed (a held track feels none).
+constexpr double kInternalResistanceFadeSpeed = 0.05;
 
 /// The hull's pose and velocity at the start of a step (world axes).
 struct Hull
@@ -71,7 +68,7 @@ public:
 
   void setCommand(const DriveCommand& command) override { command_ = command; }
   void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times) override;
-  void afterStep(double time) override { readState(time, true); }
+  void afterStep(double time, bool stepped) override { readState(time, stepped); }
   const VehicleState& state() const override { return state_; }
   VehicleBodies collisionBodies() const override;
   void setCollisionReport(const CollisionReport& r) override
@@ -117,18 +114,14 @@ private:
     double spin_angle = 0.0;      ///< rad, relative to the arm
     Arm arm_state{};              ///< where it is on its arm, at the start of this step
     double spin = 0.0;            ///< rad/s about the axle relative to the hull, this step
-    // Soil contact this step.
+    // Ground contact of its track segment this step.
     bool contact = false;
     ContactFrame frame;
     terrain::ContactForces soil;
     dJointFeedback feedback{};
-    StiffnessProbe probe;
-    dJointID hold = nullptr;       ///< linear motor along the normal: rigid-plastic soil's floor
-    bool holding = false;          ///< the floor carries the wheel this step
-    bool rigid_plastic = false;    ///< rigid-plastic soil under its segment this step
-    dJointFeedback hold_feedback{};
-    double rest_strength = 0.0;    ///< N, the soil's shear strength under the segment at rest (0: none)
-    int rest_steps = 0;            ///< steps since it was read
+    GroundContact ground;          ///< the segment's shear state and joint (sim_vehicle_base.hpp)
+    ResistanceMotor resistance;    ///< the ground's resistance at the wheel centre
+    bool fault_reported = false;   ///< a non-finite contact force was reported once
   };
 
   struct Side
@@ -147,6 +140,7 @@ private:
     double brake_limit = 0.0;      ///< N m at the sprocket this step
     double sprocket_angle = 0.0, idler_angle = 0.0;  ///< rad
     double belt_speed = 0.0;       ///< m/s, the belt relative to the hull this step, + forward drive
+    double internal_resistance = 0.0;  ///< N, the running gear's losses this step
   };
 
   Arm armOf(const RoadWheel& w, const Hull& hull) const;
@@ -169,30 +163,8 @@ private:
   double engine_speed_ = 0.0, engine_torque_ = 0.0;
   DriveCommand command_;
   VehicleState state_;
+  std::unique_ptr<HullContact> hull_;
 };
-
-/// True when a rigid-plastic soil (Bekker's law: nothing springs back) lies under the patch's
-/// centre or one of its corners.
-bool rigidPlasticUnder(const terrain::DeformableTerrain& terrain, const terrain::TrackPatch& patch)
-{
-  const auto& palette = terrain.palette();
-  if (palette.size() == 1)
-    return palette[0].model == terrain::SinkageModel::kBekker;
-  const terrain::ElevationGrid& grid = terrain.base();
-  const double ca = std::cos(patch.heading), sa = std::sin(patch.heading);
-  const double a = 0.5 * patch.length, b = 0.5 * patch.width;
-  const double offsets[5][2] = { { 0.0, 0.0 }, { a, b }, { a, -b }, { -a, b }, { -a, -b } };
-  for (const auto& o : offsets)
-  {
-    const double x = patch.centre.x() + o[0] * ca - o[1] * sa, y = patch.centre.y() + o[0] * sa + o[1] * ca;
-    const double i = std::round((x - grid.originX()) / grid.dx()), j = std::round((y - grid.originY()) / grid.dy());
-    if (i < 0.0 || j < 0.0 || i >= static_cast<double>(grid.columns()) || j >= static_cast<double>(grid.rows()))
-      continue;
-    if (terrain.soil(static_cast<std::size_t>(i), static_cast<std::size_t>(j)).model == terrain::SinkageModel::kBekker)
-      return true;
-  }
-  return false;
-}
 
 const Body* findBody(const VehicleModel& m, const std::string& link)
 {
@@ -289,6 +261,7 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
     throw ConfigError(model_.urdf_path + ": no link other than the road wheels has mass: the hull would be massless");
   chassis_mass_ = hull.mass;
   chassis_com_ = hull.com;
+  hull_ = std::make_unique<HullContact>(model_, chassis_com_);
 
   const double h = options_.step;
   const Eigen::Matrix3d rot = pose.linear();
@@ -357,12 +330,6 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
       setRotation(w.body, rot);
       // Finite rotation about the axle keeps a fast-spinning wheel true (as wheeled).
       dBodySetFiniteRotationMode(w.body, 1);
-      // The rut floor's hold on rigid-plastic soil (soilContact); no row while its limit is 0.
-      w.hold = dJointCreateLMotor(world_, nullptr);
-      dJointAttach(w.hold, w.body, nullptr);
-      dJointSetLMotorNumAxes(w.hold, 1);
-      dJointSetLMotorParam(w.hold, dParamFMax, 0.0);
-      dJointSetFeedback(w.hold, &w.hold_feedback);
     }
     // The belt turns its road wheels at one speed: an unbounded angular motor between
     // neighbours about the axle, with the same tiny compliance as the wheeled couplings.
@@ -429,12 +396,8 @@ TrackedVehicle::~TrackedVehicle()
     if (side.brake)
       dJointDestroy(side.brake);
     for (RoadWheel& w : side.wheels)
-    {
-      if (w.hold)
-        dJointDestroy(w.hold);
       if (w.body)
         dBodyDestroy(w.body);
-    }
   }
   if (chassis_)
     dBodyDestroy(chassis_);
@@ -536,6 +499,8 @@ void TrackedVehicle::updateDrivetrain(const Hull& hull)
   const auto fractions = trackedSides(command_.throttle, command_.steering,
                                       std::min(1.0, kPivotTrackSpeed / d.max_speed));
   const double fraction[2] = { fractions.first, fractions.second };
+  // Reverse: both tracks backwards at up to reverse_max_speed (a pivot turn is the same).
+  const double gear = command_.reverse && command_.throttle > 0.0 ? -d.reverse_max_speed : d.max_speed;
   // Sprocket rad/s relative to the hull.
   const double speed[2] = { sides_[0].belt_speed / sprocket_radius_, sides_[1].belt_speed / sprocket_radius_ };
   // One engine through the gear ratio drives both sprockets: it turns with the faster one and
@@ -558,13 +523,22 @@ void TrackedVehicle::updateDrivetrain(const Hull& hull)
     {
       // Speed servo at the sprocket on the track's rotating inertia seen there.
       const double inertia = side.spin_inertia * to_wheel * to_wheel;
-      torque = side.servo.torque(fraction[s] * d.max_speed / sprocket_radius_ - speed[s], inertia, available, h);
+      torque = side.servo.torque(fraction[s] * (command_.throttle > 0.0 ? gear : d.max_speed) / sprocket_radius_ -
+                                     speed[s],
+                                 inertia, available, h);
     }
     side.sprocket_torque = torque;
     side.brake_limit = command_.brake * model_.brakes.max_torque;
     engine_torque_ += std::abs(torque) / (d.efficiency * d.gear_ratio);
+    // The running gear's own losses (pins, road wheels, idler): against the belt's motion
+    // relative to the hull, at the road wheels (reaction on the hull).
+    const double internal = 0.5 * model_.total_mass * options_.gravity *
+                            (model_.track.internal_resistance +
+                             model_.track.internal_resistance_per_speed * std::abs(side.belt_speed)) *
+                            std::clamp(side.belt_speed / kInternalResistanceFadeSpeed, -1.0, 1.0);
+    side.internal_resistance = std::abs(internal);
     for (RoadWheel& w : side.wheels)
-      w.drive_torque = torque * to_wheel / static_cast<double>(side.wheels.size());
+      w.drive_torque = (torque * to_wheel - internal * side.radius) / static_cast<double>(side.wheels.size());
     for (dJointID j : side.chain)
       dJointSetAMotorAxis(j, 0, 0, axle.x(), axle.y(), axle.z());
     // Brake: the front road wheel (hence the chain) held still relative to the hull.
@@ -587,11 +561,6 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   const double h = options_.step;
   w.contact = false;
   w.soil = terrain::ContactForces();
-  if (w.holding)
-  {
-    dJointSetLMotorParam(w.hold, dParamFMax, 0.0);
-    w.holding = false;
-  }
   const Eigen::Vector3d centre = vec(dBodyGetPosition(w.body));
   const Eigen::Vector3d velocity = vec(dBodyGetLinearVel(w.body));
   const Eigen::Vector3d omega = vec(dBodyGetAngularVel(w.body));
@@ -599,19 +568,29 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   dBodySetFiniteRotationAxis(w.body, axle.x(), axle.y(), axle.z());
   Eigen::Vector3d forward = axle.cross(Eigen::Vector3d::UnitZ());
   if (forward.norm() < 0.3)
-    return;  // hull on its side: the terrain's flat track patch does not apply
+  {
+    w.ground.reset();
+    w.resistance.off();
+    return;  // hull on its side: the terrain's track patch does not apply
+  }
   forward.normalize();
 
-  // The segment under this wheel: the track's flat ground face at the wheel's lowest point,
-  // moving with the wheel centre (as a wheel's patch), driven at the belt speed the wheel's
-  // spin relative to the hull gives (as a sprocket rate, T10: the belt runs relative to the
-  // hull). A braked track at rest then has a theoretical speed of 0 and skids (T8) as soon as
-  // it moves. (With the world spin, or with the hull's velocity at the ground line, the hull's
-  // pitch rate entered both speeds alike and left T8 and the slip angle near 0/0 on a slope:
-  // traction bounds flickered and the braked carrier crept.)
+  // The segment under this wheel lies on the ground: a face at the wheel's lowest point along
+  // the ground's normal (beside the track's rut), tilted with it, so on a slope it is pressed
+  // evenly instead of digging its uphill end in. It moves with the wheel centre and is driven
+  // at the belt speed the wheel's spin relative to the hull gives (T10: the belt runs relative
+  // to the hull); the contact's rows act at the wheel's lowest point, whose velocity is the
+  // hull's there less the belt speed: the belt's slip on the ground.
   const double radius = w.spec->radius;
+  ContactFrame& frame = w.frame;
+  frame.normal = groundNormal(terrain, centre, forward, 0.5 * side.segment_length,
+                              0.5 * model_.track.shoe_width + 0.5 * radius);
+  frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
+  frame.t2 = frame.normal.cross(frame.t1);
+  frame.point = centre - radius * frame.normal;
+  frame.point_velocity = velocity + omega.cross(frame.point - centre);
   terrain::TrackPatch patch;
-  patch.centre = centre - radius * Eigen::Vector3d::UnitZ();
+  patch.centre = frame.point;
   patch.heading = std::atan2(forward.y(), forward.x());
   patch.length = side.segment_length;
   patch.width = model_.track.shoe_width;
@@ -621,128 +600,41 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   patch.velocity = velocity;
   patch.track_length = side.contact_length;
   patch.segment_offset = w.segment_offset;
+  patch.normal = frame.normal.z() >= 0.25 ? frame.normal : Eigen::Vector3d::UnitZ();
+  patch.shear_slip = w.ground.prepare(velocity.dot(frame.t1), side.belt_speed, h);
+  patch.shear_slip_given = true;
+  patch.travel = w.ground.travel();
   const auto start = times ? Clock::now() : Clock::time_point();
   w.soil = terrain.trackContact(patch, h, options_.deform_terrain);
-  const auto contacted = times ? Clock::now() : Clock::time_point();
   if (times)
-    times->contact += seconds(start, contacted);
-  const bool touching = w.soil.contact_points > 0 && w.soil.normal_force > 0.0;
-  w.rigid_plastic = rigidPlasticUnder(terrain, patch);
-  if (!touching && !w.rigid_plastic)
-  {
-    w.probe.stiffness = 0.0;  // airborne: the next touchdown probes afresh
-    return;
-  }
-  if (w.rigid_plastic)
-  {
-    // Rigid-plastic soil (Bekker's law: nothing springs back). A flat segment resting in its
-    // own rut meets a jump: no force above the rut's floor, the full pressure the rut was made
-    // with just below it, and at the floor itself float rounding loads some of its grid points
-    // and not others from one step to the next. The floor is therefore read 10 um below the
-    // segment, where all of it bears (without deforming: the call above did), and holds the
-    // wheel (below) rather than springing it back.
-    terrain::TrackPatch floor_patch = patch;
-    floor_patch.centre.z() -= kProbeDepth;
-    terrain::ContactForces floor = terrain.trackContact(floor_patch, h, false);
-    if (times)
-      times->probe += seconds(contacted, Clock::now());
-    if (floor.contact_points == 0 || !(floor.normal_force > 0.0))
-    {
-      w.soil = terrain::ContactForces();
-      return;
-    }
-    floor.sinkage = std::max(w.soil.sinkage, floor.sinkage - kProbeDepth);
-    w.soil = std::move(floor);
-  }
-  const double f_n = w.soil.normal_force;
+    times->contact += seconds(start, Clock::now());
 
-  // As a wheel's contact (soilContact in vehicle_sim.cpp): at the wheel's lowest point, in the
-  // ground's frame beside the track's rut, so the rows act where the belt meets the soil and
-  // the wheel's spin (the belt's speed) enters the traction row's sliding velocity.
-  ContactFrame& frame = w.frame;
-  frame.normal = groundNormal(terrain, centre, forward, 0.5 * side.segment_length,
-                              0.5 * model_.track.shoe_width + 0.5 * radius);
-  frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
-  frame.t2 = frame.normal.cross(frame.t1);
-  frame.point = centre - radius * frame.normal;
-  frame.point_velocity = velocity + omega.cross(frame.point - centre);
-  const double min_slip = kRegularization / (model_.total_mass * 9.81);
-
-  // At rest T7's shear force is ill-conditioned: its slip (T8) and slip angle are ratios of
-  // speeds near 0, so the force the soil offers, and its split between the traction rows,
-  // flickered from step to step; on a slope the braked carrier crept at a mm/s. A segment at
-  // rest can mobilise the soil's whole strength in any direction: its shear force skidding
-  // (read from the terrain at full slip, without deforming, reused while at rest) bounds both
-  // rows, fading to T7's own force at kRestSpeed.
-  const double speed = std::max(std::hypot(velocity.dot(frame.t1), velocity.dot(frame.t2)), std::abs(side.belt_speed));
-  if (speed < kRestSpeed)
+  // Rigid ground: the pads' deflection against the ground plane under the wheel.
+  FirmContact firm;
+  if (w.soil.rigid_soil >= 0 && w.soil.rigid_share > 0.0)
   {
-    if (!(w.rest_strength > 0.0) || ++w.rest_steps >= options_.stiffness_probe_interval)
-    {
-      terrain::TrackPatch skid = patch;
-      if (w.rigid_plastic)
-        skid.centre.z() -= kProbeDepth;
-      skid.sprocket_spin_rate = 0.0;
-      skid.velocity = kRestSpeed * forward;
-      const auto probe_start = times ? Clock::now() : Clock::time_point();
-      const terrain::ContactForces skidding = terrain.trackContact(skid, h, false);
-      if (times)
-        times->probe += seconds(probe_start, Clock::now());
-      w.rest_strength = std::hypot(skidding.longitudinal_force, skidding.lateral_force);
-      w.rest_steps = 0;
-    }
-    const double strength = w.rest_strength * (1.0 - speed / kRestSpeed);
-    w.soil.longitudinal_force = std::max(std::abs(w.soil.longitudinal_force), strength);
-    w.soil.lateral_force = std::max(std::abs(w.soil.lateral_force), strength);
+    firm.surface = &terrain.palette()[static_cast<std::size_t>(w.soil.rigid_soil)];
+    firm.share = w.soil.rigid_share;
+    if (const auto ground = terrain.height(centre.x(), centre.y()))
+      firm.depth = radius - (centre.z() - *ground) * frame.normal.z();
   }
-  else
+  const double mass_share = model_.total_mass / static_cast<double>(2 * side.wheels.size());
+  bool fault = false;
+  w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, mass_share, frame, w.soil, firm, model_.firm_ground,
+                                options_, &w.feedback, fault);
+  if (fault && !w.fault_reported)
   {
-    w.rest_strength = 0.0;
+    w.fault_reported = true;
+    warnings_.push_back("vehicle '" + state_.name + "', track segment '" + w.spec->link +
+                        "': the ground contact gave a non-finite force; the segment had no ground contact that step "
+                        "(reported once)");
   }
-
-  if (w.rigid_plastic)
-  {
-    // A spring carrying the floor's pressure would throw the segment off the floor and each
-    // landing would deepen the rut (a parked vehicle sank at cm/s). The floor holds instead:
-    // a velocity motor along the normal keeps the wheel from sinking, with the floor's force
-    // as its limit, so the soil carries any load up to what it bears and yields beyond it (the
-    // segment sinks, the next step's force is larger). It only pushes: it acts while the arm
-    // presses the wheel into the soil (the load, explicit, is known before the step) and the
-    // wheel is not leaving the rut.
-    const double load = -w.arm_force.dot(frame.normal) + w.mass * options_.gravity * frame.normal.z();
-    if (!(load > 0.0) || velocity.dot(frame.normal) > kSeparationSpeed)
-    {
-      w.soil = terrain::ContactForces();  // lifting off: the soil bears nothing
-      return;
-    }
-    dJointSetLMotorAxis(w.hold, 0, 0, frame.normal.x(), frame.normal.y(), frame.normal.z());
-    dJointSetLMotorParam(w.hold, dParamVel, 0.0);
-    dJointSetLMotorParam(w.hold, dParamFMax, f_n);
-    dJointSetLMotorParam(w.hold, dParamCFM, kRegularization / f_n);
-    w.holding = true;
-    addSoilJoint(world_, contacts, w.body, w.mass, frame, w.soil, 0.0, min_slip, options_, &w.feedback, false);
-  }
-  else
-  {
-    // The soil springs back: its own stiffness, probed 10 um deeper without deforming and
-    // reused while the load holds (StiffnessProbe), carries the normal force as the wheels'
-    // implicit spring does.
-    if (w.probe.due(f_n, options_.stiffness_probe_interval))
-    {
-      terrain::TrackPatch probe = patch;
-      probe.centre.z() -= kProbeDepth;
-      const double probed = terrain.trackContact(probe, h, false).normal_force;
-      if (times)
-        times->probe += seconds(contacted, Clock::now());
-      w.probe.record(probed, f_n);
-    }
-    addSoilJoint(world_, contacts, w.body, w.mass, frame, w.soil, w.probe.stiffness, min_slip, options_,
-                 &w.feedback);
-  }
-  w.contact = true;
+  if (fault)
+    ++state_.contact_faults;
   // Compaction and bulldozing (T12) push on the running gear against its travel: through the
   // road wheel's axle, not about it.
-  applyResistance(w.body, w.mass, w.soil.resistance_force, frame.t1, velocity, h);
+  w.resistance.set(world_, w.body, w.contact ? w.ground.resistance() : 0.0, frame.t1,
+                   kRegularization / (model_.total_mass * options_.gravity));
 }
 
 void TrackedVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
@@ -758,6 +650,7 @@ void TrackedVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroup
       soilContact(w, side, hull, terrain, contacts, times);
     }
   }
+  hull_->beforeStep(world_, contacts, chassis_, terrain, options_, times, warnings_, state_.name);
 }
 
 void TrackedVehicle::readState(double time, bool integrate)
@@ -771,6 +664,8 @@ void TrackedVehicle::readState(double time, bool integrate)
     throw std::runtime_error(why.str());
   }
   measure(hull);
+  hull_->afterStep(chassis_, integrate);
+  state_.hull_normal_force = hull_->normalForce();
   const double h = integrate ? options_.step : 0.0;
   auto wrap = [](double angle) { return std::remainder(angle, 2.0 * M_PI); };
   state_.pose.linear() = hull.r;
@@ -799,7 +694,7 @@ void TrackedVehicle::readState(double time, bool integrate)
     ts.idler_angle = side.idler_angle;
     const Eigen::Vector3d centre = hull.x + hull.r * (side.centre - chassis_com_);
     ts.ground_speed = hull.pointVelocity(centre).dot(forward);
-    ts.slip = terrain::longitudinalSlip(ts.track_speed, ts.ground_speed);
+    ts.slip = terrain::regularisedSlip(ts.track_speed, ts.ground_speed);
     ts.drive_torque = side.sprocket_torque;
     ts.brake_torque_limit = side.brake_limit;
     ts.normal_force = ts.traction_force = ts.resistance_force = 0.0;
@@ -818,20 +713,24 @@ void TrackedVehicle::readState(double time, bool integrate)
       w.spin_angle = wrap(w.spin_angle + rw.spin_rate * h);
       rw.spin_angle = w.spin_angle;
 
+      if (w.contact && integrate)
+      {
+        dVector3 pv;
+        dBodyGetPointVel(w.body, w.frame.point.x(), w.frame.point.y(), w.frame.point.z(), pv);
+        w.ground.finish(vec(pv));
+      }
       TrackSegmentState& seg = ts.segments[i];
-      seg.in_contact = w.soil.contact_points > 0;
-      // Held on a rigid-plastic floor the soil bears what the wheel puts on it (its own force is
-      // the most it could bear): report the force applied.
-      seg.applied_normal_force =
-          w.contact ? vec((w.holding ? w.hold_feedback : w.feedback).f1).dot(w.frame.normal) : 0.0;
-      seg.normal_force = w.holding ? seg.applied_normal_force : w.soil.normal_force;
+      seg.in_contact = w.contact;
+      seg.applied_normal_force = w.contact ? vec(w.feedback.f1).dot(w.frame.normal) : 0.0;
+      seg.normal_force = w.contact ? w.ground.normalForce() : 0.0;
       seg.sinkage = w.soil.sinkage;
       seg.slip = w.soil.slip;
       seg.slip_angle = w.soil.slip_angle;
       // What the rows applied (feedback): the soil's force as it acted on the vehicle.
       seg.traction_force = w.contact ? vec(w.feedback.f1).dot(w.frame.t1) : 0.0;
       seg.lateral_force = w.contact ? vec(w.feedback.f1).dot(w.frame.t2) : 0.0;
-      seg.resistance_force = w.soil.resistance_force;
+      seg.resistance_force = w.contact ? w.ground.resistance() : 0.0;
+      seg.applied_resistance_force = w.resistance.applied(w.frame.t1);
       seg.contact_points = w.soil.contact_points;
       ts.normal_force += seg.normal_force;
       ts.traction_force += seg.traction_force;

@@ -312,10 +312,18 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     std::swap(m.tracks.front(), m.tracks.back());
 
   const Section track = root.map("track");
-  track.allowOnly({ "pitch", "sprocket_teeth", "shoe_width" });
+  track.allowOnly({ "pitch", "sprocket_teeth", "shoe_width", "internal_resistance" });
   m.track.pitch = track.positive("pitch");
   m.track.sprocket_teeth = track.positiveInt("sprocket_teeth");
   m.track.shoe_width = track.positive("shoe_width");
+  const Section internal = track.map("internal_resistance");
+  internal.allowOnly({ "coefficient", "per_speed" });
+  m.track.internal_resistance = internal.nonNegative("coefficient");
+  m.track.internal_resistance_per_speed = internal.nonNegative("per_speed");
+  if (m.track.internal_resistance > 0.3)
+    internal.fail("coefficient", "is a fraction of the weight: must be in [0, 0.3]");
+  if (m.track.internal_resistance_per_speed > 0.05)
+    internal.fail("per_speed", "is a fraction of the weight per m/s: must be in [0, 0.05]");
   // T10 turns sprocket speed into track speed with p N / 2 pi; the URDF sprocket must agree.
   for (const TrackSpec& t : m.tracks)
   {
@@ -330,10 +338,35 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
   }
 }
 
+/// The running gear's brush model on rigid surfaces (the URDF cannot hold it).
+void readFirmGround(const Section& root, VehicleModel& m)
+{
+  const Section f = root.map("firm_ground");
+  f.allowOnly({ "vertical_stiffness", "longitudinal_stiffness", "cornering_stiffness", "relaxation_length" });
+  FirmGroundSpec& g = m.firm_ground;
+  g.vertical_stiffness = f.positive("vertical_stiffness");
+  // Below what holds a quarter of the vehicle with 0.2 m of deflection, a "tyre" is a spring
+  // nobody drives on (a typo's 1e3 for 1e6); above 1e9 N/m the contact is stiffer than steel.
+  const double weight_share = m.total_mass * 9.81 / std::max<std::size_t>(1, m.wheels.size() + 2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
+  if (g.vertical_stiffness < weight_share / 0.2 || g.vertical_stiffness > 1e9)
+    f.fail("vertical_stiffness", "must be between " + std::to_string(weight_share / 0.2) +
+                                     " N/m (0.2 m of deflection under its share of the weight) and 1e9 N/m");
+  g.longitudinal_stiffness = f.positive("longitudinal_stiffness");
+  if (g.longitudinal_stiffness > 100.0)
+    f.fail("longitudinal_stiffness", "is C_x / F_z per unit slip: must be in (0, 100]");
+  g.cornering_stiffness = f.positive("cornering_stiffness");
+  if (g.cornering_stiffness > 100.0)
+    f.fail("cornering_stiffness", "is C_alpha / F_z per rad: must be in (0, 100]");
+  g.relaxation_length = f.positive("relaxation_length");
+  if (g.relaxation_length > 10.0)
+    f.fail("relaxation_length", "must be in (0, 10] m");
+}
+
 void readDrivetrain(const Section& root, VehicleModel& m)
 {
   const Section d = root.map("drivetrain");
-  d.allowOnly({ "engine_max_torque", "engine_max_power", "gear_ratio", "efficiency", "max_speed", "differentials" });
+  d.allowOnly({ "engine_max_torque", "engine_max_power", "gear_ratio", "efficiency", "max_speed", "reverse_max_speed",
+                "differentials" });
   m.drivetrain.engine_max_torque = d.positive("engine_max_torque");
   m.drivetrain.engine_max_power = d.positive("engine_max_power");
   m.drivetrain.gear_ratio = d.positive("gear_ratio");
@@ -341,6 +374,9 @@ void readDrivetrain(const Section& root, VehicleModel& m)
   if (m.drivetrain.efficiency > 1.0)
     d.fail("efficiency", "must be in (0, 1]");
   m.drivetrain.max_speed = d.positive("max_speed");
+  m.drivetrain.reverse_max_speed = d.positive("reverse_max_speed");
+  if (m.drivetrain.reverse_max_speed > m.drivetrain.max_speed)
+    d.fail("reverse_max_speed", "must not exceed max_speed");
   const Section diffs = d.map("differentials");
   const std::set<std::string> names = m.drive_type == DriveType::kAckermann ?
                                           std::set<std::string>{ "front", "rear", "center" } :
@@ -414,17 +450,19 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     if (drive == "ackermann")
     {
       m.drive_type = DriveType::kAckermann;
-      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes" });
+      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes",
+                       "firm_ground" });
     }
     else if (drive == "skid_steer")
     {
       m.drive_type = DriveType::kSkidSteer;
-      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "drivetrain", "brakes" });
+      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "drivetrain", "brakes", "firm_ground" });
     }
     else if (drive == "tracked")
     {
       m.drive_type = DriveType::kTracked;
-      root.allowOnly({ "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes" });
+      root.allowOnly({ "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes",
+                       "firm_ground" });
     }
     else
     {
@@ -506,6 +544,7 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     m.collision_boxes = urdf.collisionBoxes(running_gear);
 
     readDrivetrain(root, m);
+    readFirmGround(root, m);
     const Section b = root.map("brakes");
     b.allowOnly({ "max_torque" });
     m.brakes.max_torque = b.positive("max_torque");

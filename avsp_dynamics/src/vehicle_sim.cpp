@@ -55,7 +55,7 @@ public:
 
   void setCommand(const DriveCommand& command) override { command_ = command; }
   void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times) override;
-  void afterStep(double time) override;
+  void afterStep(double time, bool stepped) override;
   const VehicleState& state() const override { return state_; }
   VehicleBodies collisionBodies() const override;
   void setCollisionReport(const CollisionReport& r) override
@@ -81,7 +81,10 @@ private:
     Eigen::Vector3d t1 = Eigen::Vector3d::UnitX(), t2 = Eigen::Vector3d::UnitY();
     terrain::ContactForces soil;
     dJointFeedback feedback{};
-    StiffnessProbe probe;  ///< last soil stiffness probe, kept while the contact looks the same
+    GroundContact ground;  ///< the contact's shear state and joint (sim_vehicle_base.hpp)
+    ResistanceMotor resistance;  ///< the ground's resistance at the wheel centre
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< m, where the contact acts this step
+    bool fault_reported = false;  ///< a non-finite contact force was reported once
   };
 
   /// Two wheels a locked differential turns at the same speed: an ODE angular motor between
@@ -125,6 +128,7 @@ private:
   double engine_speed_ = 0.0, engine_torque_ = 0.0;
   DriveCommand command_;
   VehicleState state_;
+  std::unique_ptr<HullContact> hull_;
 };
 
 SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::Isometry3d& pose,
@@ -165,6 +169,7 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
   if (!(chassis_mass_ > 0.0))
     throw ConfigError(model_.urdf_path + ": no link other than the wheels has mass: the chassis would be massless");
   chassis_com_ = chassis.com;
+  hull_ = std::make_unique<HullContact>(model_, chassis_com_);
   const Eigen::Matrix3d& chassis_inertia = chassis.inertia;
 
   const Eigen::Matrix3d rot = pose.linear();
@@ -285,7 +290,7 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
   state_.wheels.resize(wheels_.size());
   for (std::size_t i = 0; i < wheels_.size(); ++i)
     state_.wheels[i].name = model_.wheels[i].name;
-  afterStep(0.0);
+  afterStep(0.0, false);
 }
 
 SimVehicle::~SimVehicle()
@@ -394,8 +399,8 @@ void SimVehicle::updateDrivetrain()
     double radius = 0.0;
     const double speed = meanSpeed(driven_, radius);
     engine_speed_ = d.gear_ratio * speed;
-    const double total = command_.throttle * wheelTorqueAvailable(d, speed, radius);
-    engine_torque_ = total / (d.efficiency * d.gear_ratio);
+    const double total = driveTorque(d, command_.throttle, command_.reverse, speed, radius);
+    engine_torque_ = std::abs(total) / (d.efficiency * d.gear_ratio);
     // Open differentials split torque equally: centre between the driven axles, each axle
     // between its wheels. Locked ones move torque between their wheels through the couplings.
     const bool both = !driven_front_.empty() && !driven_rear_.empty();
@@ -406,7 +411,9 @@ void SimVehicle::updateDrivetrain()
   else
   {
     // One motor per side, speed-servoed to its share of max_speed (skid-steer mixing).
+    // Reverse: both sides backwards at up to reverse_max_speed.
     const auto sides = skidSteerSides(command_.throttle, command_.steering);
+    const double gear = command_.reverse ? -d.reverse_max_speed : d.max_speed;
     const double fraction[2] = { sides.first, sides.second };
     const std::vector<std::size_t>* ids[2] = { &driven_left_, &driven_right_ };
     engine_speed_ = engine_torque_ = 0.0;
@@ -424,7 +431,7 @@ void SimVehicle::updateDrivetrain()
       if (command_.brake > 0.0)
         servo_[s].reset();  // braking has priority; the servo restarts from rest
       else
-        torque = servo_[s].torque(fraction[s] * d.max_speed / radius - speed, inertia, available, h);
+        torque = servo_[s].torque(fraction[s] * gear / radius - speed, inertia, available, h);
       for (std::size_t i : *ids[s])
         wheels_[i].drive_torque = torque / ids[s]->size();
       engine_speed_ += 0.5 * d.gear_ratio * std::abs(speed);
@@ -488,8 +495,25 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   dBodySetFiniteRotationAxis(w.body, axle.x(), axle.y(), axle.z());
   Eigen::Vector3d forward = axle.cross(Eigen::Vector3d::UnitZ());
   if (forward.norm() < 0.3)
+  {
+    w.ground.reset();
+    w.resistance.off();
     return;  // wheel lying on its side: the terrain's upright-wheel contact does not apply
+  }
   forward.normalize();
+
+  // The contact's frame: the ground's normal beside the wheel's own rut, the wheel's lowest
+  // point along it, the heading in the ground plane.
+  ContactFrame frame;
+  frame.normal = groundNormal(terrain, centre, forward, w.spec->radius, 0.5 * w.spec->width + 0.5 * w.spec->radius);
+  frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
+  frame.t2 = frame.normal.cross(frame.t1);
+  frame.point = centre - w.spec->radius * frame.normal;
+  frame.point_velocity = velocity + omega.cross(frame.point - centre);
+  w.normal = frame.normal;
+  w.t1 = frame.t1;
+  w.t2 = frame.t2;
+  w.point = frame.point;
 
   terrain::WheelPatch patch;
   patch.centre = centre;
@@ -498,49 +522,42 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   patch.heading = std::atan2(forward.y(), forward.x());
   patch.spin_rate = omega.dot(axle);
   patch.velocity = velocity;
+  patch.ground_slope = -frame.normal.dot(forward) / frame.normal.z();
+  patch.shear_slip = w.ground.prepare(velocity.dot(frame.t1), patch.spin_rate * w.spec->radius, h);
+  patch.shear_slip_given = true;
+  patch.travel = w.ground.travel();
   const auto start = times ? Clock::now() : Clock::time_point();
   w.soil = terrain.wheelContact(patch, h, options_.deform_terrain);
-  const auto contacted = times ? Clock::now() : Clock::time_point();
   if (times)
-    times->contact += seconds(start, contacted);
-  if (w.soil.contact_points == 0 || !(w.soil.normal_force > 0.0))
+    times->contact += seconds(start, Clock::now());
+
+  // Rigid ground under part of the footprint: the tyre's deflection against the ground plane
+  // (smooth, not the grid's points: a stiff tyre must not feel a 0.1 m lattice).
+  FirmContact firm;
+  if (w.soil.rigid_soil >= 0 && w.soil.rigid_share > 0.0)
   {
-    w.probe.stiffness = 0.0;  // airborne: the next touchdown probes afresh
-    return;
+    firm.surface = &terrain.palette()[static_cast<std::size_t>(w.soil.rigid_soil)];
+    firm.share = w.soil.rigid_share;
+    if (const auto ground = terrain.height(centre.x(), centre.y()))
+      firm.depth = w.spec->radius - (centre.z() - *ground) * frame.normal.z();
   }
-
-  // The soil's own vertical stiffness at this state, probed 10 um deeper without deforming,
-  // reused while the contact keeps its load (StiffnessProbe): the implicit normal row stays
-  // stable as long as its stiffness is not below half the soil's (README).
-  const double f_n = w.soil.normal_force;
-  if (w.probe.due(f_n, options_.stiffness_probe_interval))
+  bool fault = false;
+  w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, model_.total_mass / wheels_.size(), frame, w.soil,
+                                firm, model_.firm_ground, options_, &w.feedback, fault);
+  if (fault && !w.fault_reported)
   {
-    terrain::WheelPatch probe = patch;
-    probe.centre.z() -= kProbeDepth;
-    const double probed = terrain.wheelContact(probe, h, false).normal_force;
-    if (times)
-      times->probe += seconds(contacted, Clock::now());
-    w.probe.record(probed, f_n);
+    w.fault_reported = true;
+    warnings_.push_back("vehicle '" + state_.name + "', wheel '" + w.spec->name +
+                        "': the ground contact gave a non-finite force; the wheel had no ground contact that step "
+                        "(reported once)");
   }
-
-  ContactFrame frame;
-  frame.normal = groundNormal(terrain, centre, forward, w.spec->radius, 0.5 * w.spec->width + 0.5 * w.spec->radius);
-  frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
-  frame.t2 = frame.normal.cross(frame.t1);
-  w.normal = frame.normal;
-  w.t1 = frame.t1;
-  w.t2 = frame.t2;
-  frame.point = centre - w.spec->radius * frame.normal;
-  frame.point_velocity = velocity + omega.cross(frame.point - centre);
-  // A floor on the slip (1e-5 m/s at the vehicle's weight) keeps sticking rows from being
-  // exactly rigid, hence redundant with the brakes and couplings, for the exact solver.
-  const double min_slip = regularization_ / (model_.total_mass * 9.81);
-  addSoilJoint(world_, contacts, w.body, w.mass, frame, w.soil, w.probe.stiffness, min_slip, options_, &w.feedback);
-  w.contact = true;
-
-  // Resistance (T12) opposes the wheel's travel, through the axle: bulldozing and compaction
-  // pressures act radially on a rigid wheel, so they exert no torque about its centre.
-  applyResistance(w.body, w.mass, w.soil.resistance_force, frame.t1, velocity, h);
+  if (fault)
+    ++state_.contact_faults;
+  // Resistance (T12, Bekker's compaction, a tyre's rolling resistance) opposes the wheel's
+  // travel, through the axle: bulldozing and compaction pressures act radially on a rigid wheel,
+  // so they exert no torque about its centre.
+  w.resistance.set(world_, w.body, w.contact ? w.ground.resistance() : 0.0, frame.t1,
+                   regularization_ / (model_.total_mass * options_.gravity));
 }
 
 void SimVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
@@ -550,9 +567,10 @@ void SimVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID c
   updateSuspension();
   for (Wheel& w : wheels_)
     soilContact(w, terrain, contacts, times);
+  hull_->beforeStep(world_, contacts, chassis_, terrain, options_, times, warnings_, state_.name);
 }
 
-void SimVehicle::afterStep(double time)
+void SimVehicle::afterStep(double time, bool stepped)
 {
   const Eigen::Vector3d p = vec(dBodyGetPosition(chassis_));
   const Eigen::Matrix3d r = rotationOf(chassis_);
@@ -565,6 +583,8 @@ void SimVehicle::afterStep(double time)
         << " s (non-finite chassis state)";
     throw std::runtime_error(why.str());
   }
+  hull_->afterStep(chassis_, stepped);
+  state_.hull_normal_force = hull_->normalForce();
   state_.pose.linear() = r;
   state_.pose.translation() = p - r * chassis_com_;
   state_.linear_velocity = v + omega.cross(state_.pose.translation() - p);
@@ -578,12 +598,18 @@ void SimVehicle::afterStep(double time)
   double mass = chassis_mass_;
   for (std::size_t i = 0; i < wheels_.size(); ++i)
   {
-    const Wheel& w = wheels_[i];
+    Wheel& w = wheels_[i];
     WheelState& s = state_.wheels[i];
+    if (w.contact && stepped)
+    {
+      dVector3 pv;
+      dBodyGetPointVel(w.body, w.point.x(), w.point.y(), w.point.z(), pv);
+      w.ground.finish(vec(pv));
+    }
     moment += w.mass * vec(dBodyGetPosition(w.body));
     mass += w.mass;
-    s.in_contact = w.soil.contact_points > 0;
-    s.normal_force = w.soil.normal_force;
+    s.in_contact = w.contact;
+    s.normal_force = w.contact ? w.ground.normalForce() : 0.0;
     s.applied_normal_force = w.contact ? vec(w.feedback.f1).dot(w.normal) : 0.0;
     s.sinkage = w.soil.sinkage;
     s.slip = w.soil.slip;
@@ -591,7 +617,8 @@ void SimVehicle::afterStep(double time)
     // What the rows applied (feedback), the soil's force as it acted on the vehicle.
     s.traction_force = w.contact ? vec(w.feedback.f1).dot(w.t1) : 0.0;
     s.lateral_force = w.contact ? vec(w.feedback.f1).dot(w.t2) : 0.0;
-    s.resistance_force = w.soil.resistance_force;
+    s.resistance_force = w.contact ? w.ground.resistance() : 0.0;
+    s.applied_resistance_force = w.resistance.applied(w.t1);
     s.contact_points = w.soil.contact_points;
     s.spin_rate = spinRate(w);
     s.steering_angle = steerAngle(w);
@@ -622,8 +649,6 @@ World::World(terrain::DeformableTerrain& terrain, const WorldOptions& options)
           "gravity must be finite and >= 0, got " + std::to_string(options.gravity));
   require(options.solver_iterations >= 1,
           "solver_iterations must be >= 1, got " + std::to_string(options.solver_iterations));
-  require(options.stiffness_probe_interval >= 1,
-          "stiffness_probe_interval must be >= 1, got " + std::to_string(options.stiffness_probe_interval));
   require(std::isfinite(options.contact_damping_ratio) && options.contact_damping_ratio >= 0.0 &&
               options.contact_damping_ratio <= 2.0,
           "contact_damping_ratio must be in [0, 2], got " + std::to_string(options.contact_damping_ratio));
@@ -685,7 +710,7 @@ void World::setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity)
     dBodySetLinearVel(w.body, velocity.x(), velocity.y(), velocity.z());
     dBodySetAngularVel(w.body, omega.x(), omega.y(), omega.z());
   }
-  vehicles_[vehicle]->afterStep(time());
+  vehicles_[vehicle]->afterStep(time(), false);
 }
 
 void World::setObstacles(terrain::ObjectSet& objects)
@@ -703,14 +728,22 @@ void World::setAgents(std::vector<terrain::Agent> agents)
   std::vector<AgentCollisionBody> bodies;
   for (const terrain::Agent& a : agents_)
   {
+    // A body of the agent's mass (a box of its bounds, uniform), its origin at the centre of
+    // mass (ODE's rule), the boxes placed about it. It carries itself (no gravity: the path is
+    // on the ground); driveAgents() pushes it along its path with bounded force.
+    const terrain::AgentType type = a.spec().type;
+    const Eigen::Vector3d size = terrain::agentSize(type), centre = terrain::agentBoundsCentre(type);
     AgentCollisionBody c;
     c.body = dBodyCreate(ode_->world);
-    dBodySetKinematic(c.body);
-    for (const terrain::AgentBox& box : terrain::agentBoxes(a.spec().type))
+    dMass mass;
+    dMassSetBoxTotal(&mass, terrain::agentMass(type), size.x(), size.y(), size.z());
+    dBodySetMass(c.body, &mass);
+    dBodySetGravityMode(c.body, 0);
+    for (const terrain::AgentBox& box : terrain::agentBoxes(type))
     {
       CollisionBox cb;
       cb.link = a.spec().name;
-      cb.pose = Eigen::Isometry3d(Eigen::Translation3d(box.centre));
+      cb.pose = Eigen::Isometry3d(Eigen::Translation3d(box.centre - centre));
       cb.size = box.size;
       c.boxes.push_back(cb);
     }
@@ -719,6 +752,21 @@ void World::setAgents(std::vector<terrain::Agent> agents)
   }
   ode_->agent_geoms = std::move(bodies);
   updateKinematicGeoms();
+  // Start exactly on the path, at the path's velocity.
+  const double t0 = time(), h = options_.step;
+  for (std::size_t k = 0; k < agents_.size(); ++k)
+  {
+    const terrain::AgentState a = agents_[k].state(t0), b = agents_[k].state(t0 + h);
+    const Eigen::Vector3d centre = terrain::agentBoundsCentre(agents_[k].spec().type);
+    const Eigen::Vector3d p = a.position + Eigen::AngleAxisd(a.yaw, Eigen::Vector3d::UnitZ()) * centre;
+    const dBodyID body = ode_->agent_bodies[k];
+    dBodySetPosition(body, p.x(), p.y(), p.z());
+    const dQuaternion q = { std::cos(0.5 * a.yaw), 0.0, 0.0, std::sin(0.5 * a.yaw) };
+    dBodySetQuaternion(body, q);
+    const Eigen::Vector3d v = (b.position - a.position) / h;
+    dBodySetLinearVel(body, v.x(), v.y(), v.z());
+    dBodySetAngularVel(body, 0.0, 0.0, std::remainder(b.yaw - a.yaw, 2.0 * M_PI) / h);
+  }
   driveAgents();
 }
 
@@ -824,22 +872,60 @@ terrain::AgentState World::agentState(std::size_t agent) const
   return agents_[agent].state(time());
 }
 
+Eigen::Isometry3d World::agentPose(std::size_t agent) const
+{
+  if (agent >= agents_.size())
+    throw std::out_of_range("World::agentPose: no agent " + std::to_string(agent) + " (have " +
+                            std::to_string(agents_.size()) + ")");
+  const dBodyID body = ode_->agent_bodies[agent];
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotationOf(body);
+  pose.translation() = vec(dBodyGetPosition(body)) - pose.linear() * terrain::agentBoundsCentre(agents_[agent].spec().type);
+  return pose;
+}
+
 void World::driveAgents()
 {
-  // At the step's start the body is exactly at the agent's pose now, moving with the velocity
-  // that brings it to the pose one step later: what a vehicle meets during the step is the
-  // agent's own motion, and no error accumulates from step to step.
+  // Each agent is pushed towards where its path puts it one step from now, at its path's
+  // velocity there: a critically damped tracking (2 Hz... 20 rad/s) of position and heading,
+  // its force bounded by what the agent can push with (agentPushForce) horizontally, so a
+  // vehicle shoves a deer aside while a truck holds its way; upright and on the ground (its
+  // height held firmly: it stands on the terrain).
+  constexpr double kOmega = 20.0, kZeta = 1.0;
   const double t0 = time(), h = options_.step;
   for (std::size_t k = 0; k < agents_.size(); ++k)
   {
+    const terrain::AgentType type = agents_[k].spec().type;
     const terrain::AgentState a = agents_[k].state(t0), b = agents_[k].state(t0 + h);
+    const Eigen::Vector3d centre = terrain::agentBoundsCentre(type);
+    const Eigen::Vector3d target = b.position + Eigen::AngleAxisd(b.yaw, Eigen::Vector3d::UnitZ()) * centre;
+    const Eigen::Vector3d target_velocity = (b.position - a.position) / h;
     const dBodyID body = ode_->agent_bodies[k];
-    dBodySetPosition(body, a.position.x(), a.position.y(), a.position.z());
-    dQuaternion q = { std::cos(0.5 * a.yaw), 0.0, 0.0, std::sin(0.5 * a.yaw) };
-    dBodySetQuaternion(body, q);
-    const Eigen::Vector3d v = (b.position - a.position) / h;
-    dBodySetLinearVel(body, v.x(), v.y(), v.z());
-    dBodySetAngularVel(body, 0.0, 0.0, std::remainder(b.yaw - a.yaw, 2.0 * M_PI) / h);
+    const double mass = terrain::agentMass(type);
+    const Eigen::Vector3d x = vec(dBodyGetPosition(body)), v = vec(dBodyGetLinearVel(body));
+    Eigen::Vector3d force = mass * (kOmega * kOmega * (target - x) + 2.0 * kZeta * kOmega * (target_velocity - v));
+    const double push = terrain::agentPushForce(type);
+    const double horizontal = std::hypot(force.x(), force.y());
+    if (horizontal > push)
+    {
+      force.x() *= push / horizontal;
+      force.y() *= push / horizontal;
+    }
+    dBodyAddForce(body, force.x(), force.y(), force.z());
+    // Heading and uprightness: a torque about the rotation from the body's to the path's.
+    const Eigen::Matrix3d r = rotationOf(body);
+    const Eigen::Matrix3d wanted = Eigen::AngleAxisd(b.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::AngleAxisd error(wanted * r.transpose());
+    const Eigen::Vector3d omega = vec(dBodyGetAngularVel(body));
+    const Eigen::Vector3d omega_target(0.0, 0.0, std::remainder(b.yaw - a.yaw, 2.0 * M_PI) / h);
+    dMass m;
+    dBodyGetMass(body, &m);
+    const Eigen::Matrix3d inertia_body = (Eigen::Matrix3d() << m.I[0], m.I[1], m.I[2], m.I[4], m.I[5], m.I[6], m.I[8],
+                                          m.I[9], m.I[10])
+                                             .finished();
+    const Eigen::Vector3d torque = r * inertia_body * r.transpose() *
+                                   (kOmega * kOmega * error.angle() * error.axis() + 2.0 * kZeta * kOmega * (omega_target - omega));
+    dBodyAddTorque(body, torque.x(), torque.y(), torque.z());
   }
 }
 
@@ -864,7 +950,7 @@ void World::setCommand(std::size_t vehicle, const DriveCommand& command)
 void World::step()
 {
   StepTimes* times = options_.profile ? &times_ : nullptr;
-  const double contacts_before = times ? times->contact + times->probe : 0.0;
+  const double contacts_before = times ? times->contact : 0.0;
   const auto t0 = times ? Clock::now() : Clock::time_point();
   for (auto& v : vehicles_)
     v->beforeStep(terrain_, ode_->contacts, times);
@@ -887,19 +973,28 @@ void World::step()
   ++steps_;
   for (std::size_t i = 0; i < vehicles_.size(); ++i)
   {
-    vehicles_[i]->afterStep(time());
+    vehicles_[i]->afterStep(time(), true);
     vehicles_[i]->setCollisionReport(collision_->report(i));
   }
   if (times)
   {
     const auto t3 = Clock::now();
-    const double contacts = times->contact + times->probe;
+    const double contacts = times->contact;
     times->ode += seconds(t1, t2);
     times->collision += seconds(tc, t1);
     // beforeStep's time less what the contacts added to their own counters this step.
     times->other += seconds(t0, tc) - (contacts - contacts_before) + seconds(t2, t3);
     ++times->steps;
   }
+}
+
+std::vector<std::string> World::takeWarnings()
+{
+  std::vector<std::string> out;
+  for (auto& v : vehicles_)
+    for (std::string& w : v->takeWarnings())
+      out.push_back(std::move(w));
+  return out;
 }
 
 void World::advance(double seconds_to_go)

@@ -26,6 +26,10 @@ struct DriveCommand
                           ///< skid-steer and tracked: fraction of max_speed for the faster side
   double brake = 0.0;     ///< [0, 1]: fraction of brakes.max_torque on every wheel
   double steering = 0.0;  ///< [-1, 1], + = left: fraction of the full-lock steering angle
+  /// Reverse gear: the throttle drives backwards (Ackermann: the engine's torque reversed,
+  /// governed at reverse_max_speed; skid-steer and tracked: both sides' speeds reversed, the
+  /// steering turning the vehicle as a reversing car's does).
+  bool reverse = false;
 };
 
 /// A command that cannot reach the physics (NaN or infinite field); what() names the field.
@@ -59,6 +63,13 @@ double engineTorqueLimit(const DrivetrainSpec& drivetrain, double engine_speed);
  *        and rolling radius (m).
  */
 double wheelTorqueAvailable(const DrivetrainSpec& drivetrain, double wheel_speed, double radius);
+
+/**
+ * @brief Signed torque (N m) to the driven wheels for `throttle` in [0, 1]: forward,
+ *        throttle x wheelTorqueAvailable(); in reverse, minus that with the governor at
+ *        reverse_max_speed for the wheels turning backwards.
+ */
+double driveTorque(const DrivetrainSpec& drivetrain, double throttle, bool reverse, double wheel_speed, double radius);
 
 /**
  * @brief Ackermann steering geometry of a wheeled vehicle.

@@ -1,9 +1,10 @@
 #pragma once
 /**
  * @file stuck_detector.hpp
- * @brief When a vehicle counts as stuck (VehicleTelemetry.stuck): throttle on and its driven
- *        running gear in contact slipping at >= 0.95 on average, continuously for 2 s of world
- *        time. The core owns the rule so the node's flag and the core's tests agree.
+ * @brief When a vehicle counts as stuck (VehicleTelemetry.stuck): throttle on and, continuously
+ *        for 2 s of world time, its driven running gear in contact slipping at >= 0.95 on
+ *        average, or the vehicle high-centred (highCentred()). The core owns the rule so the
+ *        node's flag and the core's tests agree.
  */
 #include "avsp_dynamics/vehicle_model.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
@@ -19,7 +20,18 @@ namespace dynamics
  */
 bool meanDrivenSlip(const VehicleModel& model, const VehicleState& state, double& slip);
 
-/// Stuck = throttle > 0 and mean driven slip >= `slip_threshold` for `hold_time` seconds.
+/// Of the vehicle's weight, what its hull must carry to count as high-centred.
+constexpr double kHighCentredLoadShare = 0.25;
+/// m/s: ... while it moves slower than this over the ground.
+constexpr double kHighCentredSpeed = 0.1;
+
+/// High-centred: the ground carries more than kHighCentredLoadShare of the weight on the hull's
+/// underside and the vehicle moves slower than kHighCentredSpeed (its running gear cannot push
+/// it on, whatever it slips).
+bool highCentred(const VehicleModel& model, const VehicleState& state);
+
+/// Stuck = throttle > 0 and (mean driven slip >= `slip_threshold` or highCentred()) for
+/// `hold_time` seconds.
 class StuckDetector
 {
 public:

@@ -111,6 +111,10 @@ struct TrackParameters
   double pitch = 0.0;        ///< m
   int sprocket_teeth = 0;    ///< N
   double shoe_width = 0.0;   ///< m
+  /// Internal (running gear) resistance of each track: (coefficient + per_speed |v|) times
+  /// the track's share of the weight, against the belt's motion relative to the hull.
+  double internal_resistance = 0.0;            ///< fraction of the weight
+  double internal_resistance_per_speed = 0.0;  ///< fraction of the weight per m/s
   /// m, track speed per sprocket rad/s: p N / (2 pi) (T10).
   double effectiveSprocketRadius() const;
 };
@@ -142,7 +146,18 @@ struct DrivetrainSpec
   double gear_ratio = 0.0;         ///< engine : wheel (or sprocket)
   double efficiency = 0.0;         ///< (0, 1]
   double max_speed = 0.0;          ///< m/s
+  double reverse_max_speed = 0.0;  ///< m/s, governed speed in reverse (<= max_speed)
   std::map<std::string, Differential> differentials;  ///< front/rear/center or left/right
+};
+
+/// The running gear on rigid surfaces (soils of model rigid): a brush-model tyre, or a track's
+/// rubber pads under one road wheel.
+struct FirmGroundSpec
+{
+  double vertical_stiffness = 0.0;      ///< N/m per wheel (per road wheel of a track)
+  double longitudinal_stiffness = 0.0;  ///< C_x / F_z: longitudinal slip stiffness per unit slip
+  double cornering_stiffness = 0.0;     ///< C_alpha / F_z: cornering stiffness per rad
+  double relaxation_length = 0.0;       ///< m: how far it rolls for its slip to build up
 };
 
 struct BrakeSpec
@@ -167,6 +182,7 @@ struct VehicleModel
   SteeringSpec steering;
   DrivetrainSpec drivetrain;
   BrakeSpec brakes;
+  FirmGroundSpec firm_ground;
   std::map<std::string, Eigen::Vector3d> sensor_mounts;  ///< lidar/radar/gps/imu, m in base_link
   /// The <collision> boxes of every link that is not running gear (wheels, road wheels,
   /// sprockets, idlers: their cylinders are the running gear's), at least one.

@@ -90,9 +90,8 @@ struct WorldOptions
   std::uint64_t seed = 0;    ///< seeds ODE's solver (constraint order); same seed = same run
   Solver solver = Solver::kExact;
   int solver_iterations = 20;  ///< QuickStep iterations with Solver::kIterative (>= 1)
-  int stiffness_probe_interval = 10;  ///< steps a wheel's soil stiffness probe is reused (>= 1)
   bool deform_terrain = true;  ///< false: contacts leave no ruts (the terrain stays as it is)
-  double contact_damping_ratio = 0.7;  ///< of a wheel's vertical mode on the soil, [0, 2]
+  double contact_damping_ratio = 0.7;  ///< of a contact's modes (a wheel on the ground, the ground's shear hold), [0, 2]
   bool profile = false;      ///< accumulate step timings (World::times())
 };
 
@@ -108,7 +107,10 @@ struct WheelState
   double slip_angle = 0.0;        ///< rad
   double traction_force = 0.0;    ///< N, longitudinal soil force applied over the last step, + forward
   double lateral_force = 0.0;     ///< N, lateral soil force applied over the last step, + to the left
-  double resistance_force = 0.0;  ///< N, bulldozing + rolling (T12), >= 0
+  double resistance_force = 0.0;  ///< N, bulldozing + rolling (T12), Bekker's compaction, a tyre's rolling, >= 0
+  /// N along the heading the resistance applied over the last step at the wheel centre (up to
+  /// resistance_force, against the travel; at rest it holds the wheel up to that).
+  double applied_resistance_force = 0.0;
   int contact_points = 0;         ///< terrain grid points under load
   double spin_rate = 0.0;         ///< rad/s relative to the chassis, + rolls forward
   double steering_angle = 0.0;    ///< rad, + = left
@@ -133,6 +135,7 @@ struct TrackSegmentState
   double traction_force = 0.0;    ///< N, longitudinal soil force applied over the last step, + forward
   double lateral_force = 0.0;     ///< N, lateral soil force applied over the last step, + to the left
   double resistance_force = 0.0;  ///< N, compaction and bulldozing (T12 or Bekker's), >= 0
+  double applied_resistance_force = 0.0;  ///< N along the heading, applied over the last step (as a wheel's)
   int contact_points = 0;         ///< terrain grid points under load
   double length = 0.0;            ///< m, the segment's ground length along the track
   double width = 0.0;             ///< m, the shoe width
@@ -198,6 +201,12 @@ struct VehicleState
   /// Of those, the points with rigid obstacles (strength +inf) and other vehicles: what
   /// CollisionCounter counts as collisions (collision_counter.hpp).
   int obstacle_rigid_contacts = 0;
+  /// N: the ground's normal force on the hull's underside (the chassis collision boxes' bottom
+  /// faces) over the last step; > 0 when the vehicle has sunk to its belly or is high-centred.
+  double hull_normal_force = 0.0;
+  /// Steps in which a running gear's ground contact gave a non-finite force (that contact was
+  /// left out of the step; World::takeWarnings() names it once).
+  int contact_faults = 0;
   /// N s, impulse obstacles and other vehicles gave the vehicle over the last step (map frame):
   /// the rigid contacts' constraint forces and the toppleable objects' resistance, times the step.
   Eigen::Vector3d obstacle_impulse = Eigen::Vector3d::Zero();
@@ -208,8 +217,7 @@ struct StepTimes
 {
   std::uint64_t steps = 0;
   double ode = 0.0;        ///< s in the ODE step (dWorldStep or dWorldQuickStep)
-  double contact = 0.0;    ///< s in wheelContact/trackContact with deform = options.deform_terrain
-  double probe = 0.0;      ///< s in the stiffness probes (contacts without deformation)
+  double contact = 0.0;    ///< s in wheelContact/trackContact (and a hull's plate contact)
   double other = 0.0;      ///< s in the rest (actuators, drivetrain, joints, telemetry)
   double collision = 0.0;  ///< s finding obstacle and vehicle-vehicle contacts and making their joints
 };
@@ -286,18 +294,23 @@ public:
 
   /**
    * @brief Dynamic agents (deer, pedestrians, trucks; avsp_terrain agents.hpp) in the world from
-   *        the next step on, replacing any earlier ones. Each is a kinematic ODE body
-   *        (dBodySetKinematic) carrying its type's boxes (terrain::agentBoxes), driven along
-   *        its path: at the start of every step it is put at Agent::state(time()) with the
-   *        velocity that takes it to state(time() + step) over the step, so its motion is the
-   *        agent's pure function of time whatever the vehicles do. Vehicles meet it as a rigid
-   *        obstacle that moves (contacts as with other vehicles, friction included): it pushes
-   *        or stops them and is never pushed itself; obstacle_contacts/obstacle_impulse count it.
+   *        the next step on, replacing any earlier ones. Each is a body of its type's mass
+   *        (terrain::agentMass: a deer 100 kg, a pedestrian 80 kg, a truck 10 t) carrying its
+   *        type's boxes (terrain::agentBoxes), driven along its path: every step a critically
+   *        damped tracking force pushes it towards Agent::state(time() + step), bounded
+   *        horizontally by terrain::agentPushForce. Vehicles meet it as bodies of that mass
+   *        (contacts as with other vehicles, friction included): a carrier shoves a deer aside
+   *        and barely notices, a truck pushes a braked 4x4 along. Off its path after a push, an
+   *        agent returns to it within its force limit; sensors and agents_node keep drawing it
+   *        on its path. obstacle_contacts/obstacle_impulse count the contacts.
    */
   void setAgents(std::vector<terrain::Agent> agents);
   std::size_t agentCount() const { return agents_.size(); }
-  /// Agent k's state at the world's time (where its body is now). @throw std::out_of_range
+  /// Agent k's state on its path at the world's time. @throw std::out_of_range
   terrain::AgentState agentState(std::size_t agent) const;
+  /// Agent k's body (its frame: origin on the ground under it, x forward) now, where the
+  /// dynamics have it (a vehicle may have pushed it off its path). @throw std::out_of_range
+  Eigen::Isometry3d agentPose(std::size_t agent) const;
 
   /**
    * @brief Adds a vehicle simulated by another process (a dynamics partition) as a proxy: a
@@ -347,6 +360,9 @@ public:
                                 double clearance = 0.0) const;
 
   const StepTimes& times() const { return times_; }
+  /// Warnings the vehicles raised since the last call (e.g. a wheel's contact gave a non-finite
+  /// force: once per wheel, naming the vehicle and the wheel), oldest first.
+  std::vector<std::string> takeWarnings();
   terrain::DeformableTerrain& terrain() { return terrain_; }
 
 private:
