@@ -1,6 +1,6 @@
 // Prints the vehicle simulation's figures (not a test): real-time factor at a 1 ms physics step
 // of one vehicle (or a team in one world) driving on deformable soil, and microseconds per
-// step split into ODE step, soil contact, stiffness probes, collision and the rest; the terrain
+// step split into ODE step, soil contact, collision and the rest; the terrain
 // update is the contact's extra cost with deformation on over the same run with it off. Then
 // the cost of obstacle collision: the first vehicle on the default course (avsp_terrain) with
 // none of its objects as obstacles, with all of them, and driving into its woods.
@@ -150,8 +150,8 @@ void printCourse(const char* label, const CourseRun& c)
   const dynamics::StepTimes& t = c.run.times;
   std::printf("  %-30s %5zu geoms: collision %.2f us per step (total step %.1f us: ODE %.1f, soil contact %.1f; "
               "real-time factor %.1fx); %.0f m, %ld steps in contact, %zu objects toppled\n",
-              label, c.geoms, t.collision * per, (t.ode + t.contact + t.probe + t.other + t.collision) * per,
-              t.ode * per, (t.contact + t.probe) * per, c.run.sim / c.run.wall, c.run.distance, c.contact_steps,
+              label, c.geoms, t.collision * per, (t.ode + t.contact + t.other + t.collision) * per,
+              t.ode * per, t.contact * per, c.run.sim / c.run.wall, c.run.distance, c.contact_steps,
               c.toppled);
 }
 
@@ -160,11 +160,9 @@ void print(const char* label, const Run& r)
   const double per = 1e6 / static_cast<double>(r.times.steps);
   std::printf("  %-34s real-time factor %6.1fx  (%.1f s simulated in %.2f s, %.0f m, sinkage up to %.1f mm)\n", label,
               r.sim / r.wall, r.sim, r.wall, r.distance, 1e3 * r.max_rut);
-  std::printf("  %-34s us per step: ODE %.1f, soil contact %.1f, stiffness probes %.1f, collision %.2f, "
-              "rest %.1f (total %.1f)\n",
-              "", r.times.ode * per, r.times.contact * per, r.times.probe * per, r.times.collision * per,
-              r.times.other * per,
-              (r.times.ode + r.times.contact + r.times.probe + r.times.collision + r.times.other) * per);
+  std::printf("  %-34s us per step: ODE %.1f, soil contact %.1f, collision %.2f, rest %.1f (total %.1f)\n", "",
+              r.times.ode * per, r.times.contact * per, r.times.collision * per, r.times.other * per,
+              (r.times.ode + r.times.contact + r.times.collision + r.times.other) * per);
 }
 }  // namespace
 
