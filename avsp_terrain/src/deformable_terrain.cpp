@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -391,6 +392,7 @@ struct DeformableTerrain::Footprint
   double v_theoretical = 0.0;           ///< m/s, T9 or T10
   double travel = 1.0;                  ///< +1 moving forward, -1 backward
   double shear_long = 0.0, shear_lat = 0.0;  ///< shear slip (WheelPatch::shear_slip), footprint frame
+  double shear_cap = std::numeric_limits<double>::infinity();  ///< m, WheelPatch::shear_cap
   double swept = 0.0;                   ///< m the footprint travels over this step (|v_long| dt)
   double ground_slope = 0.0;            ///< a wheel's ground dz/du along its heading
 };
@@ -665,6 +667,10 @@ ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt
     requireFinite(kFn, "wheel.shear_slip", wheel.shear_slip.y());
     fp.shear_long = wheel.shear_slip.x();
     fp.shear_lat = wheel.shear_slip.y();
+    if (!(wheel.shear_cap >= 0.0))
+      throw std::invalid_argument(std::string(kFn) + ": wheel.shear_cap must be >= 0 (or +inf), got " +
+                                  std::to_string(wheel.shear_cap));
+    fp.shear_cap = wheel.shear_cap;
   }
   else
   {
@@ -732,6 +738,10 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
     requireFinite(kFn, "track.shear_slip", track.shear_slip.y());
     fp.shear_long = track.shear_slip.x();
     fp.shear_lat = track.shear_slip.y();
+    if (!(track.shear_cap >= 0.0))
+      throw std::invalid_argument(std::string(kFn) + ": track.shear_cap must be >= 0 (or +inf), got " +
+                                  std::to_string(track.shear_cap));
+    fp.shear_cap = track.shear_cap;
   }
   else
   {
@@ -791,11 +801,12 @@ DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y
   double weight[4] = { (1.0 - u) * (1.0 - v), u * (1.0 - v), (1.0 - u) * v, u * v };
   if (behind != 0.0)
   {
-    // A sample behind the wheel's bottom (behind > 0: its distance back along the travel)
-    // lies in soil the bottom has already pressed; a grid point ahead of the bottom records
-    // only the rim's passing flank. Interpolated across the bottom, the rut's floor there
-    // would come out shallower than the imprint (a spurious support right behind the bottom),
-    // so such a sample is interpolated from the points behind the bottom alone.
+    // A rolling wheel's bottom parts soil it has pressed (behind) from soil only its front arc
+    // has (ahead). A sample behind the bottom (behind > 0) interpolated across it would find
+    // the rut's floor shallower than the imprint (a spurious support right behind the bottom);
+    // a sample ahead of it (behind < 0) would find soil pressed deeper than the rim is there
+    // (a front arc losing its pressure, the wheel sinking deeper and resisting less on a
+    // coarse grid). Each is interpolated from the grid points on its own side alone.
     const double ox = base_.originX() + (static_cast<double>(window_i0_ + a)) * base_.dx() - fp.cx;
     const double oy = base_.originY() + (static_cast<double>(window_j0_ + b)) * base_.dy() - fp.cy;
     const double corner_x[4] = { ox, ox + base_.dx(), ox, ox + base_.dx() };
@@ -804,7 +815,7 @@ DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y
     for (int k = 0; k < 4; ++k)
     {
       const double along = (corner_x[k] * fp.ca + corner_y[k] * fp.sa) * fp.travel;
-      if (along > 0.0)
+      if (behind > 0.0 ? along > 0.0 : along < 0.0)
         weight[k] = 0.0;
       kept += weight[k];
     }
@@ -815,8 +826,11 @@ DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y
       weight[0] = weight[1] = weight[2] = weight[3] = 0.25;
   }
   WindowPoint out;
+  out.plastic_min = std::numeric_limits<double>::infinity();
   for (int k = 0; k < 4; ++k)
   {
+    if (weight[k] > 0.0)
+      out.plastic_min = std::min(out.plastic_min, static_cast<double>(corner[k]->plastic));
     out.base += weight[k] * corner[k]->base;
     out.plastic += weight[k] * corner[k]->plastic;
     out.displaced += weight[k] * corner[k]->displaced;
@@ -925,6 +939,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       p.j = static_cast<std::uint32_t>(j);
       p.soil = soil_index;
       p.weight = lateral_weight;
+      p.pressed = 1.0;
       double bottom = 0.0;
       if (fp.wheel)
       {
@@ -961,23 +976,41 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             breaks[count++] = at;
         breaks[count] = hi;
         std::sort(breaks + 1, breaks + count);
+        double pressed = 0.0, pressed_lo = hi, pressed_hi = lo;  // the pressed stretch, u
         for (int k = 0; k < count; ++k)
         {
           const double mid = 0.5 * (breaks[k] + breaks[k + 1]), half = 0.5 * (breaks[k + 1] - breaks[k]);
           if (!(half > 0.0))
             continue;
-          for (const double us : { mid - kGauss * half, mid + kGauss * half })
+          const double at_sample[2] = { mid - kGauss * half, mid + kGauss * half };
+          double pens[2];
+          for (int g = 0; g < 2; ++g)
           {
+            const double us = at_sample[g];
             const double offset = us - u;
             // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
             // wheel at rest (pressed straight down) is the same front and back.
-            const bool behind = rolling && us * fp.travel < 0.0;
-            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, fp, behind ? 1.0 : 0.0);
-            const double pen = w.base - w.plastic - w.displaced - (fp.cz - std::sqrt(r2 - us * us));
-            if (!(pen > 0.0))
+            const double side = rolling ? (us * fp.travel < 0.0 ? 1.0 : -1.0) : 0.0;
+            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, fp, side);
+            // Ahead of a rolling wheel's bottom, between a point its front arc has pressed and
+            // one it has not reached, the linear interpolant runs above the arc's imprint (the
+            // imprint ends at the arc's leading edge): the soil there has been pressed at most
+            // where the rim was a step ago, unless it was deeper before (the least of the points
+            // around it). Without the cap a coarse grid's front arc loses its pressure near the
+            // leading edge: the wheel sinks deeper and resists less with the bottom mid-cell.
+            double plastic = w.plastic;
+            if (side < 0.0)
+            {
+              const double back = us + fp.travel * fp.swept;
+              const double imprint =
+                  std::abs(back) < r ? w.base - w.displaced - (fp.cz - std::sqrt(r2 - back * back)) : 0.0;
+              plastic = std::min(plastic, std::max(imprint, w.plastic_min));
+            }
+            pens[g] = w.base - plastic - w.displaced - (fp.cz - std::sqrt(r2 - us * us));
+            if (!(pens[g] > 0.0))
               continue;
-            const PointLoad at = bekker ? soil.bekkerLoad(modulus, w.plastic, pen) :
-                                          soil.simpleLoad(w.plastic, w.plastic + w.displaced, w.sigma_max, pen);
+            const PointLoad at = bekker ? soil.bekkerLoad(modulus, plastic, pens[g]) :
+                                          soil.simpleLoad(plastic, plastic + w.displaced, w.sigma_max, pens[g]);
             const double share = half / along_spacing;  // of the cell, this sample's
             p.sigma += share * at.sigma;
             p.slope += share * at.slope;
@@ -991,13 +1024,34 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
               p.rim_slope += share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
             }
           }
+          // The pressed part of this stretch: all of it, or up to where the penetration crosses
+          // 0 between the samples (linearly): the contact's edges at sub-sample resolution.
+          const bool in0 = pens[0] > 0.0, in1 = pens[1] > 0.0;
+          if (in0 || in1)
+          {
+            double from = breaks[k], to = breaks[k + 1];
+            if (in0 != in1)
+            {
+              const double root =
+                  at_sample[0] + (at_sample[1] - at_sample[0]) * pens[0] / (pens[0] - pens[1]);
+              (in0 ? to : from) = std::clamp(root, breaks[k], breaks[k + 1]);
+            }
+            pressed += (to - from) / along_spacing;
+            pressed_lo = std::min(pressed_lo, from);
+            pressed_hi = std::max(pressed_hi, to);
+          }
         }
         if (!(p.sigma > 0.0) && !p.deforms)
           continue;
+        p.pressed = std::min(pressed, 1.0);
         if (p.sigma > 0.0)
           p.rim_slope /= p.sigma;
-        p.along0 = fp.travel > 0.0 ? lo : -hi;
-        p.along1 = fp.travel > 0.0 ? hi : -lo;
+        // Its strip along the travel is the stretch the rim presses (a cell the contact's leading
+        // edge crosses counts from that edge: the shear displacement j = s x starts there).
+        if (!(pressed_hi > pressed_lo))
+          pressed_lo = pressed_hi = u;
+        p.along0 = fp.travel > 0.0 ? pressed_lo : -pressed_hi;
+        p.along1 = fp.travel > 0.0 ? pressed_hi : -pressed_lo;
       }
       else
       {
@@ -1028,7 +1082,9 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0) :
                            soil.elasticSinkage(p.sigma_point, deformation);
       loaded_.push_back(p);
-      if (p.deforms)
+      // Sinkage where the gear carries load, pressing on (deforming) or resting on soil it has
+      // pressed before (a parked wheel's point at its own imprint).
+      if (p.deforms || (p.sigma > 0.0 && (!fp.wheel || std::abs(u) < r)))
         out.sinkage = std::max(out.sinkage, base_z - bottom);
       out.elastic_sinkage = std::max(out.elastic_sinkage, p.elastic);
     }
@@ -1091,7 +1147,8 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   for (const LoadedPoint& p : loaded_)
   {
     const ContactSoil& soil = contact_soils_[p.soil];
-    const double strength = soil.cohesion + std::max(p.sigma, 0.0) * soil.tan_phi;
+    // Cohesion over the part of the cell the gear presses, friction on the cell's mean pressure.
+    const double strength = soil.cohesion * p.pressed + std::max(p.sigma, 0.0) * soil.tan_phi;
     const double cell = area * p.weight;
     const double load = p.sigma * cell;
     out.normal_force += load;
@@ -1113,7 +1170,13 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       compaction += cell / fp.track_length * p.sigma * p.depth / (soil.n + 1.0);
     }
     if (!(slip_magnitude > 0.0))
+    {
+      // At s = 0 the slopes of the two limits: all soil displaced by |s| x (rolling), or all by
+      // the cap (at rest); a caller between them takes the lesser.
       out.shear_slope += strength * 0.5 * (p.x0 + p.x1) / soil.shear_modulus * cell;  // d|F|/ds at s = 0
+      if (std::isfinite(fp.shear_cap))
+        out.shear_cap_slope += strength / soil.shear_modulus * cell;
+    }
     if (slip_magnitude > 0.0)
     {
       const double half = 0.5 * (p.x1 - p.x0);
@@ -1138,15 +1201,46 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
         }
       }
       const double inv_k = strip->inv_k;
-      const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
-      const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
-      double dmean = 0.0;
-      const double mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0,
-                                          e_mid * strip->inv_half_factor, inv_k, dmean);
+      double mean = 0.0, dmean = 0.0, dcap = 0.0;
+      if (slip_magnitude * p.x1 <= fp.shear_cap)
+      {
+        const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
+        const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
+        mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0, e_mid * strip->inv_half_factor,
+                               inv_k, dmean);
+      }
+      else
+      {
+        // Behind x_c = cap / |s| the soil is displaced by the cap (it has been under the contact
+        // all along); ahead of it by |s| x. Means over the strip, and their slopes in |s| and in
+        // the cap (the boundary terms cancel).
+        const double xc = std::max(fp.shear_cap / slip_magnitude, p.x0), span = p.x1 - p.x0;
+        const double ec = std::exp(-fp.shear_cap * inv_k);
+        double part = 0.0, dpart = 0.0;
+        if (!(span > 1e-12))
+        {
+          mean = 1.0 - ec;  // a point strip, all of it at the cap
+          dcap = inv_k * ec;
+        }
+        else if (xc > p.x0)
+        {
+          const double e0 = std::exp(-slip_magnitude * p.x0 * inv_k);
+          const double k = 1.0 / inv_k;
+          part = (xc - p.x0) - k / slip_magnitude * (e0 - ec);
+          dpart = (p.x0 * e0 - xc * ec) / slip_magnitude + k / (slip_magnitude * slip_magnitude) * (e0 - ec);
+        }
+        if (span > 1e-12)
+        {
+          mean = (part + (p.x1 - xc) * (1.0 - ec)) / span;
+          dmean = dpart / span;
+          dcap = (p.x1 - xc) * inv_k * ec / span;
+        }
+      }
       const double tau = strength * mean * cell / slip_magnitude;
       out.longitudinal_force += fp.shear_long * tau;
       out.lateral_force += fp.shear_lat * tau;
       out.shear_slope += strength * dmean * cell;
+      out.shear_cap_slope += strength * dcap * cell;
     }
   }
   // T12 with the depth of the soil ahead (largest penetration): for one simple soil this is

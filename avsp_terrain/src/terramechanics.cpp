@@ -170,6 +170,32 @@ RigidWheelLoad rollingWheelOnBekkerSoil(const SoilParameters& soil, double radiu
   return out;
 }
 
+double rollingWheelTraction(const SoilParameters& soil, double radius, double width, double sinkage, double slip,
+                            int samples)
+{
+  if (!(sinkage > 0.0))
+    return 0.0;
+  const double z0 = std::min(sinkage, radius);
+  const double theta1 = std::acos(1.0 - z0 / radius);
+  const double p_max = bekkerPressure(soil, width, z0);
+  const double rise = soil.k_unload > 0.0 ? std::min(p_max / soil.k_unload, z0) : 0.0;
+  const double theta2 = std::acos(1.0 - rise / radius);
+  const double lead = radius * std::sin(theta1);  // the leading edge, ahead of the bottom
+  const double s = std::abs(slip);
+  double out = 0.0;
+  // theta from the leading edge (theta1) back to the rear's end (-theta2), + ahead of the bottom.
+  const double dtheta = (theta1 + theta2) / samples;
+  for (int k = 0; k < samples; ++k)
+  {
+    const double theta = theta1 - (k + 0.5) * dtheta;
+    const double p = theta >= 0.0 ? bekkerPressure(soil, width, radius * std::cos(theta) - (radius - z0)) :
+                                    std::max(p_max - soil.k_unload * radius * (1.0 - std::cos(theta)), 0.0);
+    const double x = lead - radius * std::sin(theta);
+    out += shearStress(soil, p, s * x) * width * radius * std::cos(theta) * dtheta;
+  }
+  return slip < 0.0 ? -out : out;
+}
+
 double rollingWheelSinkage(const SoilParameters& soil, double radius, double width, double load)
 {
   if (!(load > 0.0))

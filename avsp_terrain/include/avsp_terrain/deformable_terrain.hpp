@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -41,6 +42,10 @@ struct WheelPatch
   /// the soil's displacement, not by a ratio of two speeds near 0).
   Eigen::Vector2d shear_slip = Eigen::Vector2d::Zero();
   bool shear_slip_given = false;
+  /// m: the largest shear displacement any of the contact's soil has, j = min(|s| x, shear_cap)
+  /// (with shear_slip_given). A contact at rest on its soil has displaced all of it alike (the
+  /// cap: its displacement), a rolling one renews it from the leading edge (j = |s| x).
+  double shear_cap = std::numeric_limits<double>::infinity();
   /// Which way the contact's leading edge faces (+1 ahead, -1 behind: where the shear
   /// displacement starts, T11); 0: the way the wheel moves (a caller that keeps it through a
   /// standstill's tiny reversals keeps the shear from jumping front to back).
@@ -78,6 +83,8 @@ struct TrackPatch
   /// As WheelPatch::shear_slip (longitudinal along heading).
   Eigen::Vector2d shear_slip = Eigen::Vector2d::Zero();
   bool shear_slip_given = false;
+  /// As WheelPatch::shear_cap.
+  double shear_cap = std::numeric_limits<double>::infinity();
   /// As WheelPatch::travel.
   int travel = 0;
 };
@@ -100,6 +107,7 @@ struct ContactForces
   /// can give in any direction at any slip (T7 at full shear displacement).
   double shear_strength = 0.0;
   double shear_slope = 0.0;         ///< N per unit slip: d |shear force| / d |shear slip| at this slip (T11)
+  double shear_cap_slope = 0.0;     ///< N/m: d |shear force| / d shear_cap (the soil displaced to the cap)
   double contact_length = 0.0;      ///< m, loaded length along travel (a track: the whole track's)
   double normal_stiffness = 0.0;    ///< N/m, d normal_force / d sinkage pressing deeper (loading)
   double unload_stiffness = 0.0;    ///< N/m, the same coming back up (the soil's elastic part)
@@ -314,7 +322,8 @@ private:
     double along0, along1;  ///< m, its loaded stretch along the direction of travel (footprint frame)
     double x0, x1;       ///< m, its strip behind the leading edge (shear displacement, T11)
     double penetration;  ///< m, below the current unloaded surface, at the point
-    double sigma;        ///< Pa, mean over the loaded part of its cell
+    double sigma;        ///< Pa, mean over its cell (a wheel's strip: the unpressed part counting 0)
+    double pressed;      ///< of its cell along the travel, the part the gear presses (where cohesion acts)
     double sigma_point;  ///< Pa, at the point (what its state records)
     double slope;        ///< Pa/m, d sigma / d penetration, loading
     double unload;       ///< Pa/m, unloading
@@ -331,11 +340,13 @@ private:
   struct WindowPoint
   {
     double base = 0.0, plastic = 0.0, displaced = 0.0, sigma_max = 0.0;
+    double plastic_min = 0.0;  ///< the least plastic sinkage of the points interpolated from
   };
   /// Copies the points (i0..i1, j0..j1) into window_ (a wheel's footprint and one point round it).
   void fillWindow(std::size_t i0, std::size_t i1, std::size_t j0, std::size_t j1);
-  /// The window's state at (x, y), bilinear between its four points; `behind` != 0: a sample
-  /// behind the footprint's bottom, interpolated from the points behind it only.
+  /// The window's state at (x, y), bilinear between its four points; `behind` > 0: a sample
+  /// behind a rolling footprint's bottom, interpolated from the points behind it only; < 0:
+  /// ahead of it, from the points ahead only.
   WindowPoint windowState(double x, double y, const Footprint& fp, double behind) const;
 
   /// @throw std::out_of_range naming `function` and the point when (i, j) is outside the grid

@@ -117,6 +117,17 @@ RigidWheelLoad rollingWheelOnBekkerSoil(const SoilParameters& soil, double radiu
                                         int samples = 4000);
 
 /**
+ * @brief Tractive effort (N) of a rigid wheel rolling at sinkage z0 and slip s in Bekker-Wong
+ *        soil: Janosi-Hanamoto over the loaded arc of rollingWheelOnBekkerSoil() (front arc and
+ *        the elastic rear) with the pressure p(x) the rim has there, tau = (c + p tan(phi))
+ *        (1 - e^(-j/K)), j = s x, x the horizontal distance behind the arc's leading edge (T7,
+ *        T11), over the horizontal projection b dx. With uniform pressure it is
+ *        janosiTractiveEffort(); the rim's pressure peaks at the bottom, where j is larger.
+ */
+double rollingWheelTraction(const SoilParameters& soil, double radius, double width, double sinkage, double slip,
+                            int samples = 4000);
+
+/**
  * @brief Sinkage (m) at which rollingWheelOnBekkerSoil() carries `load` (N), by bisection.
  * @throw std::domain_error if the load exceeds what the wheel carries sunk to its axle
  */
