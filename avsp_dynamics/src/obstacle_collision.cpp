@@ -465,8 +465,8 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
     ct.surface.soft_erp = kObstacleErp;
     ct.surface.soft_cfm = kContactCreep / (mass * kNominalGravity);
     const dJointID joint = dJointCreateContact(world, group, &ct);
-    // The second body: the other vehicle's, an agent's kinematic body (immovable, moving at its
-    // own velocity), or none (the static world).
+    // The second body: the other vehicle's, an agent's or a proxy's body (of its mass), or none
+    // (the static world).
     dBodyID other = nullptr;
     if (vb)
       other = vb->bodies[h.geom_b];

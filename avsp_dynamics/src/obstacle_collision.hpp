@@ -72,11 +72,12 @@ struct VehicleBodies
   double mass = 0.0;  ///< kg, the whole vehicle (regularization of its contacts)
 };
 
-/// A dynamic agent's kinematic body (World::setAgents) and the boxes it collides with.
+/// A dynamic agent's (World::setAgents) or a proxy's (World::addProxy) body and the boxes it
+/// collides with.
 struct AgentCollisionBody
 {
-  dBodyID body = nullptr;  ///< kinematic (dBodySetKinematic): moved by the world, never by contacts
-  std::vector<CollisionBox> boxes;  ///< in the body's frame (its origin on the ground, x forward)
+  dBodyID body = nullptr;  ///< a body of its mass (no gravity): the world drives it, contacts push it
+  std::vector<CollisionBox> boxes;  ///< in the body's frame (its origin at its centre of mass)
 };
 
 /// What obstacles and other vehicles did to one vehicle over the last step.
@@ -105,10 +106,9 @@ public:
   void setObstacles(terrain::ObjectSet& objects, const terrain::DeformableTerrain& terrain);
 
   /**
-   * @brief Replaces the agents' geoms by boxes riding on the given kinematic bodies. Vehicles
-   *        meet them as rigid contacts (as other vehicles), the agent's side immovable: a
-   *        moving agent pushes a vehicle at its own velocity. Agents pass through obstacles and
-   *        each other.
+   * @brief Replaces the agents' (and proxies') geoms by boxes riding on the given bodies.
+   *        Vehicles meet them as rigid contacts (as other vehicles), momentum exchanged by the
+   *        bodies' masses. Agents pass through obstacles and each other.
    */
   void setAgents(const std::vector<AgentCollisionBody>& agents);
   /// Removes the agents' geoms (before their bodies are destroyed).

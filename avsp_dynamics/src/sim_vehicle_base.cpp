@@ -60,11 +60,9 @@ Eigen::Vector2d GroundContact::prepare(double v_long, double v_theoretical, doub
   const double length = std::max(relaxation_, kMinRelaxationLength);
   decay_ = 1.0 / (1.0 + step * speed / length);
   decayed_ = decay_ * u_;
-  Eigen::Vector2d slip = -decayed_ / std::max(soil_length_, kMinRelaxationLength);
-  const double magnitude = slip.norm();
-  if (magnitude > 1.0)
-    slip /= magnitude;
-  return slip;
+  const double soil_length = std::max(soil_length_, kMinRelaxationLength);
+  shear_length_ = std::max(soil_length * std::min(1.0, speed / kShearRenewalSpeed), kMinShearLength);
+  return -decayed_ / shear_length_;
 }
 
 void GroundContact::reset()
@@ -140,13 +138,18 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   // Tangential: the soil's shear at the relaxed displacement (the terrain was given it), the
   // tyre's on rigid ground, their stiffness in u and the strength that bounds them.
   Eigen::Vector2d force = Eigen::Vector2d::Zero(), stiffness = Eigen::Vector2d::Zero();
-  double capacity = 0.0, soil_length = std::max(soil_length_, kMinRelaxationLength);
+  double capacity = 0.0;
   if (soil_normal > 0.0)
   {
     force = Eigen::Vector2d(soil.longitudinal_force, soil.lateral_force);
     capacity = soil.shear_strength;
-    const double radial = soil.shear_slope / soil_length;  // N/m of displacement, along it
+    // N/m of displacement, along it: through the slip (-u / l) and the cap (|u|); at u = 0 the
+    // lesser of the two limits (the soil displaced by s x, or all of it by |u|).
     const double du = decayed_.norm(), magnitude = force.norm();
+    const double through_slip = soil.shear_slope / std::max(shear_length_, kMinShearLength);
+    const double radial = du > 1e-12 ? through_slip + soil.shear_cap_slope :
+                                       (soil.shear_cap_slope > 0.0 ? std::min(through_slip, soil.shear_cap_slope) :
+                                                                     through_slip);
     const double transverse = du > 1e-12 ? magnitude / du : radial;
     for (int r = 0; r < 2; ++r)
     {
@@ -347,6 +350,7 @@ void HullContact::beforeStep(dWorldID world, dJointGroupID contacts, dBodyID cha
     patch.normal = up;
     patch.shear_slip = p.ground.prepare(velocity.dot(frame.t1), 0.0, h);
     patch.shear_slip_given = true;
+    patch.shear_cap = p.ground.shearCap();
     patch.travel = p.ground.travel();
     const auto start = times ? Clock::now() : Clock::time_point();
     const terrain::ContactForces soil = terrain.trackContact(patch, h, options.deform_terrain);

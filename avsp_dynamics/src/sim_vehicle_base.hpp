@@ -86,6 +86,12 @@ constexpr double kMaxVirtualDepth = 0.02;
 constexpr double kResistanceFadeSpeed = 0.1;
 /// m: the shortest relaxation length a contact's shear uses (a wheel barely touching).
 constexpr double kMinRelaxationLength = 0.05;
+/// m/s: a contact rolling over its soil slower than this renews less of it than its loaded
+/// length during the shear's build-up: its soil's displacement tends to the contact's own
+/// everywhere (at rest), instead of growing from the leading edge (rolling, T11).
+constexpr double kShearRenewalSpeed = 0.1;
+/// m: the shortest length over which a contact's displacement spreads from its leading edge.
+constexpr double kMinShearLength = 1e-4;
 
 inline Eigen::Vector3d vec(const dReal* v)
 {
@@ -175,7 +181,10 @@ struct FirmContact
  * ground it grips, relaxing as du/dt = v - (D / L) u (v the contact point's sliding velocity,
  * D = max(|v_long|, |v_theoretical|) the speed at which fresh ground enters, L the relaxation
  * length: the soil's loaded length, a tyre's own on rigid ground). The force is the soil's shear
- * at slip -u / L (T7, T11; the terrain integrates it) plus, on rigid ground, a brush tyre's at
+ * with its soil displaced j = min(|u| x / l, |u|) x behind the leading edge (T7, T11; the terrain
+ * integrates it: slip -u / l capped at |u|), l = L min(1, D / 0.1 m/s): rolling, the soil enters
+ * at the leading edge (j = s x); at rest all of it has been under the gear since it stopped (j =
+ * |u|, so a short contact holds by its whole strength); plus, on rigid ground, a brush tyre's at
  * the same displacement; in steady rolling u / L is the slip (T8), at rest u is a displacement
  * the ground resists elastically, so a braked vehicle holds on a slope up to the soil's
  * strength instead of creeping at a ratio of two speeds near 0. Each friction row is that force
@@ -209,6 +218,8 @@ public:
   void reset();
 
   const Eigen::Vector2d& displacement() const { return u_; }
+  /// m, this step's cap on the soil's shear displacement (WheelPatch::shear_cap): |u| relaxed.
+  double shearCap() const { return decayed_.norm(); }
   /// +1 or -1: the way the contact's leading edge faces (for the terrain's patch), kept through
   /// a standstill: it turns only when the gear moves the other way faster than 5 cm/s.
   int travel() const { return travel_; }
@@ -222,6 +233,7 @@ private:
   double decay_ = 1.0;         ///< this step's relaxation factor 1 / (1 + h D / L)
   double step_ = 0.0;          ///< s
   double soil_length_ = 0.0;   ///< m, the soil's relaxation length (its loaded length last step)
+  double shear_length_ = 0.0;  ///< m, this step's l: the displacement spreads from the leading edge over it
   double relaxation_ = 0.0;    ///< m, this contact's relaxation length (soil and tyre, by load)
   double limit_ = 0.0;         ///< m, largest displacement (full slip)
   bool active_ = false;        ///< a joint was made this step

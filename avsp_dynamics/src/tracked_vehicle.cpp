@@ -603,6 +603,7 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   patch.normal = frame.normal.z() >= 0.25 ? frame.normal : Eigen::Vector3d::UnitZ();
   patch.shear_slip = w.ground.prepare(velocity.dot(frame.t1), side.belt_speed, h);
   patch.shear_slip_given = true;
+  patch.shear_cap = w.ground.shearCap();
   patch.travel = w.ground.travel();
   const auto start = times ? Clock::now() : Clock::time_point();
   w.soil = terrain.trackContact(patch, h, options_.deform_terrain);

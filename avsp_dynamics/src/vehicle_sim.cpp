@@ -31,8 +31,8 @@ struct World::Ode
 {
   dWorldID world = nullptr;
   dJointGroupID contacts = nullptr;
-  std::vector<dBodyID> agent_bodies;  ///< kinematic, one per World::agents_ entry
-  std::vector<dBodyID> proxy_bodies;  ///< kinematic, one per World::proxies_ entry
+  std::vector<dBodyID> agent_bodies;  ///< one per World::agents_ entry (their mass, no gravity)
+  std::vector<dBodyID> proxy_bodies;  ///< one per World::proxies_ entry (their mass, no gravity)
   std::vector<AgentCollisionBody> agent_geoms, proxy_geoms;  ///< what ObstacleCollision gets
   ~Ode()
   {
@@ -525,6 +525,7 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   patch.ground_slope = -frame.normal.dot(forward) / frame.normal.z();
   patch.shear_slip = w.ground.prepare(velocity.dot(frame.t1), patch.spin_rate * w.spec->radius, h);
   patch.shear_slip_given = true;
+  patch.shear_cap = w.ground.shearCap();
   patch.travel = w.ground.travel();
   const auto start = times ? Clock::now() : Clock::time_point();
   w.soil = terrain.wheelContact(patch, h, options_.deform_terrain);
@@ -690,6 +691,14 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
   return vehicles_.size() - 1;
 }
 
+void World::setGravity(const Eigen::Vector3d& gravity)
+{
+  if (!gravity.allFinite() || std::abs(gravity.norm() - options_.gravity) > 1e-9 * std::max(1.0, options_.gravity))
+    throw std::invalid_argument("World::setGravity: gravity must be finite with magnitude WorldOptions::gravity (" +
+                                std::to_string(options_.gravity) + " m/s^2), got " + std::to_string(gravity.norm()));
+  dWorldSetGravity(ode_->world, gravity.x(), gravity.y(), gravity.z());
+}
+
 void World::setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity)
 {
   if (vehicle >= vehicles_.size())
@@ -796,13 +805,33 @@ std::size_t World::addProxy(const VehicleModel& model, const std::string& name)
   for (const TrackSpec& t : model.tracks)
     for (const RoadWheelSpec& w : t.road_wheels)
       wheel_box(w.rest_position, w.radius, std::max(w.width, model.track.shoe_width));
+  // A body of the vehicle's mass and inertia (all its links lumped at the rest pose), its origin
+  // at the centre of mass (ODE's rule), the boxes placed about it; no gravity (it does not
+  // touch the ground: its own process carries it). Between two exchanges it flies on at its
+  // velocities and this world's vehicles push it as they would the vehicle itself: a collision
+  // across partitions exchanges momentum as one between two bodies of those masses, instead of
+  // against an immovable (kinematic) one that hands back twice the closing speed.
+  std::vector<const Body*> links;
+  for (const Body& b : model.bodies)
+    links.push_back(&b);
+  const sim::LumpedBody lumped = sim::lump(links);
+  if (!(lumped.mass > 0.0))
+    throw std::invalid_argument("World::addProxy: '" + name + "' has no mass");
+  for (CollisionBox& b : c.boxes)
+    b.pose.translation() -= lumped.com;
   c.body = dBodyCreate(ode_->world);
-  dBodySetKinematic(c.body);
+  dMass mass;
+  const Eigen::Matrix3d& i = lumped.inertia;
+  dMassSetParameters(&mass, lumped.mass, 0.0, 0.0, 0.0, i(0, 0), i(1, 1), i(2, 2), i(0, 1), i(0, 2), i(1, 2));
+  dBodySetMass(c.body, &mass);
+  dBodySetGravityMode(c.body, 0);
+  dBodySetFiniteRotationMode(c.body, 1);  // a yawing proxy turns by omega dt exactly each step
   dBodySetPosition(c.body, 0.0, 0.0, -1e4);  // out of reach until placed
   ode_->proxy_bodies.push_back(c.body);
   ode_->proxy_geoms.push_back(std::move(c));
   Proxy p;
   p.name = name;
+  p.com = lumped.com;
   p.pose.translation() = Eigen::Vector3d(0.0, 0.0, -1e4);
   p.since = time();
   proxies_.push_back(p);
@@ -824,6 +853,7 @@ void World::setProxyState(std::size_t proxy, const Eigen::Isometry3d& pose, cons
   p.linear_velocity = linear_velocity;
   p.angular_velocity = angular_velocity;
   p.since = time();
+  p.placed = false;
   driveProxies();
 }
 
@@ -832,34 +862,31 @@ Eigen::Isometry3d World::proxyPose(std::size_t proxy) const
   if (proxy >= proxies_.size())
     throw std::out_of_range("World::proxyPose: no proxy " + std::to_string(proxy) + " (have " +
                             std::to_string(proxies_.size()) + ")");
-  return extrapolated(proxies_[proxy], time());
-}
-
-Eigen::Isometry3d World::extrapolated(const Proxy& p, double t) const
-{
-  // Constant velocities since the last state: the other process's vehicle as well as this
-  // world can know it between two exchanges.
-  const double dt = t - p.since;
-  Eigen::Isometry3d pose = p.pose;
-  pose.translation() += p.linear_velocity * dt;
-  const double angle = p.angular_velocity.norm() * dt;
-  if (angle > 0.0)
-    pose.linear() = Eigen::AngleAxisd(angle, p.angular_velocity.normalized()).toRotationMatrix() * p.pose.linear();
+  const dBodyID body = ode_->proxy_bodies[proxy];
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = rotationOf(body);
+  pose.translation() = vec(dBodyGetPosition(body)) - pose.linear() * proxies_[proxy].com;
   return pose;
 }
 
 void World::driveProxies()
 {
+  // A proxy is put where its process says once per exchange; in between ODE moves it.
   for (std::size_t k = 0; k < proxies_.size(); ++k)
   {
-    const Proxy& p = proxies_[k];
-    const Eigen::Isometry3d pose = extrapolated(p, time());
+    Proxy& p = proxies_[k];
+    if (p.placed)
+      continue;
+    p.placed = true;
     const dBodyID body = ode_->proxy_bodies[k];
-    dBodySetPosition(body, pose.translation().x(), pose.translation().y(), pose.translation().z());
-    const Eigen::Quaterniond q(pose.linear());
+    const Eigen::Vector3d arm = p.pose.linear() * p.com;
+    const Eigen::Vector3d centre = p.pose.translation() + arm;
+    const Eigen::Vector3d v = p.linear_velocity + p.angular_velocity.cross(arm);
+    dBodySetPosition(body, centre.x(), centre.y(), centre.z());
+    const Eigen::Quaterniond q(p.pose.linear());
     const dQuaternion dq = { q.w(), q.x(), q.y(), q.z() };
     dBodySetQuaternion(body, dq);
-    dBodySetLinearVel(body, p.linear_velocity.x(), p.linear_velocity.y(), p.linear_velocity.z());
+    dBodySetLinearVel(body, v.x(), v.y(), v.z());
     dBodySetAngularVel(body, p.angular_velocity.x(), p.angular_velocity.y(), p.angular_velocity.z());
   }
 }

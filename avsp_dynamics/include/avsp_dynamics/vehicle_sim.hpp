@@ -275,6 +275,15 @@ public:
   void setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity);
 
   /**
+   * @brief Gravity from the next step on (m/s^2, map frame; WorldOptions::gravity sets it along
+   *        -z at construction). A tilt-table test tilts gravity over a level ground instead of
+   *        tilting the ground: the same loads, normal and along the surface, as a slope.
+   * @throw std::invalid_argument when the vector is not finite or its magnitude differs from
+   *        WorldOptions::gravity by more than 1e-9 (the models that scale with the weight use it)
+   */
+  void setGravity(const Eigen::Vector3d& gravity);
+
+  /**
    * @brief The vehicles collide with the objects of `objects` from the next step on, replacing
    *        any earlier set. Each object not grass and not toppled becomes a static geom standing
    *        on the terrain as it is now (from 0.5 m below the lowest ground under its footprint
@@ -314,26 +323,27 @@ public:
 
   /**
    * @brief Adds a vehicle simulated by another process (a dynamics partition) as a proxy: a
-   *        kinematic body at its base_link carrying the model's collision boxes and a box
-   *        round each wheel and road wheel (2 radius x width x 2 radius). Vehicles of this
-   *        world meet it as they meet an agent: rigid, moving, never pushed (contacts, counts
-   *        and impulses as with other vehicles). It does not touch the terrain, obstacles or
-   *        agents (its own process handles those). It rests at the origin, far below any
-   *        vehicle, until setProxyState() places it.
+   *        body of the model's mass and inertia carrying its collision boxes and a box round
+   *        each wheel and road wheel (2 radius x width x 2 radius), without gravity. Vehicles
+   *        of this world meet it as they meet another vehicle (rigid contacts, counts and
+   *        impulses) and push it between exchanges; setProxyState() puts it back where its own
+   *        process has it. It does not touch the terrain, obstacles or agents (its own process
+   *        handles those). It rests at the origin, far below any vehicle, until placed.
    * @param name used in errors
    * @return the proxy's index
    */
   std::size_t addProxy(const VehicleModel& model, const std::string& name);
   /**
-   * @brief Places proxy k with base_link at `pose` (map) now, moving on from there at
-   *        `linear_velocity` (m/s, base_link origin, map) and `angular_velocity` (rad/s, map):
-   *        at every later step it is put at the pose these give, until the next call.
+   * @brief Places proxy k with base_link at `pose` (map) now, moving at `linear_velocity`
+   *        (m/s, base_link origin, map) and `angular_velocity` (rad/s, map); from there it
+   *        flies on at them (its body under ODE, pushed by this world's vehicles) until the
+   *        next call.
    * @throw std::out_of_range for an unknown proxy; std::invalid_argument when a value is not finite
    */
   void setProxyState(std::size_t proxy, const Eigen::Isometry3d& pose, const Eigen::Vector3d& linear_velocity,
                      const Eigen::Vector3d& angular_velocity);
   std::size_t proxyCount() const { return proxies_.size(); }
-  /// Proxy k's base_link pose at the world's time (map). @throw std::out_of_range
+  /// Proxy k's base_link pose now (map), where its body is. @throw std::out_of_range
   Eigen::Isometry3d proxyPose(std::size_t proxy) const;
 
   /// One physics step of options().step seconds.
@@ -373,12 +383,13 @@ private:
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero(), angular_velocity = Eigen::Vector3d::Zero();
     double since = 0.0;  ///< s, world time of `pose`
+    Eigen::Vector3d com = Eigen::Vector3d::Zero();  ///< m, its centre of mass in base_link
+    bool placed = true;  ///< its body is where `pose` put it (then ODE moves it on)
   };
   void driveAgents();
   void driveProxies();
   /// Hands the agents' and proxies' bodies to the collision (agents first).
   void updateKinematicGeoms();
-  Eigen::Isometry3d extrapolated(const Proxy& p, double t) const;
   std::vector<Proxy> proxies_;  ///< their bodies are in Ode (same order)
   struct Ode;  // ODE handles
   terrain::DeformableTerrain& terrain_;
