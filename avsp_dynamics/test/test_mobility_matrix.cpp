@@ -1,0 +1,197 @@
+// The mobility matrix (config/mobility_matrix.yaml): every case run through the World and held
+// to its reference, a closed form computed from the vehicle's and the soil's parameters, a
+// public figure, or an acceptance limit (issue 18). bench_mobility prints the same cases as
+// the table of docs/mobility_matrix.md. Then the matrix file's own checking: bad files are
+// refused naming the file and the key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "avsp_dynamics/mobility.hpp"
+
+using namespace avsp::dynamics;
+
+namespace
+{
+const char* const kMatrix = AVSP_MOBILITY_MATRIX;
+
+// Loaded once for the parametrised cases; a file that does not load gives no cases, and
+// MatrixFile.ShippedMatrixLoads fails with the loader's message.
+std::vector<mobility::Case> shippedCases()
+{
+  try
+  {
+    return mobility::loadMatrix(kMatrix);
+  }
+  catch (const std::exception&)
+  {
+    return {};
+  }
+}
+
+const mobility::Setup& setup()
+{
+  static const mobility::Setup s{ AVSP_VEHICLE_CONFIG_DIR, AVSP_SOILS_YAML };
+  return s;
+}
+
+class MobilityMatrix : public ::testing::TestWithParam<mobility::Case>
+{
+};
+
+TEST_P(MobilityMatrix, MeetsItsReference)
+{
+  const mobility::Case& c = GetParam();
+  const mobility::Result r = mobility::run(c, setup());
+  ASSERT_TRUE(std::isfinite(r.value)) << c.id << ": " << r.detail;
+  ASSERT_TRUE(std::isfinite(r.reference)) << c.id;
+  // The verdict is recomputed here from the figures, not taken from Result::pass.
+  switch (c.check)
+  {
+    case mobility::Check::kAtMost:
+      EXPECT_LE(r.value, c.value) << c.id << " (" << c.unit << "): " << c.source << "; " << r.detail;
+      break;
+    case mobility::Check::kAtLeast:
+      EXPECT_GE(r.value, c.value) << c.id << " (" << c.unit << "): " << c.source << "; " << r.detail;
+      break;
+    case mobility::Check::kPublic:
+      EXPECT_NEAR(r.value, c.value, c.tolerance * std::fabs(c.value))
+          << c.id << " (" << c.unit << "): " << c.source << "; " << r.detail;
+      break;
+    case mobility::Check::kClosedForm:
+    {
+      // Between two bounds there is no error; outside, the nearer bound is the reference.
+      const double hi = r.reference;
+      const double lo = std::isnan(r.reference_low) ? hi : r.reference_low;
+      const double nearest = r.value < lo ? lo : (r.value > hi ? hi : r.value);
+      const double allowed = std::isfinite(c.tolerance_abs) ? c.tolerance_abs : c.tolerance * std::fabs(nearest);
+      EXPECT_NEAR(r.value, nearest, allowed) << c.id << " (" << c.unit << ") against [" << lo << ", " << hi
+                                             << "]: " << c.source << "; " << r.detail;
+      break;
+    }
+  }
+  EXPECT_EQ(r.pass, !::testing::Test::HasFailure()) << c.id << ": the runner's verdict disagrees with the figures";
+}
+
+std::string caseName(const ::testing::TestParamInfo<mobility::Case>& info)
+{
+  std::string n = info.param.id;
+  for (char& ch : n)
+    if (!std::isalnum(static_cast<unsigned char>(ch)))
+      ch = '_';
+  return n;
+}
+
+INSTANTIATE_TEST_SUITE_P(Shipped, MobilityMatrix, ::testing::ValuesIn(shippedCases()), caseName);
+
+TEST(MatrixFile, ShippedMatrixLoads)
+{
+  std::vector<mobility::Case> cases;
+  ASSERT_NO_THROW(cases = mobility::loadMatrix(kMatrix));
+  // The issue's situations: every manoeuvre the runner knows appears at least once.
+  for (const auto& m : mobility::manoeuvres())
+  {
+    bool used = false;
+    for (const mobility::Case& c : cases)
+      used = used || c.manoeuvre == m.first;
+    EXPECT_TRUE(used) << "no case runs manoeuvre " << m.first;
+  }
+}
+
+TEST(MatrixFile, SameCaseSameFigureBitForBit)
+{
+  const std::vector<mobility::Case> cases = mobility::loadMatrix(kMatrix);
+  const mobility::Case* parked = nullptr;
+  for (const mobility::Case& c : cases)
+    if (c.manoeuvre == "parked_sinkage" && !parked)
+      parked = &c;
+  ASSERT_NE(parked, nullptr);
+  const mobility::Result a = mobility::run(*parked, setup());
+  const mobility::Result b = mobility::run(*parked, setup());
+  EXPECT_EQ(a.value, b.value);
+  EXPECT_EQ(a.detail, b.detail);
+}
+
+// Writes a matrix with one case, `fields` being its YAML map's body.
+std::string writeMatrix(const std::string& body)
+{
+  const std::string path = ::testing::TempDir() + "mobility_" + std::to_string(::getpid()) + ".yaml";
+  std::ofstream(path) << body;
+  return path;
+}
+
+const char* const kGood =
+    "{id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, unit: m/s, source: s}";
+
+// The loader's message for `yaml`, which must contain every one of `words`.
+void expectRefused(const std::string& yaml, const std::vector<std::string>& words)
+{
+  const std::string path = writeMatrix(yaml);
+  try
+  {
+    mobility::loadMatrix(path);
+    ADD_FAILURE() << "accepted:\n" << yaml;
+  }
+  catch (const std::runtime_error& e)
+  {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path), std::string::npos) << what;
+    for (const std::string& w : words)
+      EXPECT_NE(what.find(w), std::string::npos) << "'" << w << "' not in: " << what;
+  }
+}
+
+TEST(MatrixFile, GoodOneCaseFileLoads)
+{
+  const std::vector<mobility::Case> cases = mobility::loadMatrix(writeMatrix(std::string("cases:\n  - ") + kGood));
+  ASSERT_EQ(cases.size(), 1u);
+  EXPECT_EQ(cases[0].id, "a");
+  EXPECT_EQ(cases[0].step, 0.001);
+  EXPECT_TRUE(std::isnan(cases[0].tolerance_abs));
+}
+
+TEST(MatrixFile, BadFilesAreRefusedNamingTheKey)
+{
+  expectRefused(std::string("cases:\n  - ") + kGood + "\n  - " + kGood, { "id", "twice" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: moonwalk, check: closed_form, "
+                "unit: m/s, source: s}",
+                { "manoeuvre", "moonwalk" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: roughly, "
+                "unit: m/s, source: s}",
+                { "check", "roughly" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+                "unit: m/s, source: s, colour: red}",
+                { "colour" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+                "unit: m/s, source: s, step: 0}",
+                { "step" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+                "unit: m/s, source: s, slope_deg: -3}",
+                { "slope_deg" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: at_most, "
+                "unit: m/s, source: s}",
+                { "value" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: at_most, "
+                "value: 1, tolerance_abs: 0.1, unit: m/s, source: s}",
+                { "tolerance_abs" });
+  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+                "unit: m/s, source: s, tolerance: fast}",
+                { "tolerance" });
+}
+
+TEST(MatrixFile, UnknownVehicleOrSoilIsRefusedWhenRun)
+{
+  mobility::Case c = mobility::loadMatrix(writeMatrix(std::string("cases:\n  - ") + kGood)).front();
+  c.soil = "cheese";
+  EXPECT_THROW(mobility::run(c, setup()), std::exception);
+  c.soil = "asphalt";
+  c.vehicle = "no_such_vehicle";
+  EXPECT_THROW(mobility::run(c, setup()), std::exception);
+}
+}  // namespace
