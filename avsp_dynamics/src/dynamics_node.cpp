@@ -1104,7 +1104,8 @@ private:
     }
     if (check == avsp::msgs::CommandCheck::kClamped)
       ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", topic.c_str(), why.c_str());
-    v.pending = ad::DriveCommand{cmd.throttle, cmd.brake, cmd.steering};
+    v.pending = ad::DriveCommand{ cmd.throttle, cmd.brake, cmd.steering,
+                                  cmd.gear == avsp_msgs::DriveCommand::GEAR_REVERSE };
   }
 
   /// One physics step: commands in (with the timeout on world time), step, publications out.
@@ -1127,6 +1128,10 @@ private:
       world_->setCommand(v->id, cmd);
     }
     world_->step();
+    // A contact that produced a non-finite force was clamped out of the step; the World names
+    // the vehicle and wheel once.
+    for (const std::string& w : world_->takeWarnings())
+      ROS_WARN("dynamics_node: %s", w.c_str());
     const double h = world_->options().step;
     for (auto& v : vehicles_)
     {

@@ -273,6 +273,33 @@ TEST(VehicleModelErrors, MissingKeyNamesFileAndKey)
   EXPECT_CONTAINS(err, "missing");
 }
 
+TEST(VehicleModelErrors, FirmGroundTyreParametersAreChecked)
+{
+  // The brush tyre of the rigid-surface contact: missing, negative and implausible values.
+  ScratchConfig missing("fed_alpha");
+  missing.editYaml("  relaxation_length: 0.55 ", "  # relaxation_length removed ");
+  const std::string path = missing.write();
+  std::string err = loadError(path);
+  EXPECT_CONTAINS(err, path);
+  EXPECT_CONTAINS(err, "firm_ground.relaxation_length");
+  EXPECT_CONTAINS(err, "missing");
+
+  ScratchConfig negative("fed_alpha");
+  negative.editYaml("cornering_stiffness: 9.5", "cornering_stiffness: -9.5");
+  EXPECT_CONTAINS(loadError(negative.write()), "firm_ground.cornering_stiffness");
+
+  // 565 N/m for 565000: a spring the vehicle would bottom out on.
+  ScratchConfig soft("fed_alpha");
+  soft.editYaml("vertical_stiffness: 565000.0", "vertical_stiffness: 565.0");
+  err = loadError(soft.write());
+  EXPECT_CONTAINS(err, "firm_ground.vertical_stiffness");
+  EXPECT_CONTAINS(err, "0.2 m of deflection");
+
+  ScratchConfig grippy("fed_alpha");
+  grippy.editYaml("longitudinal_stiffness: 8.0", "longitudinal_stiffness: 800.0");
+  EXPECT_CONTAINS(loadError(grippy.write()), "firm_ground.longitudinal_stiffness");
+}
+
 TEST(VehicleModelErrors, NegativeValueNamesKey)
 {
   ScratchConfig c("mrzr");

@@ -35,8 +35,14 @@ CommandCheck sanitizeDriveCommand(avsp_msgs::DriveCommand& command, std::string&
   checkField("throttle", command.throttle, 0.0, 1.0, non_finite, clamped, reasons);
   checkField("brake", command.brake, 0.0, 1.0, non_finite, clamped, reasons);
   checkField("steering", command.steering, -1.0, 1.0, non_finite, clamped, reasons);
+  // An unknown gear is not clamped to either: driving the wrong way is worse than not at all.
+  const bool bad_gear = command.gear != avsp_msgs::DriveCommand::GEAR_FORWARD &&
+                        command.gear != avsp_msgs::DriveCommand::GEAR_REVERSE;
+  if (bad_gear)
+    reasons << (reasons.tellp() > 0 ? "; " : "") << "gear=" << static_cast<int>(command.gear)
+            << " is neither GEAR_FORWARD (0) nor GEAR_REVERSE (1)";
   why = reasons.str();
-  if (non_finite)
+  if (non_finite || bad_gear)
   {
     return CommandCheck::kRejected;
   }

@@ -96,3 +96,17 @@ TEST(SanitizeDriveCommand, InRangeCommandIsAcceptedUnchanged)
   EXPECT_DOUBLE_EQ(cmd.throttle, 1.0);
   EXPECT_DOUBLE_EQ(cmd.steering, -1.0);
 }
+
+TEST(SanitizeDriveCommand, ReverseGearIsAcceptedAndUnknownGearRejected)
+{
+  avsp_msgs::DriveCommand cmd;
+  cmd.throttle = 0.5;
+  cmd.gear = avsp_msgs::DriveCommand::GEAR_REVERSE;
+  std::string why;
+  EXPECT_EQ(sanitizeDriveCommand(cmd, why), CommandCheck::kAccepted);
+  EXPECT_EQ(cmd.gear, avsp_msgs::DriveCommand::GEAR_REVERSE);
+
+  cmd.gear = 2;
+  EXPECT_EQ(sanitizeDriveCommand(cmd, why), CommandCheck::kRejected);
+  EXPECT_NE(why.find("gear=2"), std::string::npos) << why;
+}

@@ -18,14 +18,15 @@ enum class CommandCheck
 {
   kAccepted,  ///< every field was finite and in range
   kClamped,   ///< some field was out of range and was clamped; `why` says which
-  kRejected   ///< some field was NaN or infinite; the command must not be used
+  kRejected   ///< some field was NaN or infinite, or the gear unknown; the command must not be used
 };
 
 /**
  * @brief Clamps a DriveCommand into throttle [0,1], brake [0,1], steering [-1,1].
  * @param[in,out] command the command; left unchanged when rejected
  * @param[out] why names the offending field(s) and value(s) when not accepted
- * @return kRejected if any field is NaN/inf, kClamped if any was out of range
+ * @return kRejected if any field is NaN/inf or the gear is neither GEAR_FORWARD nor GEAR_REVERSE,
+ *         kClamped if any was out of range
  */
 CommandCheck sanitizeDriveCommand(avsp_msgs::DriveCommand& command, std::string& why);
 
