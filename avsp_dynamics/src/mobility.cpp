@@ -928,6 +928,12 @@ std::vector<Case> loadMatrix(const std::string& yaml_path)
   return out;
 }
 
+Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x,
+                                double y, double yaw, double roll, double pitch, double clearance)
+{
+  return placeOn(ground, model, x, y, yaw, roll, pitch, clearance);
+}
+
 std::string criterion(const Case& c)
 {
   std::ostringstream o;

@@ -12,6 +12,12 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
+#include <avsp_terrain/deformable_terrain.hpp>
+
+#include "avsp_dynamics/vehicle_model.hpp"
+
 namespace avsp
 {
 namespace dynamics
@@ -86,6 +92,15 @@ std::vector<Case> loadMatrix(const std::string& yaml_path);
  *        vehicle cannot do (e.g. a steering radius for a tracked vehicle)
  */
 Result run(const Case& c, const Setup& setup);
+
+/**
+ * @brief base_link's pose at (x, y) with `yaw`, tilted by `roll` and `pitch` (rad, to lie on a
+ *        plane), lowered until its lowest running gear is `clearance` m above the ground: how
+ *        every manoeuvre sets a vehicle down on a slope.
+ * @throw std::runtime_error if the running gear is off the terrain
+ */
+Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x,
+                                double y, double yaw, double roll, double pitch, double clearance);
 
 /// The check's sign: "<=", ">=", or "+-<tolerance %>" for a case.
 std::string criterion(const Case& c);
