@@ -89,6 +89,11 @@ std::optional<PointRange> applyPatch(DeformableTerrain& terrain, const HeightPat
     if (!std::isfinite(h))
       throw PatchError("TerrainPatch: heights contain a non-finite value");
 
+  // A patch wholly off the grid changes nothing; ruling it out here, in doubles, also keeps the
+  // integer arithmetic below in range (an origin of 1e300 m rounds to no representable long).
+  if (ri >= static_cast<double>(grid.columns()) || ri + static_cast<double>(patch.width) <= 0.0 ||
+      rj >= static_cast<double>(grid.rows()) || rj + static_cast<double>(patch.height) <= 0.0)
+    return std::nullopt;
   // Patch column c sits on grid column ri + c; keep the columns and rows inside the grid.
   const long i_first = std::max(0L, -static_cast<long>(ri));
   const long j_first = std::max(0L, -static_cast<long>(rj));

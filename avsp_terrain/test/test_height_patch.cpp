@@ -87,6 +87,38 @@ TEST(HeightPatch, ClipsToTheGridAndIgnoresPatchesOutsideIt)
   EXPECT_FALSE(at::applyPatch(t, p));
 }
 
+TEST(HeightPatch, FarAwayOriginsChangeNothing)
+{
+  // Issue 21: an origin of -1e300 m aborted terrain_node (a huge rounded origin cast to long)
+  // and +1e300 m wrote into column 0. Every origin off the grid, however far, is a no-op.
+  at::DeformableTerrain t = plane();
+  at::HeightPatch p;
+  p.resolution = 0.25;
+  p.width = 2;
+  p.height = 2;
+  p.heights.assign(4, -1.0f);
+  for (const double far : { -1e300, 1e300, -1e19, 1e19, -9.3e18, 9.3e18, -1e6, 1e6 })
+  {
+    for (const bool along_x : { true, false })
+    {
+      p.origin_x = along_x ? far : -3.0;
+      p.origin_y = along_x ? 4.0 : far;
+      EXPECT_FALSE(at::applyPatch(t, p)) << far << (along_x ? " in x" : " in y");
+    }
+  }
+  for (std::size_t j = 0; j < 31; ++j)
+    for (std::size_t i = 0; i < 41; ++i)
+      ASSERT_EQ(t.pointHeight(i, j), t.base().pointHeight(i, j)) << i << ", " << j;
+  // The patch just off each edge is outside too; one point over the edge is applied.
+  p.origin_x = -3.0 - 2 * 0.25;
+  p.origin_y = 4.0;
+  EXPECT_FALSE(at::applyPatch(t, p));
+  p.origin_x = -3.0 + 41 * 0.25;
+  EXPECT_FALSE(at::applyPatch(t, p));
+  p.origin_x = -3.0 - 1 * 0.25;
+  EXPECT_TRUE(at::applyPatch(t, p));
+}
+
 TEST(HeightPatch, RefusesInconsistentPatchesByField)
 {
   at::DeformableTerrain t = plane();
