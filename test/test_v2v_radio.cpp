@@ -113,9 +113,20 @@ TEST(V2vRadio, LossRateWithinTwoPercentOver2000Messages)
     for (std::uint32_t seq = 0; seq < 2000; ++seq)
       lost += av::Radio::lossDraw(seed, "leader", "follower", seq) < 0.3 ? 1.0 : 0.0;
   EXPECT_NEAR(lost / 40000.0, 0.3, 0.005);
-  // Loss 0 loses nothing, loss 1 everything.
-  EXPECT_GE(av::Radio::lossDraw(3, "a", "b", 0), 0.0);
-  EXPECT_LT(av::Radio::lossDraw(3, "a", "b", 0), 1.0);
+  // Loss 0 loses nothing, loss 1 everything (the draw is in [0, 1): never below 0, always below 1).
+  for (double p : {0.0, 1.0})
+  {
+    av::RadioOptions options;
+    options.loss_probability = p;
+    options.seed = 3;
+    av::Radio radio({"leader", "follower"}, options);
+    radio.transmit(1, {20.0, 0.0, 0.0}, 0, 0.0, 0);
+    std::size_t delivered = 0;
+    for (std::uint32_t seq = 0; seq < 500; ++seq)
+      delivered += radio.transmit(0, {0.0, 0.0, 0.0}, seq, 0.1 * seq, seq).size();
+    EXPECT_EQ(delivered, p == 0.0 ? 500u : 0u) << "loss " << p;
+    EXPECT_EQ(radio.stats().lost, p == 0.0 ? 0u : 500u) << "loss " << p;
+  }
 }
 
 TEST(V2vRadio, LinksLoseIndependently)

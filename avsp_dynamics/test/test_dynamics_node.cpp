@@ -321,8 +321,6 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
 }
 
-// Tracked models are simulated by the core: the node starts them (their telemetry and joint
-// states are not wired into the node yet).
 // The tracked carrier in the same world: robot_state_publisher gets every URDF joint of its
 // running gear (sprockets, idlers, road arms, road wheels) with the sprockets turning under
 // throttle, and telemetry has one contact per track segment carrying the carrier's weight.

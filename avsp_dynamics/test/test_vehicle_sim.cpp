@@ -281,8 +281,8 @@ TEST(VehicleSim, StaticSinkageMatchesBekkerClosedForm)
   EXPECT_NEAR(total, m.total_mass * kG, 0.02 * m.total_mass * kG);
 }
 
-// The same check on the library's Bekker soil, when the terrain's contact implements
-// SinkageModel::kBekker (it is skipped, saying so, while the contact ignores the model).
+// The same check on the library's Bekker soil (dry sand, model: bekker) against T13's closed
+// form, after checking that the contact follows Bekker's law there (not the simple curve).
 TEST(VehicleSim, StaticSinkageOnBekkerSoilMatchesT13)
 {
   const terrain::SoilParameters soil = soils().get("dry_sand");

@@ -189,8 +189,11 @@ TEST(DeformableTerrain, DrivingWheelGetsTractionAndResistance)
 TEST(DeformableTerrain, StateOnlyWhereTouched)
 {
   DeformableTerrain t = flat("clay", true, 400, 0.1);
-  EXPECT_EQ(t.deformationBytes(), t.deformationBytes());
+  // Untouched: no deformed point, and nothing but the tile directory (8 B per 8x8 tile of the
+  // 400 x 400 points: 2500 tiles, 20,000 B, allowing a page of bookkeeping).
+  EXPECT_EQ(t.deformedPoints(), 0u);
   const std::size_t empty = t.deformationBytes();
+  EXPECT_LE(empty, 2500u * 8u + 4096u);
   t.wheelContact(wheelAt(20.0, 20.0, -0.03), 0.001, true);
   EXPECT_GT(t.deformedPoints(), 0u);
   // A single wheel print touches a handful of 8x8 tiles, not the 160,000-point grid.
