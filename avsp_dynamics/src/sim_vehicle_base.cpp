@@ -57,6 +57,7 @@ Eigen::Vector2d GroundContact::prepare(double v_long, double v_theoretical, doub
     travel_ = v_theoretical > 0.0 ? 1 : -1;
   // Implicit relaxation over the step (stable at any speed): u <- (u + h v) / (1 + h D / L).
   const double speed = std::max(std::abs(v_long), std::abs(v_theoretical));
+  travel_speed_ = speed;
   const double length = std::max(relaxation_, kMinRelaxationLength);
   decay_ = 1.0 / (1.0 + step * speed / length);
   decayed_ = decay_ * u_;
@@ -69,6 +70,8 @@ void GroundContact::reset()
 {
   u_.setZero();
   decayed_.setZero();
+  sliding_ = unloading_ = false;
+  elastic_ = k_elastic_ = k_along_ = 0.0;
   active_ = false;
   normal_ = firm_normal_ = resistance_ = 0.0;
 }
@@ -195,6 +198,16 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   // the soil's own force; at rest it damps the ground's elastic hold critically (zeta).
   const double a = decay_, b = decay_ * h;
   const double magnitude = force.norm();
+  const double k_elastic = (soil_normal > 0.0 ? soil.shear_elastic_slope : 0.0) +
+                           (on_firm ? firm_spec.longitudinal_stiffness * firm_normal / firm_spec.relaxation_length : 0.0);
+  elastic_ = k_elastic > 0.0 ? magnitude / k_elastic : 0.0;
+  k_elastic_ = k_elastic;
+  // The force's slope along the displacement (what unloading on the curve would follow).
+  {
+    const double du = decayed_.norm();
+    const Eigen::Vector2d dir = du > 1e-12 ? Eigen::Vector2d(decayed_ / du) : Eigen::Vector2d(1.0, 0.0);
+    k_along_ = dir.x() * dir.x() * stiffness.x() + dir.y() * dir.y() * stiffness.y();
+  }
   const bool has_direction = magnitude > 1e-9 * capacity;
   double bound[2], slip[2], motion[2];
   for (int r = 0; r < 2; ++r)
@@ -244,10 +257,55 @@ void GroundContact::finish(const Eigen::Vector3d& point_velocity)
   if (!active_)
     return;
   const Eigen::Vector2d v(point_velocity.dot(t1_), point_velocity.dot(t2_));
-  u_ = decayed_ + decay_ * step_ * v;
+  const Eigen::Vector2d moved = decay_ * step_ * v;
+  // Sliding: the contact point moves over the ground faster than its elastic hold could let
+  // it (a skid, a spinning or locked wheel), not the micro-motion of a contact at rest.
+  constexpr double kSlidingSpeed = 0.05;  // m/s
+  if (v.norm() > kSlidingSpeed)
+    sliding_ = true;
+  if (unloading_)
+  {
+    // Elastic about the reversal point (Masing-like): back and forth on the elastic slope, so
+    // a contact that holds after a slide neither springs back by its slip nor ratchets; past
+    // the reversal point forwards, or down to its elastic part, it is on the curve again.
+    back_ += moved;
+    if (back_.dot(reversal_) >= 0.0)
+    {
+      u_ = reversal_ + back_;
+      unloading_ = false;
+    }
+    else
+    {
+      u_ = reversal_ + gain_ * back_;
+      if (u_.norm() <= elastic_ || u_.dot(reversal_) <= 0.0)
+        unloading_ = sliding_ = false;
+    }
+  }
+  else if (sliding_ && travel_speed_ < kShearRenewalSpeed && moved.dot(decayed_) < 0.0 &&
+           decayed_.norm() > elastic_ && k_along_ > 0.0 && k_elastic_ > k_along_)
+  {
+    // A slid contact that has (nearly) stopped moves back: most of its displacement is
+    // plastic (the soil has failed, the tread has slid), so it unloads on the elastic slope
+    // k_elastic, stiffer than the curve's k_along there: the curve's coordinate moves
+    // k_elastic / k_along times as far, the force staying continuous. A braked vehicle that
+    // skids to a stop then springs back by force / k_elastic (1-5 cm), not by its whole slip.
+    unloading_ = true;
+    reversal_ = decayed_;
+    back_ = moved;
+    gain_ = k_elastic_ / k_along_;
+    u_ = reversal_ + gain_ * back_;
+  }
+  else
+  {
+    u_ = decayed_ + moved;
+  }
   const double magnitude = u_.norm();
   if (magnitude > limit_)
+  {
     u_ *= limit_ / magnitude;  // full slip: the displacement of a sliding contact
+    sliding_ = true;
+    unloading_ = false;
+  }
 }
 
 namespace

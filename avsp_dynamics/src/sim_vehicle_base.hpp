@@ -236,6 +236,20 @@ private:
   double shear_length_ = 0.0;  ///< m, this step's l: the displacement spreads from the leading edge over it
   double relaxation_ = 0.0;    ///< m, this contact's relaxation length (soil and tyre, by load)
   double limit_ = 0.0;         ///< m, largest displacement (full slip)
+  /// m, the elastic part of this step's displacement: force / initial slope (soil: strength / K;
+  /// tyre: C_x F_z / L). What a gear that stops sliding keeps when it moves back.
+  double elastic_ = 0.0;
+  /// The contact point slid (faster than 5 cm/s, or at full slip) since it last held
+  /// elastically: its displacement is mostly plastic.
+  bool sliding_ = false;
+  double k_elastic_ = 0.0;     ///< N/m, the initial (elastic) slope of this step's force
+  double k_along_ = 0.0;       ///< N/m, the force's slope along the displacement this step
+  double travel_speed_ = 0.0;  ///< m/s, this step's D (prepare)
+  /// Unloading after a slide: elastic about `reversal_` (the displacement it moved back from),
+  /// `back_` the gear's motion since, the curve's coordinate moving `gain_` times as far.
+  bool unloading_ = false;
+  Eigen::Vector2d reversal_ = Eigen::Vector2d::Zero(), back_ = Eigen::Vector2d::Zero();
+  double gain_ = 1.0;
   bool active_ = false;        ///< a joint was made this step
   int travel_ = 1;
   Eigen::Vector3d t1_ = Eigen::Vector3d::UnitX(), t2_ = Eigen::Vector3d::UnitY();

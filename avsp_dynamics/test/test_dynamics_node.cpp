@@ -418,6 +418,13 @@ TEST(DynamicsNodeStartup, RefusesUnknownModelsByName)
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_partition:=7");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~partition must be a string, got an integer"), std::string::npos) << out;
+  // The shared terrain parameters (terrain_source_params.hpp) too: ~transport and ~flat_soil.
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_transport:=1");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~transport must be true or false, got an integer"), std::string::npos) << out;
+  std::tie(code, out) = runBadNode("fed_alpha", "car", "_flat_soil:=3.5");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~flat_soil must be a string, got a number"), std::string::npos) << out;
   std::tie(code, out) = runBadNode("fed_alpha", "car", "_flat_soil:=marmalade");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~flat_soil"), std::string::npos) << out;

@@ -925,3 +925,41 @@ TEST(VehicleSim, SoftSoilSinksSlipsAndSlowsMoreThanFirm)
     EXPECT_LT(run->rut, 1.05 * run->max_sinkage) << "no rut deeper than any wheel sank";
   }
 }
+
+// A braked vehicle that skids to a stop keeps where it stopped: only the elastic part of its
+// contacts' displacement recovers (the soil has failed, the tread has slid), so it moves back
+// by at most that: a tyre's carcass deflection at peak adhesion, mu_p F_z L / (C_x F_z) =
+// mu_p L / C_x on asphalt, Janosi's K on soil. (Before, it sprang back by up to a relaxation
+// length: 0.34 m for the FED Alpha on asphalt, 0.14 m on sandy loam.)
+TEST(VehicleSim, SkidToAStopDoesNotSpringBack)
+{
+  const VehicleModel m = vehicle("fed_alpha");
+  for (const char* name : { "asphalt", "sandy_loam" })
+  {
+    const terrain::SoilParameters soil = soils().get(name);
+    const double bound = soil.model == terrain::SinkageModel::kRigid ?
+                             soil.friction_peak * m.firm_ground.relaxation_length / m.firm_ground.longitudinal_stiffness :
+                             soil.shear_modulus;
+    auto ground = makeTerrain(soil, 60, 8, 0.1);
+    World world(*ground);
+    const std::size_t id = world.addVehicle(m, world.restingPose(m, -25.0, 0.0, 0.0, 0.005));
+    world.setCommand(id, { 1.0, 0.0, 0.0 });
+    while (world.state(id).body_velocity.x() < 4.0 && world.time() < 20.0)
+      world.advance(0.01);
+    ASSERT_GE(world.state(id).body_velocity.x(), 4.0) << name;
+    const double braked_at = world.state(id).pose.translation().x();
+    world.setCommand(id, { 0.0, 1.0, 0.0 });
+    double furthest = braked_at;
+    for (int k = 0; k < 600; ++k)
+    {
+      world.advance(0.01);
+      furthest = std::max(furthest, world.state(id).pose.translation().x());
+    }
+    const double back = furthest - world.state(id).pose.translation().x();
+    std::printf("[skid] %s: stopped %.2f m after braking at 4 m/s, then moved back %.1f mm (bound %.1f mm)\n", name,
+                furthest - braked_at, 1e3 * back, 1e3 * bound);
+    EXPECT_GT(furthest - braked_at, 0.5) << name;
+    EXPECT_LT(std::abs(world.state(id).body_velocity.x()), 1e-3) << name << ": at rest";
+    EXPECT_LE(back, bound) << name;
+  }
+}

@@ -1153,6 +1153,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     const double load = p.sigma * cell;
     out.normal_force += load;
     out.shear_strength += strength * cell;
+    out.shear_elastic_slope += strength / soil.shear_modulus * cell;
     out.normal_stiffness += p.slope * cell;
     out.unload_stiffness += p.unload * cell;
     total_weight += p.weight;

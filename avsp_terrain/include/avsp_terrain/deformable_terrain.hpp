@@ -108,6 +108,10 @@ struct ContactForces
   double shear_strength = 0.0;
   double shear_slope = 0.0;         ///< N per unit slip: d |shear force| / d |shear slip| at this slip (T11)
   double shear_cap_slope = 0.0;     ///< N/m: d |shear force| / d shear_cap (the soil displaced to the cap)
+  /// N/m: d |shear force| / d j at j = 0 with all the soil under the gear displaced alike, the
+  /// strength over Janosi's K: the slope its elastic part unloads on (a gear that stops sliding
+  /// springs back by force / this, of the order of K, not by its whole slip).
+  double shear_elastic_slope = 0.0;
   double contact_length = 0.0;      ///< m, loaded length along travel (a track: the whole track's)
   double normal_stiffness = 0.0;    ///< N/m, d normal_force / d sinkage pressing deeper (loading)
   double unload_stiffness = 0.0;    ///< N/m, the same coming back up (the soil's elastic part)

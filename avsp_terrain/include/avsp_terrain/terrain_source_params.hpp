@@ -23,22 +23,29 @@ namespace terrain
 /// @throw avsp::msgs::StartupError naming the parameter
 inline TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
 {
+  using avsp::msgs::boolParam;
   using avsp::msgs::boundedParam;
+  using avsp::msgs::numberParam;
   using avsp::msgs::StartupError;
+  using avsp::msgs::stringParam;
+  // Typed readers: a value of the wrong type is refused naming the parameter, never replaced
+  // by the default (pnh.param<> would).
   TerrainSource s;
-  pnh.param<std::string>("terrain_file", s.terrain_file, "");
-  pnh.param<std::string>("dem_file", s.dem_file, "");
-  pnh.param<std::string>("soil", s.soil, "sandy_loam");
-  pnh.param<std::string>("flat_soil", s.flat_soil, "");
-  pnh.param("transport", s.transport, true);
+  s.terrain_file = stringParam(pnh, "terrain_file", "");
+  s.dem_file = stringParam(pnh, "dem_file", "");
+  s.soil = stringParam(pnh, "soil", "sandy_loam");
+  s.flat_soil = stringParam(pnh, "flat_soil", "");
+  s.transport = boolParam(pnh, "transport", true);
   if (!s.dem_file.empty() && fileExtension(s.dem_file) == ".png")
   {
-    pnh.param("png_origin_x", s.png.origin_x, 0.0);
-    pnh.param("png_origin_y", s.png.origin_y, 0.0);
-    pnh.param("png_z_offset", s.png.z_offset, 0.0);
-    if (!pnh.getParam("png_cell_size", s.png.cell_size) || !pnh.getParam("png_z_scale", s.png.z_scale))
+    s.png.origin_x = numberParam(pnh, "png_origin_x", 0.0);
+    s.png.origin_y = numberParam(pnh, "png_origin_y", 0.0);
+    s.png.z_offset = numberParam(pnh, "png_z_offset", 0.0);
+    if (!pnh.hasParam("png_cell_size") || !pnh.hasParam("png_z_scale"))
       throw StartupError("~dem_file " + s.dem_file +
                          " is a PNG: parameters ~png_cell_size and ~png_z_scale are required");
+    s.png.cell_size = numberParam(pnh, "png_cell_size", 0.0);
+    s.png.z_scale = numberParam(pnh, "png_z_scale", 0.0);
   }
   s.flat_size = boundedParam(pnh, "flat_size", 100.0, 1.0, 1e4);
   s.flat_cell_size = boundedParam(pnh, "flat_cell_size", 0.1, 0.005, 10.0);
