@@ -761,6 +761,7 @@ void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j
   window_rows_ = j1 - j0 + 1;
   window_.resize(window_columns_ * window_rows_);
   WindowPoint* out = window_.data();
+  double top = -std::numeric_limits<double>::infinity(), least_plastic = std::numeric_limits<double>::infinity();
   for (std::size_t j = j0; j <= j1; ++j)
   {
     const float* base_row = base_.pointHeights().data() + j * base_.columns();
@@ -776,8 +777,11 @@ void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j
       }
       const PointDeformation d = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
       *out = WindowPoint{ base_row[i], d.plastic, d.displaced, d.sigma_max };
+      top = std::max(top, out->base - out->displaced);
+      least_plastic = std::min(least_plastic, out->plastic);
     }
   }
+  window_top_ = top - least_plastic;
 }
 
 DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y, const Footprint& fp,
@@ -807,21 +811,20 @@ DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y
     // a sample ahead of it (behind < 0) would find soil pressed deeper than the rim is there
     // (a front arc losing its pressure, the wheel sinking deeper and resisting less on a
     // coarse grid). Each is interpolated from the grid points on its own side alone.
-    const double ox = base_.originX() + (static_cast<double>(window_i0_ + a)) * base_.dx() - fp.cx;
-    const double oy = base_.originY() + (static_cast<double>(window_j0_ + b)) * base_.dy() - fp.cy;
-    const double corner_x[4] = { ox, ox + base_.dx(), ox, ox + base_.dx() };
-    const double corner_y[4] = { oy, oy, oy + base_.dy(), oy + base_.dy() };
     double kept = 0.0;
     for (int k = 0; k < 4; ++k)
     {
-      const double along = (corner_x[k] * fp.ca + corner_y[k] * fp.sa) * fp.travel;
+      const double along = corner[k]->along;
       if (behind > 0.0 ? along > 0.0 : along < 0.0)
         weight[k] = 0.0;
       kept += weight[k];
     }
     if (kept > 0.0)
+    {
+      const double inv = 1.0 / kept;
       for (double& w : weight)
-        w /= kept;
+        w *= inv;
+    }
     else
       weight[0] = weight[1] = weight[2] = weight[3] = 0.25;
   }
@@ -868,9 +871,29 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
   const double r = fp.half_length, r2 = r * r;
   const bool rolling = std::abs(fp.v_long) > kRollingSpeed;
   if (fp.wheel)
+  {
     fillWindow(i0 > 0 ? i0 - 1 : 0, std::min(i1 + 1, base_.columns() - 1), j0 > 0 ? j0 - 1 : 0,
                std::min(j1 + 1, base_.rows() - 1));
+    WindowPoint* w = window_.data();
+    for (std::size_t b = 0; b < window_rows_; ++b)
+    {
+      const double y = oy + static_cast<double>(window_j0_ + b) * dy - fp.cy;
+      for (std::size_t a = 0; a < window_columns_; ++a, ++w)
+      {
+        const double x = ox + static_cast<double>(window_i0_ + a) * dx - fp.cx;
+        w->along = (x * ca + y * sa) * fp.travel;
+      }
+    }
+  }
   double rigid_weight = 0.0, soil_weight = 0.0, rigid_best = 0.0;
+  // A wheel presses nowhere its rim is above the window's highest surface: only cells within
+  // `pressing` of the bottom along the footprint can (the exact per-cell test is below).
+  double pressing = reach;
+  if (fp.wheel)
+  {
+    const double clear = fp.cz - window_top_;
+    pressing = clear >= r ? -1.0 : (clear > 0.0 ? std::sqrt(r2 - clear * clear) : r);
+  }
   for (std::size_t j = j0; j <= j1; ++j)
   {
     const double py = oy + j * dy - fp.cy;
@@ -918,6 +941,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       }
       if (soil.model() == SinkageModel::kRigid)
         continue;  // pavement: nothing sinks, the tyre deflects (the vehicle's contact)
+      if (std::abs(u) - half_cell > pressing)
+        continue;  // the rim clears this cell
       // The point's tile changes every kTileSize columns: one directory lookup per tile.
       if (i / kTileSize != tile_column)
       {
@@ -967,6 +992,30 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         p.depth = state.plastic + recorded;
         const double gx = ox + i * dx, gy = oy + j * dy;
         const double lo = std::max(u - half_cell, -r), hi = std::min(u + half_cell, r);
+        // Quick exit for the cells the rim clears (most of a wheel's upper arc): every sample of
+        // this cell interpolates between the window points (i +- 1, j +- 1), so its surface is at
+        // most max(base - displaced) - min(plastic) over them (the front arc's cap only lowers
+        // plastic to at least the least of its corners); if the rim's lowest point over the
+        // cell is above that, nothing here presses and the point is skipped, as the samples
+        // would skip it. Exact: the same result, without the samples.
+        if (!p.deforms)
+        {
+          const std::size_t wi = i - window_i0_, wj = j - window_j0_;
+          const std::size_t a0 = wi > 0 ? wi - 1 : 0, a1 = std::min(wi + 1, window_columns_ - 1);
+          const std::size_t b0 = wj > 0 ? wj - 1 : 0, b1 = std::min(wj + 1, window_rows_ - 1);
+          double top = -std::numeric_limits<double>::infinity(), least_plastic = std::numeric_limits<double>::infinity();
+          for (std::size_t wb = b0; wb <= b1; ++wb)
+            for (std::size_t wa = a0; wa <= a1; ++wa)
+            {
+              const WindowPoint& w = window_[wb * window_columns_ + wa];
+              top = std::max(top, w.base - w.displaced);
+              least_plastic = std::min(least_plastic, w.plastic);
+            }
+          const double nearest = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
+          const double rim_low = fp.cz - std::sqrt(std::max(r2 - nearest * nearest, 0.0));
+          if (rim_low > top - least_plastic)
+            continue;
+        }
         double breaks[5] = { lo, 0.0, 0.0, 0.0, hi };
         int count = 1;
         const double below_axle = fp.cz - surface;
@@ -1006,7 +1055,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
                   std::abs(back) < r ? w.base - w.displaced - (fp.cz - std::sqrt(r2 - back * back)) : 0.0;
               plastic = std::min(plastic, std::max(imprint, w.plastic_min));
             }
-            pens[g] = w.base - plastic - w.displaced - (fp.cz - std::sqrt(r2 - us * us));
+            const double rim_depth = std::sqrt(r2 - us * us);  // the rim below the axle here
+            pens[g] = w.base - plastic - w.displaced - (fp.cz - rim_depth);
             if (!(pens[g] > 0.0))
               continue;
             const PointLoad at = bekker ? soil.bekkerLoad(modulus, plastic, pens[g]) :
@@ -1020,7 +1070,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             // ground's slope, both along the travel.
             if (bekker)
             {
-              const double rim = us * fp.travel / std::sqrt(r2 - us * us), ground = fp.ground_slope * fp.travel;
+              const double rim = us * fp.travel / rim_depth, ground = fp.ground_slope * fp.travel;
               p.rim_slope += share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
             }
           }

@@ -345,6 +345,7 @@ private:
   {
     double base = 0.0, plastic = 0.0, displaced = 0.0, sigma_max = 0.0;
     double plastic_min = 0.0;  ///< the least plastic sinkage of the points interpolated from
+    double along = 0.0;        ///< m, the point's place along the footprint's travel (+ ahead of its centre)
   };
   /// Copies the points (i0..i1, j0..j1) into window_ (a wheel's footprint and one point round it).
   void fillWindow(std::size_t i0, std::size_t i1, std::size_t j0, std::size_t j1);
@@ -383,6 +384,9 @@ private:
   std::vector<std::uint8_t> under_;  ///< scratch of spreadFlow(): 1 where a point of the window is loaded
   int drag_di_ = 0, drag_dj_ = 0;  ///< the grid step along which this contact's slip drags soil
   std::size_t window_i0_ = 0, window_j0_ = 0, window_columns_ = 0, window_rows_ = 0;
+  /// m, an upper bound of the surface anywhere in the window (max of base - displaced less the
+  /// least plastic sinkage): the rim cannot press where it is above it.
+  double window_top_ = 0.0;
   // Change tracking: per tile, its state at the start of the interval once it changed in it.
   bool tracking_ = false;
   std::vector<std::unique_ptr<Tile>> before_;  ///< same indexing as tiles_, null = unchanged
