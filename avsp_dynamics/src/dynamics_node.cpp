@@ -202,6 +202,7 @@ struct VehicleIo
   std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
+  bool released = false;  ///< the parking brake let go (a command with throttle > 0 came)
   bool lockstep = false;                    ///< in ~lockstep_vehicles
   nav_msgs::Odometry last_odom;             ///< the last published (resent at the first barrier)
   double answered = -std::numeric_limits<double>::infinity();  ///< latest cmd_drive stamp, s
@@ -240,6 +241,7 @@ public:
     options.seed = static_cast<std::uint64_t>(avsp::msgs::boundedIntParam(pnh_, "seed", 0, 0, 2147483647));
     options.deform_terrain = avsp::msgs::boolParam(pnh_, "deform_terrain", true);
     command_timeout_ = boundedParam(pnh_, "command_timeout", 0.5, 0.0, 3600.0);
+    hold_until_throttle_ = avsp::msgs::boolParam(pnh_, "hold_until_throttle", true);
     const double odom_rate = boundedParam(pnh_, "odometry_rate", 100.0, 1.0, 1.0 / options.step);
     const double clock_rate = boundedParam(pnh_, "clock_rate", 500.0, 1.0, 1.0 / options.step);
     const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
@@ -1125,6 +1127,16 @@ private:
         cmd = *v->last;
       else if (v->last)
         cmd.steering = v->last->steering;  // the steering stays where it was
+      // Parking brake: full brake until the first command that asks for throttle, so a stack
+      // whose first commands are zeros (throttle 0, brake 0: coast) does not let the vehicle
+      // roll away before it has a plan.
+      if (hold_until_throttle_ && !v->released)
+      {
+        if (cmd.throttle > 0.0)
+          v->released = true;
+        else
+          cmd.brake = 1.0;
+      }
       world_->setCommand(v->id, cmd);
     }
     world_->step();
@@ -1377,6 +1389,7 @@ private:
   std::vector<geometry_msgs::TransformStamped> transforms_;  ///< odom -> base_link per vehicle
   std::string source_;
   double command_timeout_ = 0.5;
+  bool hold_until_throttle_ = true;  ///< ~hold_until_throttle: the parking brake
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
   bool wait_for_command_ = false;

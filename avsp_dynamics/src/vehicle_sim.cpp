@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/Dense>
+
 #include <ode/ode.h>
 
 #include "obstacle_collision.hpp"
@@ -1047,31 +1049,62 @@ const WheelState& World::wheel(std::size_t vehicle, const std::string& wheel_nam
 Eigen::Isometry3d World::restingPose(const VehicleModel& model, double x, double y, double yaw,
                                      double clearance) const
 {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translate(Eigen::Vector3d(x, y, 0.0));
-  pose.rotate(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
-  double z = -std::numeric_limits<double>::infinity();
+  // The running gear's centres and radii in base_link.
+  std::vector<std::pair<Eigen::Vector3d, double>> gear;
   for (const WheelSpec& w : model.wheels)
+    gear.emplace_back(w.rest_position, w.radius);
+  for (const TrackSpec& t : model.tracks)
+    for (const RoadWheelSpec& w : t.road_wheels)
+      gear.emplace_back(w.rest_position, w.radius);
+  if (gear.empty())
+    throw std::invalid_argument("World::restingPose: '" + model.model + "' has no wheels to rest on");
+  const Eigen::Isometry3d heading(Eigen::Translation3d(x, y, 0.0) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  // The ground under the gear, as a plane z = a + b x' + c y' in the heading's frame (least
+  // squares): on a slope the vehicle is set down on it, not level with its downhill gear in
+  // the air (it would drop, and slide or tip as it lands).
+  Eigen::MatrixXd fit(gear.size(), 3);
+  Eigen::VectorXd heights(gear.size());
+  for (std::size_t k = 0; k < gear.size(); ++k)
   {
-    const Eigen::Vector3d p = pose * w.rest_position;
+    const Eigen::Vector3d p = heading * gear[k].first;
     const auto ground = terrain_.height(p.x(), p.y());
     if (!ground)
     {
       std::ostringstream why;
-      why << "World::restingPose: wheel '" << w.name << "' of '" << model.model << "' at (" << p.x() << ", "
-          << p.y() << ") is off the terrain";
+      why << "World::restingPose: " << (k < model.wheels.size() ? "wheel '" + model.wheels[k].name + "'" : "a road wheel")
+          << " of '" << model.model << "' at (" << p.x() << ", " << p.y() << ") is off the terrain";
       throw std::invalid_argument(why.str());
     }
-    z = std::max(z, *ground + w.radius - w.rest_position.z());
+    fit.row(static_cast<Eigen::Index>(k)) << 1.0, gear[k].first.x(), gear[k].first.y();
+    heights(static_cast<Eigen::Index>(k)) = *ground;
   }
-  for (const TrackSpec& t : model.tracks)
-    for (const RoadWheelSpec& w : t.road_wheels)
+  double b = 0.0, c = 0.0;
+  if (gear.size() >= 3)
+  {
+    const Eigen::Vector3d plane = fit.colPivHouseholderQr().solve(heights);
+    if (plane.allFinite())
     {
-      const Eigen::Vector3d p = pose * w.rest_position;
-      const auto ground = terrain_.height(p.x(), p.y());
-      if (ground)
-        z = std::max(z, *ground + w.radius - w.rest_position.z());
+      b = plane(1);
+      c = plane(2);
     }
+  }
+  // Nose up by atan(b); the left side up so that the body's y axis lies in the plane.
+  const double pitch = -std::atan(b), roll = std::atan(c / std::sqrt(1.0 + b * b));
+  Eigen::Isometry3d pose = heading;
+  if (pitch != 0.0)
+    pose.rotate(Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()));
+  if (roll != 0.0)
+    pose.rotate(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()));
+  // Each gear r along the plane's normal above the ground under it: r / n_z vertically.
+  const double rise = std::sqrt(1.0 + b * b + c * c);
+  double z = -std::numeric_limits<double>::infinity();
+  for (const auto& [rest, radius] : gear)
+  {
+    const Eigen::Vector3d q = pose.linear() * rest;
+    const auto ground = terrain_.height(x + q.x(), y + q.y());
+    if (ground)
+      z = std::max(z, *ground + radius * rise - q.z());
+  }
   if (!std::isfinite(z))
     throw std::invalid_argument("World::restingPose: '" + model.model + "' has no wheels to rest on");
   pose.translation().z() = z + clearance;

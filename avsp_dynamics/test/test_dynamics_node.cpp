@@ -27,6 +27,8 @@
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/JointState.h>
 
+#include <Eigen/Core>
+
 #include "avsp_dynamics/vehicle_model.hpp"
 
 namespace
@@ -563,4 +565,46 @@ int main(int argc, char** argv)
   ros::init(argc, argv, "test_dynamics_node");
   ros::NodeHandle nh;
   return RUN_ALL_TESTS();
+}
+
+// test/parking_brake.test only (dynamics_node.test filters it out): zero commands on the
+// course's 17.5 deg plane. The parking brake holds "held" within 1 cm from 2 s to 12 s of sim
+// time; "free", without it, coasts more than 1 m down the plane (south) in the same time.
+TEST(ParkingBrake, ZeroCommandsHoldOnTheCoursePlane)
+{
+  ros::NodeHandle nh;
+  struct Track
+  {
+    std::vector<std::pair<double, Eigen::Vector2d>> samples;
+    ros::Subscriber sub;
+    ros::Publisher cmd;
+  } held, free;
+  for (auto [name, t] : { std::make_pair("held", &held), std::make_pair("free", &free) })
+  {
+    Track* track = t;
+    track->sub = nh.subscribe<nav_msgs::Odometry>(std::string("/") + name + "/avt_341/odometry", 1000,
+                                                  [track](const nav_msgs::Odometry::ConstPtr& m) {
+                                                    track->samples.emplace_back(
+                                                        m->header.stamp.toSec(),
+                                                        Eigen::Vector2d(m->pose.pose.position.x, m->pose.pose.position.y));
+                                                  });
+    // Latched: each node waits for its first command (~wait_for_command) and keeps it.
+    track->cmd = nh.advertise<geometry_msgs::Twist>(std::string("/") + name + "/avt_341/cmd_vel", 1, true);
+    track->cmd.publish(twist(0.0, 0.0, 0.0));
+  }
+  const auto reached = [](const Track& t, double time) { return !t.samples.empty() && t.samples.back().first >= time; };
+  ASSERT_TRUE(spinUntil([&] { return reached(held, 12.0) && reached(free, 12.0); }, 200.0))
+      << "odometry: held " << held.samples.size() << ", free " << free.samples.size();
+  const auto at = [](const Track& t, double time) {
+    for (const auto& s : t.samples)
+      if (s.first >= time)
+        return s.second;
+    return t.samples.back().second;
+  };
+  const double held_drift = (at(held, 12.0) - at(held, 2.0)).norm();
+  const double free_down = at(free, 2.0).y() - at(free, 12.0).y();
+  std::printf("[parking brake] held: %.2f mm from 2 s to 12 s; free (no parking brake): %.2f m down the plane\n",
+              1e3 * held_drift, free_down);
+  EXPECT_LT(held_drift, 0.01);
+  EXPECT_GT(free_down, 1.0);
 }

@@ -362,9 +362,10 @@ public:
   const WheelState& wheel(std::size_t vehicle, const std::string& wheel_name) const;
 
   /**
-   * @brief A base_link pose at (x, y) with heading yaw (rad) whose lowest wheel sits
-   *        `clearance` m above the terrain there, level (roll = pitch = 0).
-   * @throw std::invalid_argument if (x, y) is off the terrain
+   * @brief A base_link pose at (x, y) with heading yaw (rad), tilted to the plane fitted (least
+   *        squares) through the ground under its running gear, whose lowest wheel sits
+   *        `clearance` m above the terrain; level on level ground.
+   * @throw std::invalid_argument if a wheel is off the terrain
    */
   Eigen::Isometry3d restingPose(const VehicleModel& model, double x, double y, double yaw,
                                 double clearance = 0.0) const;
