@@ -44,8 +44,8 @@ def vehicle_group(v):
                      "Marker Topic: /%s/radar/markers\nQueue Size: 100" % v, indent=8)
     inner += display("MarkerArray", "OctoMap cells (octomap/occupied_cells)",
                      "Marker Topic: /%s/octomap/occupied_cells\nQueue Size: 100" % v, enabled=False, indent=8)
-    inner += display("Map", "Occupancy grid (avt_341/occupancy_grid)",
-                     "Topic: /%s/avt_341/occupancy_grid\nAlpha: 0.6\nColor Scheme: map" % v, enabled=False, indent=8)
+    inner += display("Map", "Occupancy grid (occupancy/grid)",
+                     "Topic: /%s/occupancy/grid\nAlpha: 0.6\nColor Scheme: map" % v, enabled=False, indent=8)
     inner += display("Odometry", "Odometry (avt_341/odometry)",
                      "Topic: /%s/avt_341/odometry\nKeep: 50\nPosition Tolerance: 0.5\nAngle Tolerance: 0.5\n"
                      "Shape:\n  Value: Arrow\n  Color: 255; 25; 0\n  Shaft Length: 1\n  Shaft Radius: 0.05\n"

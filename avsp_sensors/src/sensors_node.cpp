@@ -1,7 +1,8 @@
 // sensors_node: the sensors of one or more vehicles over the shared terrain. Per vehicle, from
 // its odometry: lidar sweeps (avt_341/points), radar targets and points, GPS fixes, IMU and
 // magnetometer samples, ultrasonic ranges, and its OctoMap (octomap/occupied_cells,
-// avt_341/occupancy_grid, ~<vehicle>/save_map). The ray-cast scene is kept current from
+// occupancy/grid, ~<vehicle>/save_map; never avt_341/occupancy_grid: that topic is the AVT-341
+// stack's perception output, which its planners read). The ray-cast scene is kept current from
 // /terrain/ruts, /terrain/toppled and the other vehicles' poses; the lidar's weather from
 // /environment.
 //
@@ -510,7 +511,7 @@ private:
       if (c.occupancy)
       {
         v.cells_pub = vnh.advertise<visualization_msgs::MarkerArray>("octomap/occupied_cells", 2);
-        v.grid_pub = vnh.advertise<nav_msgs::OccupancyGrid>("avt_341/occupancy_grid", 2);
+        v.grid_pub = vnh.advertise<nav_msgs::OccupancyGrid>("occupancy/grid", 2);
         v.save_service = pnh_.advertiseService<avsp_msgs::SaveMap::Request, avsp_msgs::SaveMap::Response>(
             v.name + "/save_map",
             [this, raw](avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res) {

@@ -222,7 +222,7 @@ void runScenario(Scenario& r)
   }
   r.markers["/ego/octomap/occupied_cells"].subscribe(nh, "/ego/octomap/occupied_cells");
   r.sonar.subscribe(nh, "/ego/ultrasonic/sonar_down");
-  r.grid.subscribe(nh, "/ego/avt_341/occupancy_grid");
+  r.grid.subscribe(nh, "/ego/occupancy/grid");
   r.tf_static.subscribe(nh, "/tf_static");
   for (const char* t : { "/ego/front/image_raw", "/ego/front/depth/image_raw", "/ego/front/semantic/image_raw" })
     r.images[t].subscribe(nh, t);
@@ -401,7 +401,7 @@ TEST_F(SensorsNode, EveryOutputArrivesAtItsConfiguredRateInSimTime)
     expectRate(p + "/mag", run->mags[p + "/mag"].countIn(kFrom, kTo), 15.0);
   }
   expectRate("/ego/ultrasonic/sonar_down", run->sonar.countIn(kFrom, kTo), 20.0);
-  expectRate("/ego/avt_341/occupancy_grid", run->grid.countIn(kFrom, kTo), 2.0);
+  expectRate("/ego/occupancy/grid", run->grid.countIn(kFrom, kTo), 2.0);
   std::size_t cell_sets = 0;
   for (const auto& m : run->markers["/ego/octomap/occupied_cells"].messages)
   {
