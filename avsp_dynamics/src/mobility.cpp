@@ -76,18 +76,6 @@ std::unique_ptr<terrain::DeformableTerrain> plane(const SoilParameters& soil, do
                                                       soil, terrain::DeformableTerrain::Options{ true });
 }
 
-/// The running gear's centres and radius in base_link at rest.
-std::vector<std::pair<Eigen::Vector3d, double>> runningGear(const VehicleModel& m)
-{
-  std::vector<std::pair<Eigen::Vector3d, double>> out;
-  for (const WheelSpec& w : m.wheels)
-    out.emplace_back(w.rest_position, w.radius);
-  for (const TrackSpec& t : m.tracks)
-    for (const RoadWheelSpec& w : t.road_wheels)
-      out.emplace_back(w.rest_position, w.radius);
-  return out;
-}
-
 /// base_link at (x, y) with yaw, tilted to the plane (roll, pitch), its running gear `clearance`
 /// m above the ground.
 Eigen::Isometry3d placeOn(const terrain::DeformableTerrain& t, const VehicleModel& m, double x, double y, double yaw,
@@ -377,8 +365,9 @@ Tilt tiltTable(const Run& r, double guess, double up_to)
   w.advance(2.0);
   const double t0 = w.time(), start = 0.6 * guess, rate = 0.5 * kDeg, ramp = start / (2.0 * kDeg);
   Eigen::Vector3d gear_centre = Eigen::Vector3d::Zero();
-  for (const auto& [p, radius] : runningGear(r.model))
-    gear_centre += p / static_cast<double>(runningGear(r.model).size());
+  const auto gear = runningGear(r.model);
+  for (const auto& [p, radius] : gear)
+    gear_centre += p / static_cast<double>(gear.size());
   double sliding = 0.0, lifted = 0.0;
   Tilt out;
   for (;;)

@@ -78,6 +78,20 @@ void GroundContact::reset()
   normal_ = firm_normal_ = resistance_ = 0.0;
 }
 
+FirmContact firmContact(const terrain::DeformableTerrain& terrain, const terrain::ContactForces& soil,
+                        const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& normal)
+{
+  FirmContact firm;
+  if (soil.rigid_soil >= 0 && soil.rigid_share > 0.0)
+  {
+    firm.surface = &terrain.palette()[static_cast<std::size_t>(soil.rigid_soil)];
+    firm.share = soil.rigid_share;
+    if (const auto ground = terrain.height(centre.x(), centre.y()))
+      firm.depth = radius - (centre.z() - *ground) * normal.z();
+  }
+  return firm;
+}
+
 BrushForce brushForce(const Eigen::Vector2d& u, double normal, const FirmGroundSpec& spec, double friction_peak,
                       double friction_sliding)
 {
@@ -144,13 +158,14 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   // tyre's on rigid ground, their stiffness in u and the strength that bounds them.
   Eigen::Vector2d force = Eigen::Vector2d::Zero(), stiffness = Eigen::Vector2d::Zero();
   double capacity = 0.0;
+  const double du = decayed_.norm();
   if (soil_normal > 0.0)
   {
     force = Eigen::Vector2d(soil.longitudinal_force, soil.lateral_force);
     capacity = soil.shear_strength;
     // N/m of displacement, along it: through the slip (-u / l) and the cap (|u|); at u = 0 the
     // lesser of the two limits (the soil displaced by s x, or all of it by |u|).
-    const double du = decayed_.norm(), magnitude = force.norm();
+    const double magnitude = force.norm();
     const double through_slip = soil.shear_slope / std::max(shear_length_, kMinShearLength);
     const double radial = du > 1e-12 ? through_slip + soil.shear_cap_slope :
                                        (soil.shear_cap_slope > 0.0 ? std::min(through_slip, soil.shear_cap_slope) :
@@ -205,11 +220,8 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   elastic_ = k_elastic > 0.0 ? magnitude / k_elastic : 0.0;
   k_elastic_ = k_elastic;
   // The force's slope along the displacement (what unloading on the curve would follow).
-  {
-    const double du = decayed_.norm();
-    const Eigen::Vector2d dir = du > 1e-12 ? Eigen::Vector2d(decayed_ / du) : Eigen::Vector2d(1.0, 0.0);
-    k_along_ = dir.x() * dir.x() * stiffness.x() + dir.y() * dir.y() * stiffness.y();
-  }
+  const Eigen::Vector2d dir = du > 1e-12 ? Eigen::Vector2d(decayed_ / du) : Eigen::Vector2d(1.0, 0.0);
+  k_along_ = dir.x() * dir.x() * stiffness.x() + dir.y() * dir.y() * stiffness.y();
   const bool has_direction = magnitude > 1e-9 * capacity;
   double bound[2], slip[2], motion[2];
   for (int r = 0; r < 2; ++r)

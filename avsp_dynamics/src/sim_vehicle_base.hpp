@@ -186,6 +186,13 @@ struct FirmContact
   double depth = 0.0;  ///< m, tyre deflection: radius - distance from centre to the ground plane
 };
 
+/// The rigid ground a gear of `radius` at `centre` meets, from the terrain's contact `soil`:
+/// the surface under its rigid share and its deflection against the ground plane (unit normal
+/// `normal`) there, smooth rather than the grid's points (a stiff tyre must not feel a 0.1 m
+/// lattice). No surface when the footprint has no rigid part.
+FirmContact firmContact(const terrain::DeformableTerrain& terrain, const terrain::ContactForces& soil,
+                        const Eigen::Vector3d& centre, double radius, const Eigen::Vector3d& normal);
+
 /**
  * @brief One running gear's contact with the ground (a wheel, or the track under one road
  *        wheel): the shear's transient state and what ODE gets each step (README.md, "Ground

@@ -611,14 +611,7 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
     times->contact += seconds(start, Clock::now());
 
   // Rigid ground: the pads' deflection against the ground plane under the wheel.
-  FirmContact firm;
-  if (w.soil.rigid_soil >= 0 && w.soil.rigid_share > 0.0)
-  {
-    firm.surface = &terrain.palette()[static_cast<std::size_t>(w.soil.rigid_soil)];
-    firm.share = w.soil.rigid_share;
-    if (const auto ground = terrain.height(centre.x(), centre.y()))
-      firm.depth = radius - (centre.z() - *ground) * frame.normal.z();
-  }
+  const FirmContact firm = firmContact(terrain, w.soil, centre, radius, frame.normal);
   const double mass_share = model_.total_mass / static_cast<double>(2 * side.wheels.size());
   bool fault = false;
   w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, mass_share, frame, w.soil, firm, model_.firm_ground,

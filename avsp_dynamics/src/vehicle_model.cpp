@@ -557,5 +557,16 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
   }
 }
 
+std::vector<std::pair<Eigen::Vector3d, double>> runningGear(const VehicleModel& model)
+{
+  std::vector<std::pair<Eigen::Vector3d, double>> out;
+  for (const WheelSpec& w : model.wheels)
+    out.emplace_back(w.rest_position, w.radius);
+  for (const TrackSpec& t : model.tracks)
+    for (const RoadWheelSpec& w : t.road_wheels)
+      out.emplace_back(w.rest_position, w.radius);
+  return out;
+}
+
 }  // namespace dynamics
 }  // namespace avsp

@@ -534,16 +534,8 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   if (times)
     times->contact += seconds(start, Clock::now());
 
-  // Rigid ground under part of the footprint: the tyre's deflection against the ground plane
-  // (smooth, not the grid's points: a stiff tyre must not feel a 0.1 m lattice).
-  FirmContact firm;
-  if (w.soil.rigid_soil >= 0 && w.soil.rigid_share > 0.0)
-  {
-    firm.surface = &terrain.palette()[static_cast<std::size_t>(w.soil.rigid_soil)];
-    firm.share = w.soil.rigid_share;
-    if (const auto ground = terrain.height(centre.x(), centre.y()))
-      firm.depth = w.spec->radius - (centre.z() - *ground) * frame.normal.z();
-  }
+  // Rigid ground under part of the footprint: the tyre's deflection against the ground plane.
+  const FirmContact firm = firmContact(terrain, w.soil, centre, w.spec->radius, frame.normal);
   bool fault = false;
   w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, model_.total_mass / wheels_.size(), frame, w.soil,
                                 firm, model_.firm_ground, options_, &w.feedback, fault);
@@ -1049,13 +1041,7 @@ const WheelState& World::wheel(std::size_t vehicle, const std::string& wheel_nam
 Eigen::Isometry3d World::restingPose(const VehicleModel& model, double x, double y, double yaw,
                                      double clearance) const
 {
-  // The running gear's centres and radii in base_link.
-  std::vector<std::pair<Eigen::Vector3d, double>> gear;
-  for (const WheelSpec& w : model.wheels)
-    gear.emplace_back(w.rest_position, w.radius);
-  for (const TrackSpec& t : model.tracks)
-    for (const RoadWheelSpec& w : t.road_wheels)
-      gear.emplace_back(w.rest_position, w.radius);
+  const std::vector<std::pair<Eigen::Vector3d, double>> gear = runningGear(model);
   if (gear.empty())
     throw std::invalid_argument("World::restingPose: '" + model.model + "' has no wheels to rest on");
   const Eigen::Isometry3d heading(Eigen::Translation3d(x, y, 0.0) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));

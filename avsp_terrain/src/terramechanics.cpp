@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace avsp
 {
@@ -131,20 +132,32 @@ RigidWheelLoad rigidWheelOnBekkerSoil(const SoilParameters& soil, double radius,
   return out;
 }
 
-double rigidWheelStaticSinkage(const SoilParameters& soil, double radius, double width, double load)
+namespace
+{
+/// The sinkage in [0, radius] at which `normal(z)` (increasing) carries `load`, by bisection.
+template <typename Normal>
+double sinkageCarrying(const char* fn, const SoilParameters& soil, double radius, double load, Normal normal)
 {
   if (!(load > 0.0))
     return 0.0;
-  if (rigidWheelOnBekkerSoil(soil, radius, width, radius).normal_force < load)
-    throw std::domain_error("rigidWheelStaticSinkage: soil '" + soil.name +
+  if (normal(radius) < load)
+    throw std::domain_error(std::string(fn) + ": soil '" + soil.name +
                             "' cannot carry the load before the wheel sinks to its axle");
   double lo = 0.0, hi = radius;
   for (int k = 0; k < 100 && hi - lo > 1e-12; ++k)
   {
     const double mid = 0.5 * (lo + hi);
-    (rigidWheelOnBekkerSoil(soil, radius, width, mid).normal_force < load ? lo : hi) = mid;
+    (normal(mid) < load ? lo : hi) = mid;
   }
   return 0.5 * (lo + hi);
+}
+}  // namespace
+
+double rigidWheelStaticSinkage(const SoilParameters& soil, double radius, double width, double load)
+{
+  return sinkageCarrying("rigidWheelStaticSinkage", soil, radius, load, [&](double z) {
+    return rigidWheelOnBekkerSoil(soil, radius, width, z).normal_force;
+  });
 }
 
 RigidWheelLoad rollingWheelOnBekkerSoil(const SoilParameters& soil, double radius, double width, double sinkage,
@@ -198,18 +211,9 @@ double rollingWheelTraction(const SoilParameters& soil, double radius, double wi
 
 double rollingWheelSinkage(const SoilParameters& soil, double radius, double width, double load)
 {
-  if (!(load > 0.0))
-    return 0.0;
-  if (rollingWheelOnBekkerSoil(soil, radius, width, radius).normal_force < load)
-    throw std::domain_error("rollingWheelSinkage: soil '" + soil.name +
-                            "' cannot carry the load before the wheel sinks to its axle");
-  double lo = 0.0, hi = radius;
-  for (int k = 0; k < 100 && hi - lo > 1e-12; ++k)
-  {
-    const double mid = 0.5 * (lo + hi);
-    (rollingWheelOnBekkerSoil(soil, radius, width, mid).normal_force < load ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
+  return sinkageCarrying("rollingWheelSinkage", soil, radius, load, [&](double z) {
+    return rollingWheelOnBekkerSoil(soil, radius, width, z).normal_force;
+  });
 }
 
 double bekkerStaticSinkageClosedForm(const SoilParameters& soil, double diameter, double width, double load)

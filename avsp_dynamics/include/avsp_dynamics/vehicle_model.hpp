@@ -9,6 +9,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -204,6 +205,10 @@ const std::vector<std::string>& requiredSensorLinks();
  * @throw ConfigError naming the file and the key, link or joint at fault and why
  */
 VehicleModel loadVehicleModel(const std::string& yaml_path);
+
+/// The running gear that meets the ground, wheels then road wheels (left track, then right):
+/// each one's centre in base_link at rest and its radius (m).
+std::vector<std::pair<Eigen::Vector3d, double>> runningGear(const VehicleModel& model);
 
 const char* toString(DriveType type);
 
