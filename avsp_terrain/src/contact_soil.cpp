@@ -171,29 +171,6 @@ double ContactSoil::bekkerPressure(double modulus, double z) const
   return z > 0.0 ? modulus * std::pow(z, n) : 0.0;
 }
 
-PointLoad ContactSoil::bekkerLoad(double modulus, double plastic, double penetration) const
-{
-  PointLoad out;
-  if (!(penetration > 0.0))
-    return out;
-  const double depth = plastic + penetration;
-  const double virgin = modulus * std::pow(depth, n);
-  const double elastic = k_unload * penetration;
-  out.unload = k_unload;
-  if (elastic < virgin)
-  {
-    out.sigma = elastic;
-    out.slope = k_unload;
-  }
-  else
-  {
-    out.sigma = virgin;
-    out.slope = n * virgin / depth;
-    out.virgin = true;
-  }
-  return out;
-}
-
 PointLoad ContactSoil::simpleLoad(double plastic, double deformation, double sigma_max, double penetration) const
 {
   PointLoad out;

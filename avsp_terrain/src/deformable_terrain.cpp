@@ -522,6 +522,42 @@ void DeformableTerrain::vegetation(const Footprint& fp, bool deform, ObjectSet& 
   out.resistance_force += out.grass_resistance;
 }
 
+long DeformableTerrain::landingOf(long start, long a, long b, long width, long height)
+{
+  // L(x) = x where the drag leaves the window at the next step; else the next point, where
+  // that one is not under the footprint; else L(next). Only points under the footprint are
+  // passed through, and each keeps its L: every point of a contact is walked once, not once
+  // per point behind it (a long track patch's rows would otherwise cost their length squared).
+  landing_path_.clear();
+  long at = start, result = start;
+  for (;;)
+  {
+    if (landing_[at] >= 0)
+    {
+      result = landing_[at];
+      break;
+    }
+    if (a + drag_di_ < 0 || a + drag_di_ >= width || b + drag_dj_ < 0 || b + drag_dj_ >= height)
+    {
+      result = at;
+      break;
+    }
+    landing_path_.push_back(at);
+    a += drag_di_;
+    b += drag_dj_;
+    const long next = at + drag_dj_ * width + drag_di_;
+    if (!under_[next])
+    {
+      result = next;
+      break;
+    }
+    at = next;
+  }
+  for (const long visited : landing_path_)
+    landing_[visited] = result;
+  return result;
+}
+
 void DeformableTerrain::spreadFlow()
 {
   // f(z_f, d) of T5: each point's flowed volume goes to its neighbours weighted by 1/d, so
@@ -545,6 +581,7 @@ void DeformableTerrain::spreadFlow()
   const std::size_t width = wi1 - wi0 + 1;
   arrivals_.assign(width * (wj1 - wj0 + 1), 0.0);
   under_.assign(arrivals_.size(), 0);
+  landing_.assign(arrivals_.size(), -1);
   for (const LoadedPoint& p : loaded_)
     under_[(p.j - wj0) * width + (p.i - wi0)] = 1;
   const double area = base_.dx() * base_.dy();
@@ -581,19 +618,12 @@ void DeformableTerrain::spreadFlow()
     long drop = 0;  // window offset of where the sheared soil lands
     if (p.shear_fraction > 0.0 && (drag_di_ != 0 || drag_dj_ != 0))
     {
-      long a = i, b = j;
-      while (a + drag_di_ >= static_cast<long>(wi0) && a + drag_di_ <= static_cast<long>(wi1) &&
-             b + drag_dj_ >= static_cast<long>(wj0) && b + drag_dj_ <= static_cast<long>(wj1))
-      {
-        a += drag_di_;
-        b += drag_dj_;
-        if (!under_[(b - static_cast<long>(wj0)) * w + (a - static_cast<long>(wi0))])
-          break;
-      }
-      if (a != i || b != j)
+      const long landing = landingOf(offset, i - static_cast<long>(wi0), j - static_cast<long>(wj0), w,
+                                     static_cast<long>(wj1 - wj0 + 1));
+      if (landing != offset)
       {
         shear = p.shear_fraction * p.flow_volume;
-        drop = (b - j) * w + (a - i);
+        drop = landing - offset;
       }
     }
     const double pressed = p.flow_volume - shear;
@@ -784,8 +814,7 @@ void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j
   window_top_ = top - least_plastic;
 }
 
-DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y, const Footprint& fp,
-                                                              double behind) const
+DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y, double behind) const
 {
   // Bilinear between the four window points around (x, y); clamped to the window (a sample
   // within half a cell of the grid's edge takes the edge's cell).
@@ -959,7 +988,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         return bekker ? soil.bekkerLoad(modulus, state.plastic, penetration) :
                         soil.simpleLoad(state.plastic, deformation, state.sigma_max, penetration);
       };
-      LoadedPoint p{};
+      // Built in place (the point is dropped again where it carries nothing): no copy of it.
+      LoadedPoint& p = loaded_.emplace_back();
       p.i = static_cast<std::uint32_t>(i);
       p.j = static_cast<std::uint32_t>(j);
       p.soil = soil_index;
@@ -1014,7 +1044,10 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
           const double nearest = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
           const double rim_low = fp.cz - std::sqrt(std::max(r2 - nearest * nearest, 0.0));
           if (rim_low > top - least_plastic)
+          {
+            loaded_.pop_back();
             continue;
+          }
         }
         double breaks[5] = { lo, 0.0, 0.0, 0.0, hi };
         int count = 1;
@@ -1040,7 +1073,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
             // wheel at rest (pressed straight down) is the same front and back.
             const double side = rolling ? (us * fp.travel < 0.0 ? 1.0 : -1.0) : 0.0;
-            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, fp, side);
+            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, side);
             // Ahead of a rolling wheel's bottom, between a point its front arc has pressed and
             // one it has not reached, the linear interpolant runs above the arc's imprint (the
             // imprint ends at the arc's leading edge): the soil there has been pressed at most
@@ -1092,7 +1125,10 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
           }
         }
         if (!(p.sigma > 0.0) && !p.deforms)
+        {
+          loaded_.pop_back();
           continue;
+        }
         p.pressed = std::min(pressed, 1.0);
         if (p.sigma > 0.0)
           p.rim_slope /= p.sigma;
@@ -1108,7 +1144,10 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         bottom = fp.cz + fp.slope_u * u + fp.slope_v * v;
         p.penetration = surface - bottom;
         if (!(p.penetration > 0.0))
+        {
+          loaded_.pop_back();
           continue;
+        }
         p.deforms = true;
         const PointLoad at_point = load(p.penetration);
         p.sigma = p.sigma_point = at_point.sigma;
@@ -1126,12 +1165,14 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         p.weight *= (p.x1 - p.x0) / along_spacing;
       }
       if (!(p.sigma > 0.0))
+      {
+        loaded_.pop_back();
         continue;
+      }
       if (!fp.wheel)
         p.depth = state.plastic + p.penetration;
       p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0) :
                            soil.elasticSinkage(p.sigma_point, deformation);
-      loaded_.push_back(p);
       // Sinkage where the gear carries load, pressing on (deforming) or resting on soil it has
       // pressed before (a parked wheel's point at its own imprint).
       if (p.deforms || (p.sigma > 0.0 && (!fp.wheel || std::abs(u) < r)))

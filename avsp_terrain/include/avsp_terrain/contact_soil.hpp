@@ -6,6 +6,7 @@
  *        pressure-sinkage laws of MODELS.md (simple T2 + T3 + T4, or Bekker's T13 family)
  *        solved in closed form, so a contact costs no iteration per point.
  */
+#include <cmath>
 #include <vector>
 
 #include "avsp_terrain/soil.hpp"
@@ -96,7 +97,29 @@ public:
    *        sigma / k_unload), so a parked wheel rests on an elastic floor instead of digging.
    * @param modulus bekkerModulus() of the contact
    */
-  PointLoad bekkerLoad(double modulus, double plastic, double penetration) const;
+  PointLoad bekkerLoad(double modulus, double plastic, double penetration) const
+  {
+    // Inline: a wheel's contact asks it for every sample of its rim (the inner loop).
+    PointLoad out;
+    if (!(penetration > 0.0))
+      return out;
+    const double depth = plastic + penetration;
+    const double virgin = modulus * std::pow(depth, n);
+    const double elastic = k_unload * penetration;
+    out.unload = k_unload;
+    if (elastic < virgin)
+    {
+      out.sigma = elastic;
+      out.slope = k_unload;
+    }
+    else
+    {
+      out.sigma = virgin;
+      out.slope = n * virgin / depth;
+      out.virgin = true;
+    }
+    return out;
+  }
 
   /// Simple model: the point's load at `penetration` (stressForPenetration()) with its slopes.
   PointLoad simpleLoad(double plastic, double deformation, double sigma_max, double penetration) const;

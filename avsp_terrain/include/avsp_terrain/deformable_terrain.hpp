@@ -352,7 +352,11 @@ private:
   /// The window's state at (x, y), bilinear between its four points; `behind` > 0: a sample
   /// behind a rolling footprint's bottom, interpolated from the points behind it only; < 0:
   /// ahead of it, from the points ahead only.
-  WindowPoint windowState(double x, double y, const Footprint& fp, double behind) const;
+  WindowPoint windowState(double x, double y, double behind) const;
+  /// spreadFlow(): the window offset where soil dragged from the window point `start` (column
+  /// a, row b of a width x height window) lands: the first point along the drag not under the
+  /// footprint, or the last one in the window. Memoised in landing_.
+  long landingOf(long start, long a, long b, long width, long height);
 
   /// @throw std::out_of_range naming `function` and the point when (i, j) is outside the grid
   void checkPoint(const char* function, std::size_t i, std::size_t j) const;
@@ -382,6 +386,8 @@ private:
   std::vector<double> arrivals_;     ///< scratch: soil arriving per point of the contact's window, m
   std::vector<WindowPoint> window_;  ///< scratch: the points round a wheel's footprint (fillWindow)
   std::vector<std::uint8_t> under_;  ///< scratch of spreadFlow(): 1 where a point of the window is loaded
+  std::vector<long> landing_;        ///< scratch of spreadFlow(): where soil dragged from a window point lands, -1 unknown
+  std::vector<long> landing_path_;   ///< scratch of landingOf()
   int drag_di_ = 0, drag_dj_ = 0;  ///< the grid step along which this contact's slip drags soil
   std::size_t window_i0_ = 0, window_j0_ = 0, window_columns_ = 0, window_rows_ = 0;
   /// m, an upper bound of the surface anywhere in the window (max of base - displaced less the
