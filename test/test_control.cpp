@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "avsp/control/leader_follower.hpp"
 #include "avsp/control/path.hpp"
@@ -246,6 +247,73 @@ TEST(Steering, GeometryOfTheReferenceVehicles)
   EXPECT_EQ(m.kind, ac::SteeringKind::kDifferential);
   EXPECT_NEAR(m.effective_track_width, 2.30, 1e-6);
   EXPECT_THROW(ac::steeringGeometry(fed, 0.5), std::invalid_argument);
+}
+
+// The AVT-341 stack's vehicle parameters (config/avt_341_stack/<model>.yaml, loaded by
+// launch/avt_341_stack.launch): its pure pursuit turns a curvature kappa into the steering
+// s = atan(kappa L) / delta_max (clamped to [-1, 1]) with its own wheelbase L and full lock
+// delta_max; AVSP turns s back into a curvature through the vehicle's model. The stack's
+// curve must be the one AVSP drives: over the whole steering range for Ackermann vehicles, for
+// gentle curves for skid-steer and tracked ones (their kinematics are not a bicycle's), with
+// the effective track width the reference traverse steers them with.
+TEST(Avt341StackParameters, TheStacksCurvatureIsTheOneAvspDrives)
+{
+  namespace ad = avsp::dynamics;
+  const std::string config(AVSP_CONFIG_DIR);
+  const YAML::Node traverse = YAML::LoadFile(config + "/scenarios/reference_traverse.yaml");
+  for (const std::string model_name : { "fed_alpha", "mrzr", "tracer_x", "m113" })
+  {
+    SCOPED_TRACE(model_name);
+    const ad::VehicleModel model = ad::loadVehicleModel(config + "/vehicles/" + model_name + ".yaml");
+    const YAML::Node stack = YAML::LoadFile(config + "/avt_341_stack/" + model_name + ".yaml");
+    const double L = stack["vehicle_control_node"]["vehicle_wheelbase"].as<double>();
+    const double lock = stack["vehicle_control_node"]["vehicle_max_steer_angle_degrees"].as<double>() * M_PI / 180.0;
+    double factor = 1.0;
+    if (model.drive_type != ad::DriveType::kAckermann)
+    {
+      for (const YAML::Node& v : traverse["vehicles"])
+        if (v["model"].as<std::string>() == model_name)
+          factor = v["controller"]["params"]["track_width_factor"].as<double>();
+      ASSERT_GT(factor, 1.0) << "the reference traverse steers every skid-steer or tracked vehicle with a factor";
+    }
+    const ac::SteeringGeometry avsp = ac::steeringGeometry(model, factor);
+    // Skid-steer and tracked: up to kappa B = 0.2 (radius 5 B: 21 m for the carrier), where the
+    // two maps part by about kappa B / 2 of the curvature (second order: AVSP's curvature is
+    // 2 s / (B (1 - |s|)), the stack's s about kappa B / 2).
+    const double B = avsp.effective_track_width;
+    const double max_kappa = model.drive_type == ad::DriveType::kAckermann ? std::tan(lock) / L : 0.2 / B;
+    for (int k = -10; k <= 10; ++k)
+    {
+      const double kappa = max_kappa * k / 10.0;
+      const double s = std::clamp(std::atan(kappa * L) / lock, -1.0, 1.0);
+      const double driven = ac::curvatureForSteering(avsp, s);
+      if (model.drive_type == ad::DriveType::kAckermann)
+        EXPECT_NEAR(driven, kappa, 5e-4 * std::abs(kappa) + 1e-12) << "kappa " << kappa;
+      else
+        EXPECT_NEAR(driven, kappa, 0.6 * kappa * kappa * B + 1e-12) << "kappa " << kappa;
+    }
+    // Gentle curves on a skid-steer or tracked vehicle: the slopes at kappa = 0 agree.
+    const double tiny = 1e-6;
+    EXPECT_NEAR(ac::curvatureForSteering(avsp, std::atan(tiny * L) / lock), tiny, 1e-3 * tiny);
+    // No faster than the vehicle can go; the planner's width clears the vehicle's own.
+    EXPECT_LE(stack["vehicle_control_node"]["vehicle_speed"].as<double>(), model.drivetrain.max_speed);
+    double half_width = 0.0;
+    for (const ad::WheelSpec& w : model.wheels)
+      half_width = std::max(half_width, std::abs(w.rest_position.y()) + 0.5 * w.width);
+    for (const ad::CollisionBox& b : model.collision_boxes)
+      for (int corner = 0; corner < 8; ++corner)
+      {
+        const Eigen::Vector3d c = b.pose * Eigen::Vector3d((corner & 1 ? 0.5 : -0.5) * b.size.x(),
+                                                           (corner & 2 ? 0.5 : -0.5) * b.size.y(),
+                                                           (corner & 4 ? 0.5 : -0.5) * b.size.z());
+        half_width = std::max(half_width, std::abs(c.y()));
+      }
+    if (model.drive_type == ad::DriveType::kTracked)
+      half_width = std::max(half_width, 0.5 * (model.trackWidth() + model.track.shoe_width));
+    const double width = stack["local_planner_node"]["vehicle_width"].as<double>();
+    EXPECT_GE(width, 2.0 * half_width + 0.4);
+    EXPECT_LE(width, 2.0 * half_width + 1.0);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
