@@ -10,6 +10,9 @@ of bad scenario files. Writes a JUnit XML result with one test case per check:
   within the wall-clock limit;
 - results: summary.json, trajectories.png, ruts.png and gaps.png exist, written by this run,
   and summary.json has every vehicle of the scenario;
+- plausible_motion: in trajectories.csv no vehicle goes faster than 1.05 x its model's governed
+  drivetrain.max_speed, nor rises or falls faster than 2 m/s between samples (a vehicle set down
+  overlapping the ground or a building was once thrown 5 m up at 12 m/s, governed 2 m/s);
 - partitions_same_trajectories: the same scenario with `partitions: 2` (two dynamics_node
   processes behind lockstep_clock, the sensors in the lockstep) for 10 s writes the same
   trajectories.csv rows (x, y, z, speed) as the single-process run up to 9.9 s.
@@ -135,6 +138,30 @@ def trajectory_rows(path, until):
     return header, rows
 
 
+def plausible_motion_case(trajectories, models, config_dir):
+    """Failure messages for samples of trajectories.csv beyond what the vehicles can do."""
+    msgs = []
+    governed = {}
+    for vehicle, model in models.items():
+        with open(os.path.join(config_dir, "vehicles", model + ".yaml")) as f:
+            governed[vehicle] = float(yaml.safe_load(f)["drivetrain"]["max_speed"])
+    last = {}
+    with open(trajectories) as f:
+        header = f.readline().strip().split(",")
+        iv, it, iz, isp = (header.index(c) for c in ("vehicle", "t", "z", "speed"))
+        for line in f:
+            cells = line.strip().split(",")
+            v, t, z, speed = cells[iv], float(cells[it]), float(cells[iz]), float(cells[isp])
+            if v in governed and speed > 1.05 * governed[v]:
+                msgs.append("%s at %.1f s: %.2f m/s, governed %.2f m/s" % (v, t, speed, governed[v]))
+            if v in last and t > last[v][0]:
+                rate = (z - last[v][1]) / (t - last[v][0])
+                if abs(rate) > 2.0:
+                    msgs.append("%s at %.1f s: z changes at %.2f m/s" % (v, t, rate))
+            last[v] = (t, z)
+    return msgs[:20]
+
+
 def partitioned_case(scenario, reference, env, port, tmp, launch_file, limit):
     """The scenario with `partitions: 2` for 10 s: its trajectories must equal the single-process
     run's over those 10 s, row for row (issue 7: same answer, any layout)."""
@@ -181,7 +208,10 @@ def main(argv):
     duration = float(argv[3]) if len(argv) > 3 else 30.0
     limit = float(argv[4]) if len(argv) > 4 else 600.0
     with open(scenario) as f:
-        vehicles = [v["name"] for v in yaml.safe_load(f)["vehicles"]]
+        scenario_vehicles = yaml.safe_load(f)["vehicles"]
+    vehicles = [v["name"] for v in scenario_vehicles]
+    models = {v["name"]: v["model"] for v in scenario_vehicles}
+    config_dir = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "config")
     name = os.path.splitext(os.path.basename(scenario))[0]
     port = random.randint(20000, 40000)
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1")
@@ -241,6 +271,9 @@ def main(argv):
             except Exception as e:  # noqa: BLE001 - any reason is a failure to report
                 msgs.append("summary.json unreadable: %s" % e)
             cases.append(("results", msgs))
+            trajectories = os.path.join(out, "trajectories.csv")
+            cases.append(("plausible_motion", plausible_motion_case(trajectories, models, config_dir)
+                          if os.path.isfile(trajectories) else ["no " + trajectories]))
             if duration >= 10.0:
                 cases.append(("partitions_same_trajectories",
                               partitioned_case(scenario, os.path.join(out, "trajectories.csv"), env, port, tmp,
