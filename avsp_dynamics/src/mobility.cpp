@@ -577,7 +577,6 @@ Closed closedRun(const VehicleModel& m, const SoilParameters& soil, double durat
   return out;
 }
 
-
 /// Steady turn: radius (m) of the unsteered axle's midpoint path over the last 4 of 10 s.
 double turnRadius(const Run& r, double speed, double steering)
 {

@@ -59,9 +59,11 @@ public:
   }
 
 protected:
-  /// Counts a contact's fault (a non-finite force, left out of the step) and names it once:
-  /// `what` is e.g. "wheel 'front_left'"; `reported` is that contact's once-flag.
-  void contactFault(bool fault, bool& reported, const std::string& what, const std::string& vehicle, int& count)
+  /// Counts a contact's fault (a non-finite force, left out of the step) and names it once,
+  /// as "<kind> '<name>'" (e.g. wheel 'front_left'); `reported` is that contact's once-flag.
+  /// Called for every contact every step: the message is built only when it is reported.
+  void contactFault(bool fault, bool& reported, const char* kind, const std::string& name, const std::string& vehicle,
+                    int& count)
   {
     if (!fault)
       return;
@@ -69,8 +71,8 @@ protected:
     if (reported)
       return;
     reported = true;
-    warnings_.push_back("vehicle '" + vehicle + "', " + what +
-                        ": the ground contact gave a non-finite force; it had no ground contact that step (reported once)");
+    warnings_.push_back("vehicle '" + vehicle + "', " + kind + " '" + name +
+                        "': the ground contact gave a non-finite force; it had no ground contact that step (reported once)");
   }
 
   std::vector<std::string> warnings_;

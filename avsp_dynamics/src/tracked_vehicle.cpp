@@ -616,7 +616,7 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   bool fault = false;
   w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, mass_share, frame, w.soil, firm, model_.firm_ground,
                                 options_, &w.feedback, fault);
-  contactFault(fault, w.fault_reported, "track segment '" + w.spec->link + "'", state_.name, state_.contact_faults);
+  contactFault(fault, w.fault_reported, "track segment", w.spec->link, state_.name, state_.contact_faults);
   // Compaction and bulldozing (T12) push on the running gear against its travel: through the
   // road wheel's axle, not about it.
   w.resistance.set(world_, w.body, w.contact ? w.ground.resistance() : 0.0, frame.t1,

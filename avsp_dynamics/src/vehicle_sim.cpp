@@ -539,7 +539,7 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   bool fault = false;
   w.contact = w.ground.addJoint(world_, contacts, w.body, w.mass, model_.total_mass / wheels_.size(), frame, w.soil,
                                 firm, model_.firm_ground, options_, &w.feedback, fault);
-  contactFault(fault, w.fault_reported, "wheel '" + w.spec->name + "'", state_.name, state_.contact_faults);
+  contactFault(fault, w.fault_reported, "wheel", w.spec->name, state_.name, state_.contact_faults);
   // Resistance (T12, Bekker's compaction, a tyre's rolling resistance) opposes the wheel's
   // travel, through the axle: bulldozing and compaction pressures act radially on a rigid wheel,
   // so they exert no torque about its centre.

@@ -74,7 +74,6 @@ double sumApplied(const VehicleState& s)
   return sum;
 }
 
-
 /// Throttle/brake holding a forward speed (PI on the body's forward speed).
 class SpeedHold
 {
