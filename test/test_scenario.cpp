@@ -591,6 +591,9 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   EXPECT_EQ(rec[2]["leader"].as<std::string>(), "second");
   EXPECT_EQ(paramOf(xml, "run_recorder", "duration"), "30.0");
   EXPECT_EQ(paramOf(xml, "run_recorder", "output_dir"), "/tmp/results/base");
+  // SaveMap services write into the run's results folder (issue 21).
+  EXPECT_EQ(paramOf(xml, "terrain", "output_dir"), "/tmp/results/base");
+  EXPECT_EQ(paramOf(xml, "sensors", "output_dir"), "/tmp/results/base");
   EXPECT_EQ(paramOf(xml, "run_recorder", "scenario_name"), "base");
   // one description per vehicle, the start gate, no RViz unless asked.
   std::size_t descriptions = 0;

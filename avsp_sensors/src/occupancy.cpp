@@ -8,6 +8,8 @@
 
 #include <octomap/OcTree.h>
 
+#include <avsp_terrain/output_file.hpp>
+
 #include "avsp_sensors/lidar.hpp"
 #include "avsp_sensors/noise.hpp"
 #include "avsp_sensors/parallel.hpp"
@@ -556,10 +558,18 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
   return grid;
 }
 
+std::string OccupancyMap::binary() const
+{
+  std::ostringstream out(std::ios::binary);
+  if (!tree_->writeBinaryConst(out))
+    throw std::runtime_error("OccupancyMap::binary: OctoMap could not serialise the tree");
+  return out.str();
+}
+
 void OccupancyMap::save(const std::string& path) const
 {
-  if (!tree_->writeBinaryConst(path))
-    throw std::runtime_error("OccupancyMap::save: cannot write '" + path + "'");
+  // OctoMap's own file writer does not check the close, so a full disk looked like success.
+  avsp::terrain::writeBytes(path, binary());
 }
 
 OccupancyMap OccupancyMap::load(const std::string& path, OccupancyConfig config)

@@ -42,6 +42,7 @@
 
 #include <avsp_msgs/node_params.hpp>
 #include <avsp_terrain/agent_params.hpp>
+#include <avsp_terrain/output_file.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source_params.hpp>
 
@@ -189,6 +190,16 @@ public:
     // Lockstep with a partitioned run: report each clock interval sensed, so lockstep_clock
     // waits for the sensors as for the dynamics partitions (the sensors never fall behind by
     // more than one interval, however costly a sweep or frame).
+    try
+    {
+      output_.directory = at::prepareOutputFolder(
+          avsp::msgs::stringParam(pnh_, "output_dir", at::defaultOutputFolder()));
+    }
+    catch (const at::OutputFileError& e)
+    {
+      throw StartupError(std::string("parameter ~output_dir: ") + e.what());
+    }
+    output_.allow_absolute_paths = avsp::msgs::boolParam(pnh_, "allow_absolute_paths", false);
     lockstep_partition_ = avsp::msgs::stringParam(pnh_, "lockstep_partition", "");
     if (!lockstep_partition_.empty())
     {
@@ -662,26 +673,22 @@ private:
   bool onSaveMap(VehicleIo& v, avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res)
   {
     res.success = false;
-    if (req.path.empty() || req.path[0] != '/')
-      res.message = "path '" + req.path + "' must be absolute";
-    else if (at::fileExtension(req.path) != ".bt")
-      res.message = "path '" + req.path + "' must end in .bt (OctoMap binary)";
-    else
+    try
     {
-      try
-      {
-        v.sensors->occupancy()->save(req.path);
-        res.success = true;
-        res.message = req.path;
-        ROS_INFO("sensors_node: saved %s's OctoMap to %s", v.name.c_str(), req.path.c_str());
-      }
-      catch (const std::exception& e)
-      {
-        res.message = e.what();
-      }
+      const std::string path = at::resolveOutputPath(req.path, output_);
+      if (at::fileExtension(path) != ".bt")
+        throw at::OutputFileError("path '" + path + "' must end in .bt (OctoMap binary)");
+      const std::string bytes = v.sensors->occupancy()->binary();
+      at::writeThroughTemporary(path, [&](const std::string& tmp) { at::writeBytes(tmp, bytes); });
+      res.success = true;
+      res.message = path;
+      ROS_INFO("sensors_node: saved %s's OctoMap to %s", v.name.c_str(), path.c_str());
     }
-    if (!res.success)
-      ROS_WARN("sensors_node: %s/save_map: %s", v.name.c_str(), res.message.c_str());
+    catch (const std::exception& e)
+    {
+      res.message = e.what();
+      ROS_WARN("sensors_node: %s/save_map refused: %s", v.name.c_str(), res.message.c_str());
+    }
     return true;
   }
 
@@ -852,6 +859,7 @@ private:
   ros::NodeHandle& nh_;
   ros::NodeHandle& pnh_;
   std::string world_frame_ = "odom";
+  at::OutputFolder output_;  // where <v>/save_map may write
   unsigned threads_ = 0;
   float body_reflectivity_ = 0.5f;
   std::string source_;

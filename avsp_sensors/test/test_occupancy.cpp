@@ -283,6 +283,8 @@ TEST(Occupancy, SaveLoadRoundTripKeepsTheOccupiedCells)
   EXPECT_EQ(back.projectGrid(window(), kFlat).data, map.projectGrid(window(), kFlat).data);
   EXPECT_THROW(OccupancyMap::load(::testing::TempDir() + "avsp_no_such_map.bt"), std::runtime_error);
   EXPECT_THROW(map.save("/nonexistent_dir/avsp.bt"), std::runtime_error);
+  // A full disk is a failure, not a success with a truncated file (OctoMap's writer said true).
+  EXPECT_THROW(map.save("/dev/full"), std::runtime_error);
 }
 
 TEST(Occupancy, BadConfigAndInputNameTheField)

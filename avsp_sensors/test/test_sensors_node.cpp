@@ -696,19 +696,43 @@ TEST_F(SensorsNode, OccupancyGridMarksTheBuildingAndTheGroundAheadAndTheMapCanBe
   EXPECT_EQ(at(38.0, 131.0), 0) << "the ground 7 m ahead of ego";
 
   ros::NodeHandle nh;
-  const std::string path = "/tmp/avsp_sensors_node_test_" + std::to_string(getpid()) + ".bt";
+  std::string output_dir;
+  ASSERT_TRUE(ros::param::get("~output_dir", output_dir));
+  const std::string path = output_dir + "/ego.bt";
   avsp_msgs::SaveMap srv;
   srv.request.path = path;
   ASSERT_TRUE(ros::service::call("/sensors/ego/save_map", srv));
   EXPECT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_EQ(srv.response.message, path);
   struct stat st;
   ASSERT_EQ(stat(path.c_str(), &st), 0);
   EXPECT_GT(st.st_size, 1000);
   std::remove(path.c_str());
+  // Relative paths are written in ~output_dir.
   srv.request.path = "relative.bt";
   ASSERT_TRUE(ros::service::call("/sensors/ego/save_map", srv));
-  EXPECT_FALSE(srv.response.success);
-  EXPECT_NE(srv.response.message.find("absolute"), std::string::npos) << srv.response.message;
+  EXPECT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_EQ(srv.response.message, output_dir + "/relative.bt");
+  EXPECT_EQ(stat((output_dir + "/relative.bt").c_str(), &st), 0);
+  std::remove((output_dir + "/relative.bt").c_str());
+  // Issue 21, finding 7: a .bt linked to /dev/full answered success; NUL and paths outside the
+  // folder were written too. Each is refused now, naming why.
+  ASSERT_EQ(symlink("/dev/full", (output_dir + "/full.bt").c_str()), 0);
+  const std::vector<std::pair<std::string, std::string>> refused = {
+    { output_dir + "/full.bt", "symbolic link" },
+    { output_dir + std::string("/a\0b.bt", 7), "control character" },
+    { "/tmp/avsp_sensors_outside_" + std::to_string(getpid()) + ".bt", "outside the output folder" },
+    { output_dir + "/map.txt", "must end in .bt" },
+  };
+  for (const auto& [request, reason] : refused)
+  {
+    srv.request.path = request;
+    ASSERT_TRUE(ros::service::call("/sensors/ego/save_map", srv));
+    EXPECT_FALSE(srv.response.success) << request;
+    EXPECT_NE(srv.response.message.find(reason), std::string::npos) << srv.response.message;
+  }
+  EXPECT_NE(stat((output_dir + "/a").c_str(), &st), 0) << "the NUL request wrote its prefix";
+  std::remove((output_dir + "/full.bt").c_str());
 }
 
 TEST_F(SensorsNode, BadMessagesAreIgnoredWithAWarningNamingTheTopic)

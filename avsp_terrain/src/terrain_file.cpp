@@ -142,7 +142,8 @@ void saveTerrain(const std::string& path, const DeformableTerrain& terrain, cons
   if (!out)
     throw TerrainFileError(path + ": cannot open for writing");
   out.write(w.bytes().data(), static_cast<std::streamsize>(w.bytes().size()));
-  if (!out.flush())
+  out.close();  // the last buffered bytes are written here: a full disk shows now
+  if (!out)
     throw TerrainFileError(path + ": write failed (disk full?)");
 }
 

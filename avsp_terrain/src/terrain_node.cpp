@@ -28,6 +28,7 @@
 #include "avsp_terrain/dem_io.hpp"
 #include "avsp_terrain/dynamic_soil.hpp"
 #include "avsp_terrain/height_patch.hpp"
+#include "avsp_terrain/output_file.hpp"
 #include "avsp_terrain/terrain_file.hpp"
 #include "avsp_terrain/terrain_source_params.hpp"
 #include "avsp_terrain/terrain_mesh.hpp"
@@ -115,6 +116,16 @@ public:
     mesh_refresh_period_ = finiteParam(pnh_, "mesh_refresh_period", 10.0, 0.0);
 
     setUpWeather();
+    try
+    {
+      output_.directory = at::prepareOutputFolder(
+          avsp::msgs::stringParam(pnh_, "output_dir", at::defaultOutputFolder()));
+    }
+    catch (const at::OutputFileError& e)
+    {
+      throw StartupError(std::string("parameter ~output_dir: ") + e.what());
+    }
+    output_.allow_absolute_paths = avsp::msgs::boolParam(pnh_, "allow_absolute_paths", false);
 
     // Mesh and rut markers go out as changed chunks; a new subscriber first gets every chunk
     // (a latched topic would only replay the last change).
@@ -461,16 +472,12 @@ private:
   bool onSaveMap(avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res)
   {
     res.success = false;
-    if (req.path.empty() || req.path[0] != '/')
-    {
-      res.message = "path '" + req.path + "' must be absolute";
-      return true;
-    }
-    const std::string ext = at::fileExtension(req.path);
     try
     {
+      const std::string path = at::resolveOutputPath(req.path, output_);
+      const std::string ext = at::fileExtension(path);
       if (ext == ".avspterrain")
-        at::saveTerrain(req.path, *terrain_, objects_);
+        at::writeThroughTemporary(path, [&](const std::string& tmp) { at::saveTerrain(tmp, *terrain_, objects_); });
       else if (ext == ".asc" || ext == ".tif" || ext == ".tiff")
       {
         const at::ElevationGrid& g = terrain_->base();
@@ -484,27 +491,25 @@ private:
         for (std::size_t j = 0; j < g.rows(); ++j)
           for (std::size_t i = 0; i < g.columns(); ++i)
             raster.heights[j * g.columns() + i] = static_cast<float>(terrain_->pointHeight(i, j));
-        if (ext == ".asc")
-          at::writeAsciiGrid(raster, req.path);
-        else
-          at::writeGeoTiff(raster, req.path);
+        at::writeThroughTemporary(path, [&](const std::string& tmp) {
+          if (ext == ".asc")
+            at::writeAsciiGrid(raster, tmp);
+          else
+            at::writeGeoTiff(raster, tmp);
+        });
       }
       else
-      {
-        res.message = "path '" + req.path + "': unknown extension '" + ext +
-                      "' (.avspterrain: full state, bit-exact; .asc, .tif: deformed heights)";
-        return true;
-      }
+        throw at::OutputFileError("path '" + path + "': unknown extension '" + ext +
+                                  "' (.avspterrain: full state, bit-exact; .asc, .tif: deformed heights)");
+      res.success = true;
+      res.message = path;
+      ROS_INFO("terrain_node: saved the terrain to %s", path.c_str());
     }
     catch (const std::exception& e)
     {
       res.message = e.what();
-      ROS_ERROR("terrain_node: ~save_map: %s", e.what());
-      return true;
+      ROS_WARN("terrain_node: ~save_map refused: %s", e.what());
     }
-    res.success = true;
-    res.message = req.path;
-    ROS_INFO("terrain_node: saved the terrain to %s", req.path.c_str());
     return true;
   }
 
@@ -512,6 +517,7 @@ private:
   ros::NodeHandle& pnh_;
   std::string frame_id_;
   std::string source_;
+  at::OutputFolder output_;  // where ~save_map may write
   at::SoilLibrary soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;
   at::ObjectSet objects_;

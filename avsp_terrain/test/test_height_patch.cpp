@@ -1,5 +1,7 @@
 // Height patches (what /terrain/ruts carries) and the chunked RViz mesh, without ROS.
 #include <cmath>
+#include <limits>
+#include <random>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -160,6 +162,88 @@ TEST(HeightPatch, RefusesInconsistentPatchesByField)
     for (std::size_t i = 0; i < 4; ++i)
       EXPECT_EQ(t.pointHeight(i, j), t.base().pointHeight(i, j));
   EXPECT_THROW(at::extractPatch(t, {0, 0, 41, 2}), at::PatchError);
+}
+
+/// Issue 21: 3000 seeded patches mutated from good ones (origins off-grid, huge or not finite;
+/// wrong or non-finite resolutions; sizes that do not match, or whose product overflows;
+/// non-finite heights). None may crash; a refused or off-grid patch changes no point; an
+/// applied one changes exactly the points of its returned range, to the patch's heights.
+TEST(HeightPatch, SeededFuzzRefusalsChangeNothing)
+{
+  at::DeformableTerrain t = plane();
+  const std::size_t nx = 41, ny = 31;
+  std::vector<double> before(nx * ny);
+  std::mt19937 rng(21);
+  std::uniform_int_distribution<int> choice(0, 9);
+  std::uniform_int_distribution<int> index(-8, 48);
+  std::uniform_int_distribution<std::size_t> size(1, 6);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::nan("");
+  const std::vector<double> wild = { 1e300, -1e300, 9.3e18, -9.3e18, inf, -inf, nan, 1e-300, 0.0 };
+  int refused = 0, off_grid = 0, applied = 0;
+  for (int k = 0; k < 3000; ++k)
+  {
+    for (std::size_t j = 0; j < ny; ++j)
+      for (std::size_t i = 0; i < nx; ++i)
+        before[j * nx + i] = t.pointHeight(i, j);
+    at::HeightPatch p;
+    p.resolution = 0.25;
+    p.width = size(rng);
+    p.height = size(rng);
+    p.origin_x = -3.0 + 0.25 * index(rng);
+    p.origin_y = 4.0 + 0.25 * index(rng);
+    p.heights.resize(p.width * p.height);
+    for (float& h : p.heights)
+      h = static_cast<float>(2.0 + unit(rng));
+    std::uniform_int_distribution<std::size_t> pick_wild(0, wild.size() - 1);
+    switch (choice(rng))
+    {
+      case 0: p.origin_x = wild[pick_wild(rng)]; break;
+      case 1: p.origin_y += 0.25 * unit(rng); break;
+      case 2: p.resolution = choice(rng) < 5 ? wild[pick_wild(rng)] : 0.25 * (1.0 + 1e-6 * unit(rng)); break;
+      case 3: p.heights.resize(p.heights.size() + (choice(rng) < 5 ? 1 : -1)); break;
+      case 4: p.heights[p.heights.size() / 2] = static_cast<float>(wild[pick_wild(rng)]); break;
+      case 5:  // width x height overflows to the number of heights
+        p.width = std::size_t{ 1 } << 33;
+        p.height = std::size_t{ 1 } << 31;
+        p.heights.clear();
+        break;
+      case 6: p.width = 0; break;
+      default: break;  // a good patch, somewhere on or near the grid
+    }
+    std::optional<at::PointRange> range;
+    bool threw = false;
+    try
+    {
+      range = at::applyPatch(t, p);
+    }
+    catch (const at::PatchError& e)
+    {
+      threw = true;
+      ASSERT_EQ(std::string(e.what()).rfind("TerrainPatch: ", 0), 0u) << e.what();
+    }
+    refused += threw;
+    off_grid += !threw && !range;
+    applied += range.has_value();
+    for (std::size_t j = 0; j < ny; ++j)
+      for (std::size_t i = 0; i < nx; ++i)
+      {
+        const bool changed = range && i >= range->i0 && i <= range->i1 && j >= range->j0 && j <= range->j1;
+        if (!changed)
+        {
+          ASSERT_EQ(t.pointHeight(i, j), before[j * nx + i]) << "case " << k << " point " << i << ", " << j;
+          continue;
+        }
+        const long c = static_cast<long>(std::lround((-3.0 + 0.25 * i - p.origin_x) / 0.25));
+        const long r = static_cast<long>(std::lround((4.0 + 0.25 * j - p.origin_y) / 0.25));
+        ASSERT_TRUE(c >= 0 && r >= 0 && c < static_cast<long>(p.width) && r < static_cast<long>(p.height));
+        ASSERT_NEAR(t.pointHeight(i, j), p.heights[static_cast<std::size_t>(r) * p.width + c], 1e-6);
+      }
+  }
+  // Each outcome occurred often: the generator reaches all three branches.
+  EXPECT_GT(refused, 1000);
+  EXPECT_GT(off_grid, 100);
+  EXPECT_GT(applied, 300);
 }
 
 TEST(TerrainMesher, ChunksCoverTheGridOnceAtTheStride)

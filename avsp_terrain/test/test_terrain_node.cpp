@@ -1,5 +1,7 @@
 // rostest of terrain_node (test/terrain_node.test): what it publishes is checked against the
 // same default course built here with the core library, and against geometry.
+#include <dirent.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -9,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <random>
 #include <tuple>
 #include <functional>
 #include <map>
@@ -25,6 +28,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include "avsp_terrain/default_course.hpp"
+#include "avsp_terrain/dem_io.hpp"
 #include "avsp_terrain/terrain_file.hpp"
 
 namespace at = avsp::terrain;
@@ -61,11 +65,13 @@ struct Fixture : ::testing::Test
     ASSERT_TRUE(pnh.getParam("course_length_x", options.length_x));
     ASSERT_TRUE(pnh.getParam("course_length_y", options.length_y));
     ASSERT_TRUE(pnh.getParam("soils_file", soils_file));
+    ASSERT_TRUE(pnh.getParam("output_dir", output_dir));
     course = std::make_unique<at::Course>(at::makeDefaultCourse(options));
   }
 
   static std::unique_ptr<at::Course> course;
   static std::string soils_file;
+  static std::string output_dir;  // terrain_node's ~output_dir
 
   /// Grid index of a map coordinate that must sit on a grid point.
   static bool gridIndex(double x, double y, std::size_t& i, std::size_t& j)
@@ -79,13 +85,28 @@ struct Fixture : ::testing::Test
     return i < g.columns() && j < g.rows();
   }
 
-  static std::string savePath(const std::string& tag)
-  {
-    return "/tmp/avsp_test_terrain_node_" + std::to_string(getpid()) + "_" + tag + ".avspterrain";
-  }
+  static std::string savePath(const std::string& tag) { return output_dir + "/" + tag + ".avspterrain"; }
 };
 std::unique_ptr<at::Course> Fixture::course;
 std::string Fixture::soils_file;
+std::string Fixture::output_dir;
+
+/// The names and sizes of the files in `dir`: what a refused save must leave as it was.
+std::set<std::string> listing(const std::string& dir)
+{
+  std::set<std::string> out;
+  DIR* d = opendir(dir.c_str());
+  if (d == nullptr)
+    return out;
+  while (dirent* e = readdir(d))
+  {
+    struct stat st;
+    if (lstat((dir + "/" + e->d_name).c_str(), &st) == 0)
+      out.insert(std::string(e->d_name) + " " + std::to_string(st.st_size));
+  }
+  closedir(d);
+  return out;
+}
 
 /// Mean of a marker's vertex colours (r + g + b) / 3.
 double meanBrightness(const visualization_msgs::Marker& m)
@@ -282,14 +303,69 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
   }
   std::remove(srv.request.path.c_str());
 
-  srv.request.path = "relative.avspterrain";
+  // --- ~save_map writes under ~output_dir only and tells the truth (issue 21, finding 7).
+  srv.request.path = "relative.asc";
   ASSERT_TRUE(save.call(srv));
-  EXPECT_FALSE(srv.response.success);
-  EXPECT_NE(srv.response.message.find("absolute"), std::string::npos) << srv.response.message;
-  srv.request.path = "/tmp/terrain.xyz";
-  ASSERT_TRUE(save.call(srv));
-  EXPECT_FALSE(srv.response.success);
-  EXPECT_NE(srv.response.message.find("unknown extension"), std::string::npos) << srv.response.message;
+  EXPECT_TRUE(srv.response.success) << srv.response.message;
+  EXPECT_EQ(srv.response.message, output_dir + "/relative.asc");
+  {
+    const at::HeightRaster back = at::readAsciiGrid(output_dir + "/relative.asc");
+    EXPECT_EQ(back.columns, g.columns());
+    EXPECT_NEAR(back.heights[pj0 * back.columns + pi0], expected(pi0, pj0), 1e-4);
+  }
+  std::remove((output_dir + "/relative.asc").c_str());
+  const auto expectRefused = [&](const std::string& path, const std::string& reason) {
+    const std::set<std::string> before = listing(output_dir);
+    avsp_msgs::SaveMap s;
+    s.request.path = path;
+    ASSERT_TRUE(save.call(s));
+    EXPECT_FALSE(s.response.success) << path;
+    EXPECT_NE(s.response.message.find(reason), std::string::npos) << s.response.message;
+    EXPECT_EQ(listing(output_dir), before) << "a refused save changed " << output_dir;
+  };
+  expectRefused(output_dir + "/terrain.xyz", "unknown extension");
+  expectRefused("/tmp/avsp_outside_" + std::to_string(getpid()) + ".avspterrain", "outside the output folder");
+  // A NUL inside the path: the node once wrote "a" and answered success for the whole name.
+  expectRefused(output_dir + std::string("/a\0b.avspterrain", 16), "control character");
+  ASSERT_EQ(symlink("/dev/full", (output_dir + "/full.avspterrain").c_str()), 0);
+  expectRefused(output_dir + "/full.avspterrain", "symbolic link");
+  std::remove((output_dir + "/full.avspterrain").c_str());
+  expectRefused("../escape.avspterrain", "'..'");
+
+  // 1000 seeded requests: none may crash the node; a refusal changes nothing in the folder,
+  // an acceptance writes exactly the file the answer names, inside the folder.
+  {
+    const std::vector<std::string> pieces = { "a", "/", "..", ".", "sub", std::string(1, '\0'), "\n", "\x7f",
+                                              "\xc3\xa9", " ", "/tmp", "/dev/full", output_dir, "*",
+                                              std::string(260, 'n'), ".avspterrain", ".asc", ".xyz", ".tif" };
+    std::mt19937 rng(2112);
+    std::uniform_int_distribution<std::size_t> pick(0, pieces.size() - 1);
+    std::uniform_int_distribution<int> count(1, 5);
+    int accepted = 0, refused = 0;
+    for (int k = 0; k < 1000; ++k)
+    {
+      avsp_msgs::SaveMap s;
+      for (int n = count(rng); n > 0; --n)
+        s.request.path += pieces[pick(rng)];
+      const std::set<std::string> before = listing(output_dir);
+      ASSERT_TRUE(save.call(s)) << "case " << k << ": the node did not answer";
+      if (!s.response.success)
+      {
+        ++refused;
+        ASSERT_EQ(listing(output_dir), before) << "case " << k << ": " << s.response.message;
+        continue;
+      }
+      ++accepted;
+      ASSERT_EQ(s.response.message.rfind(output_dir + "/", 0), 0u) << s.response.message;
+      struct stat st;
+      ASSERT_EQ(lstat(s.response.message.c_str(), &st), 0) << s.response.message;
+      ASSERT_TRUE(S_ISREG(st.st_mode));
+      ASSERT_GT(st.st_size, 1000);
+      std::remove(s.response.message.c_str());
+    }
+    EXPECT_GT(accepted, 10);
+    EXPECT_GT(refused, 500);
+  }
 
   // --- /environment: an hour of 20 mm/h rain wets the soil, and the mesh darkens.
   ros::Publisher env_pub = nh.advertise<avsp_msgs::Environment>("/environment", 10);
@@ -402,6 +478,11 @@ TEST(TerrainNodeStartup, RefusesBadParametersByName)
   std::tie(code, out) = runBadNode("_course_cell_size:=-1.0");
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~course_cell_size"), std::string::npos) << out;
+
+  std::tie(code, out) = runBadNode("_output_dir:=relative/maps");
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~output_dir"), std::string::npos) << out;
+  EXPECT_NE(out.find("absolute"), std::string::npos) << out;
 
   std::tie(code, out) = runBadNode("_terrain_file:=/tmp/no_such_terrain_avsp.avspterrain");
   EXPECT_EQ(code, 1);

@@ -251,6 +251,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   // Terrain: mesh, objects, ruts, soil moisture.
   w.open("avsp_terrain", "terrain_node", "terrain");
   w.params(terrain);
+  w.param("output_dir", options.output_dir);  // where ~save_map writes
   w.close();
 
   // The dynamics: one dynamics_node for every vehicle, which is the clock; or, with partitions,
@@ -332,6 +333,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   w.rosparam("vehicles", vehicles);
   w.param("config_dir", options.vehicles_dir);
   w.params(terrain);
+  w.param("output_dir", options.output_dir);  // where <v>/save_map writes
   w.param("latitude", s.latitude);
   w.param("longitude", s.longitude);
   w.param("altitude", s.altitude);

@@ -172,8 +172,10 @@ public:
    */
   OccupancyGrid2D projectGrid(const GridProjection& projection, const TerrainHeightFn& terrain) const;
 
-  /// Writes the map as an OctoMap binary file (.bt: maximum-likelihood occupancy, pruned).
-  /// @throw std::runtime_error when the file cannot be written
+  /// The map as the bytes of an OctoMap binary file (.bt: maximum-likelihood occupancy, pruned).
+  std::string binary() const;
+  /// Writes binary() to `path`, every write, the sync and the close checked.
+  /// @throw std::runtime_error naming the path and the failing call when the file cannot be written
   void save(const std::string& path) const;
   /**
    * @brief Reads a .bt file; the resolution comes from the file, the rest of `config` is kept.
