@@ -5,7 +5,7 @@
 // Thin: an agent's motion is avsp_terrain's Agent::state(t), a pure function of sim time; the
 // same ~agents list given to sensors_node and dynamics_node makes them see and collide with the
 // agents exactly where this node says they are, with no message between them. Parameters and
-// topics: README.md, "Dynamic agents".
+// topics: README.md, "Agents node".
 #include <cmath>
 #include <memory>
 #include <string>

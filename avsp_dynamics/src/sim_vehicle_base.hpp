@@ -4,7 +4,7 @@
  * @brief Private to avsp_dynamics_core (not installed): the interface World holds for every
  *        simulated vehicle, wheeled (vehicle_sim.cpp) or tracked (tracked_vehicle.cpp), and the
  *        helpers both share: ODE/Eigen conversions, rigid lumping, and the soil contact handed
- *        to ODE (README.md, "Soil contact"), so that wheels and track segments meet the soil
+ *        to ODE (README.md, "Ground contact"), so that wheels and track segments meet the soil
  *        through the same code.
  */
 #include <algorithm>
