@@ -3,7 +3,7 @@
 # (launch/reference_traverse.launch, real_time_factor 0) on a private ROS master. run_recorder
 # prints a progress line per second and writes results/reference_traverse/ (summary.json,
 # trajectories.png, ruts.png, gaps.png); the run ends at the scenario's duration. Exits 0 only
-# if every result file was written by this run.
+# if every result file was written by this run and the run was not aborted (summary.json).
 # Environment: AVSP_GUI=1 also starts RViz (and paces the run at wall-clock speed);
 # AVSP_DEMO_DURATION (s of sim time, default the scenario's 600); AVSP_DEMO_TIMEOUT (wall s,
 # default 3600); AVSP_SCENARIO (default config/scenarios/reference_traverse.yaml).
@@ -38,4 +38,8 @@ for f in summary.json trajectories.png ruts.png gaps.png; do
 done
 rm -f "$stamp"
 [ $missing = 0 ] || exit 1
+# roslaunch exits 0 whatever its nodes did: run_recorder's summary says whether the run failed.
+aborted="$(/usr/bin/python3 -c 'import json, sys; a = json.load(open(sys.argv[1])).get("aborted"); print("" if a is None else "%s at sim time %s s: %s" % (a["node"], a["sim_time"], a["reason"]))' "$out/summary.json")" \
+  || { echo "run_demo: $out/summary.json cannot be read" >&2; exit 1; }
+[ -z "$aborted" ] || { echo "run_demo: the run was aborted: $aborted (results so far in $out)" >&2; exit 1; }
 echo "run_demo: results in $out (roslaunch exit $rc)"

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -38,6 +39,7 @@
 
 #include "avsp/results/gap.hpp"
 #include "avsp/results/output.hpp"
+#include "avsp/results/ros/run_supervisor.hpp"
 #include "avsp/results/rut_map.hpp"
 #include "avsp/results/vehicle_record.hpp"
 
@@ -48,6 +50,14 @@ using avsp::msgs::StartupError;
 
 namespace
 {
+/// The signal that interrupted the run (SIGINT, SIGTERM), or 0: the loop writes what it has.
+volatile std::sig_atomic_t g_interrupt = 0;
+
+void onInterrupt(int sig)
+{
+  g_interrupt = sig;
+}
+
 /// s of sim time between the rows of trajectories.csv and between gap samples.
 constexpr double kTablePeriod = 0.1;
 /// Grid cells along the longer side of the hillshade and rut grids at most.
@@ -140,6 +150,28 @@ std::string requiredString(const ros::NodeHandle& pnh, const std::string& key)
   return value;
 }
 
+/// ~watch: resolved names of the nodes that must live for the whole run.
+std::vector<std::string> watchList(const ros::NodeHandle& pnh)
+{
+  std::vector<std::string> out;
+  XmlRpc::XmlRpcValue list;
+  if (!pnh.getParam("watch", list))
+    return out;
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    throw StartupError("parameter ~watch must be a list of node names");
+  for (int k = 0; k < list.size(); ++k)
+  {
+    std::string why;
+    if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
+      throw StartupError("parameter ~watch[" + std::to_string(k) + "] must be a string");
+    const std::string name = list[k];
+    if (name.empty() || name[0] != '/' || !ros::names::validate(name, why))
+      throw StartupError("parameter ~watch[" + std::to_string(k) + "] '" + name + "' must be a resolved node name ('/...')");
+    out.push_back(name);
+  }
+  return out;
+}
+
 /// Creates `dir` and checks that a file can be written in it.
 void prepareOutputDir(const std::string& dir)
 {
@@ -188,6 +220,9 @@ public:
       throw StartupError("parameter ~duration is required (s of sim time)");
     duration_ = avsp::msgs::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);
     progress_period_ = avsp::msgs::boundedParam(pnh, "progress_period", 1.0, 0.01, 3600.0);
+    watch_period_ = avsp::msgs::boundedParam(pnh, "watch_period", 0.25, 0.05, 10.0);
+    // Watching starts before the terrain loads: a node that dies meanwhile is seen at the first poll.
+    supervisor_ = std::make_unique<ar::RunSupervisor>(nh_, watchList(pnh));
     plot_script_ = avsp::msgs::stringParam(pnh, "plot_script", ros::package::getPath("avsp") + "/scripts/plot_results.py");
     if (plot_script_.empty() || !fs::is_regular_file(plot_script_))
       throw StartupError("parameter ~plot_script '" + plot_script_ + "' is not a file");
@@ -246,10 +281,13 @@ public:
              scenario_.c_str(), duration_, terrain_description_.c_str(), output_dir_.c_str());
   }
 
-  /// Records until /clock reaches ~duration, then writes the results. @return the exit code
+  /// Records until /clock reaches ~duration, then writes the results; stops early, writing what
+  /// it has with "aborted" in summary.json, when the run fails or is interrupted.
+  /// @return the exit code: 0 done, 1 failed (a node died, or results not written), 128 + signal
   int run()
   {
     const ros::WallTime started = ros::WallTime::now();
+    ros::WallTime polled;
     while (ros::ok())
     {
       ros::spinOnce();
@@ -279,16 +317,19 @@ public:
           ros::spinOnce();
           ros::WallDuration(0.002).sleep();
         }
-        for (auto& v : vehicles_)
-        {
-          v->odom_sub.shutdown();
-          v->telemetry_sub.shutdown();
-        }
-        ruts_sub_.shutdown();
-        sim_end_ = now;
-        wall_end_ = ros::WallTime::now();
+        stopRecording(now);
         return finish();
       }
+      if (g_interrupt != 0)
+        supervisor_->fail(ros::this_node::getName(),
+                          std::string("interrupted by ") + (g_interrupt == SIGINT ? "SIGINT" : "SIGTERM"), now);
+      else if ((wall - polled).toSec() >= watch_period_)
+      {
+        supervisor_->poll(now);
+        polled = wall;
+      }
+      if (supervisor_->abort())
+        return abortRun();
       if (!first_clock_ && !waiting_said_ && (wall - started).toSec() >= 10.0)
       {
         ROS_WARN("run_recorder: no /clock after 10 s (wall); waiting for the simulation");
@@ -302,6 +343,45 @@ public:
   }
 
 private:
+  void stopRecording(double now)
+  {
+    for (auto& v : vehicles_)
+    {
+      v->odom_sub.shutdown();
+      v->telemetry_sub.shutdown();
+    }
+    ruts_sub_.shutdown();
+    sim_end_ = now;
+    wall_end_ = ros::WallTime::now();
+  }
+
+  /// The run failed or was interrupted: the results so far, "aborted" in summary.json.
+  int abortRun()
+  {
+    // A dying node's last /rosout lines may still be on their way: take them in for a moment.
+    const ros::WallTime seen = ros::WallTime::now();
+    while (g_interrupt == 0 && (ros::WallTime::now() - seen).toSec() < 0.3)
+    {
+      ros::spinOnce();
+      ros::WallDuration(0.005).sleep();
+    }
+    ar::Abort a = *supervisor_->abort();
+    const std::string last = supervisor_->watch().lastError(a.node);
+    if (a.reason.find("(it logged no error)") != std::string::npos && !last.empty())
+      a.reason.replace(a.reason.find("(it logged no error)"), 20, "; its last error: " + last);
+    aborted_ = a;
+    ROS_ERROR("run_recorder: run aborted at sim time %.2f s: %s: %s; writing the results so far to %s", a.sim_time,
+              a.node.c_str(), a.reason.c_str(), output_dir_.c_str());
+    const double now = ros::Time::now().toSec();
+    if (!first_clock_)
+      sim_start_ = now;
+    stopRecording(now);
+    if (!first_clock_)
+      wall_start_ = wall_end_;
+    finish();
+    return g_interrupt != 0 ? 128 + static_cast<int>(g_interrupt) : 1;
+  }
+
   void onOdometry(Vehicle& v, const nav_msgs::Odometry& m)
   {
     const double t = m.header.stamp.toSec();
@@ -510,6 +590,16 @@ private:
       rut.set("patches", patches_);
       rut.set("patches_rejected", patches_rejected_);
       summary.set("ruts", rut);
+      if (aborted_)
+      {
+        ar::Json a = ar::Json::object();
+        a.set("node", aborted_->node);
+        a.set("reason", aborted_->reason);
+        a.set("sim_time", aborted_->sim_time);
+        summary.set("aborted", a);
+      }
+      else
+        summary.set("aborted", ar::Json());
       summary.set("units", unitsNote());
       ar::writeText(dir + "summary.json", summary.dump());
     }
@@ -556,6 +646,7 @@ private:
     u.set("wall_time", "s from the first /clock tick to the end");
     u.set("real_time_factor", "sim time / wall time over the run");
     u.set("ruts", "m (depth below the undeformed terrain), m^2");
+    u.set("aborted", "null, or why the run stopped before its duration: {node, reason, sim_time (s)}");
     return u;
   }
 
@@ -617,7 +708,9 @@ private:
 
   ros::NodeHandle& nh_;
   std::string output_dir_, scenario_, plot_script_, terrain_description_;
-  double duration_ = 0.0, progress_period_ = 1.0;
+  double duration_ = 0.0, progress_period_ = 1.0, watch_period_ = 0.25;
+  std::unique_ptr<ar::RunSupervisor> supervisor_;
+  std::optional<ar::Abort> aborted_;  // set when the run stopped early
   std::unique_ptr<at::SoilLibrary> soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;
   at::ObjectSet objects_;
@@ -636,7 +729,13 @@ int main(int argc, char** argv)
 {
   // Progress lines are for people watching a log file too: one line each, as it comes.
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
-  ros::init(argc, argv, "run_recorder");
+  // Interrupts are the run's to handle: the results so far are written, then the node exits.
+  ros::init(argc, argv, "run_recorder", ros::init_options::NoSigintHandler);
+  struct sigaction sa;
+  std::memset(&sa, 0, sizeof sa);
+  sa.sa_handler = onInterrupt;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
   ros::NodeHandle nh, pnh("~");
   std::unique_ptr<RunRecorder> node;
   try

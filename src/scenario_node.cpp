@@ -2,24 +2,64 @@
 // its launch file (scenario_launch's options) and runs it with a child `roslaunch` on the same
 // master; SIGINT/SIGTERM are forwarded to the child, and the node exits with its status, so a
 // required="true" scenario_node ends the outer launch when the run (run_recorder) ends.
+// roslaunch exits 0 whatever its nodes did, so the verdict comes from run_recorder's
+// summary.json: exit 5 when the run was aborted or wrote no results, 128 + signal when it was
+// interrupted (README, "Scenarios").
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <csignal>
 #include <cstring>
+#include <ctime>
 #include <iostream>
+
+#include <yaml-cpp/yaml.h>
 
 #include "scenario_cli.hpp"
 
 namespace
 {
 volatile sig_atomic_t g_child = 0;
+volatile sig_atomic_t g_signal = 0;
 
 void forward(int sig)
 {
+  g_signal = sig;
   if (g_child > 0)
     kill(g_child, sig);
+}
+
+/// The run's exit code from what run_recorder wrote into `dir` since `started`.
+int verdict(const std::string& dir, std::time_t started, int status)
+{
+  const int interrupted = g_signal != 0 ? 128 + static_cast<int>(g_signal) : 0;
+  const std::string path = dir + "/summary.json";
+  struct stat st;
+  if (stat(path.c_str(), &st) != 0 || st.st_mtime + 1 < started)
+  {
+    std::cerr << "scenario_node: the run wrote no results (" << path << " is missing or older than the run)\n";
+    return interrupted ? interrupted : 5;
+  }
+  YAML::Node aborted;
+  try
+  {
+    aborted = YAML::LoadFile(path)["aborted"];
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << "scenario_node: " << path << " cannot be read: " << e.what() << "\n";
+    return interrupted ? interrupted : 5;
+  }
+  if (aborted.IsMap())
+  {
+    std::cerr << "scenario_node: the run was aborted at sim time " << aborted["sim_time"].as<std::string>("?")
+              << " s: " << aborted["node"].as<std::string>("?") << ": " << aborted["reason"].as<std::string>("?")
+              << "; the results so far are in " << dir << "\n";
+    return interrupted ? interrupted : 5;
+  }
+  return interrupted ? interrupted : status;
 }
 }  // namespace
 
@@ -37,6 +77,7 @@ int main(int argc, char** argv)
   }
   std::cout << "scenario_node: " << g.scenario.file << " -> " << g.launch_file << " (results in " << g.output_dir
             << ")" << std::endl;
+  const std::time_t started = std::time(nullptr);
   struct sigaction sa;
   std::memset(&sa, 0, sizeof sa);
   sa.sa_handler = forward;
@@ -66,7 +107,9 @@ int main(int argc, char** argv)
       std::perror("scenario_node: waitpid");
       return 4;
     }
-  if (WIFEXITED(status))
+  if (!WIFEXITED(status))
+    return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  if (WEXITSTATUS(status) != 0)
     return WEXITSTATUS(status);
-  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  return verdict(g.output_dir, started, 0);
 }

@@ -268,6 +268,10 @@ def main(argv):
                 for v in vehicles:
                     if v not in names:
                         msgs.append("summary.json has no vehicle " + v)
+                if not isinstance(summary, dict) or "aborted" not in summary:
+                    msgs.append("summary.json has no 'aborted' entry")
+                elif summary["aborted"] is not None:
+                    msgs.append("the run was aborted: %s" % summary["aborted"])
             except Exception as e:  # noqa: BLE001 - any reason is a failure to report
                 msgs.append("summary.json unreadable: %s" % e)
             cases.append(("results", msgs))

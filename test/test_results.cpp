@@ -22,6 +22,7 @@
 #include "avsp/results/gap.hpp"
 #include "avsp/results/output.hpp"
 #include "avsp/results/rut_map.hpp"
+#include "avsp/results/run_watch.hpp"
 #include "avsp/results/vehicle_record.hpp"
 
 using namespace avsp::results;
@@ -422,4 +423,100 @@ TEST(Output, NpyGridAndCsvTables)
   writeGaps(dir + "/gaps.csv", { { "bravo", "alpha", { { 1.0, 12.5, 0.25 } } } });
   EXPECT_EQ(readFile(dir + "/gaps.csv"), "follower,leader,t,gap,lateral\nbravo,alpha,1.000,12.500,0.250\n");
   std::system(("rm -rf " + dir).c_str());
+}
+
+TEST(RunWatch, ProcessNamesMapToNodes)
+{
+  EXPECT_EQ(nodeOfProcess("sensors-4"), "/sensors");
+  EXPECT_EQ(nodeOfProcess("m113/controller-10"), "/m113/controller");
+  EXPECT_EQ(nodeOfProcess("dynamics_part-a-3"), "/dynamics_part-a");
+  EXPECT_EQ(nodeOfProcess("no_counter"), "/no_counter");
+  EXPECT_EQ(nodeOfProcess("/already"), "/already");
+}
+
+TEST(RunWatch, AWatchedNodeExitingFailsTheRunWithItsLastError)
+{
+  RunWatch w({ "/terrain", "/sensors" });
+  w.noteError("/sensors", "lidar: ray budget exceeded", false, 3.0);
+  EXPECT_FALSE(w.abort());  // an ERROR alone does not stop a run
+  w.noteProcessDied("start_gate-21", 0, 0.0, 100.0);
+  EXPECT_FALSE(w.abort()) << "a helper finishing its job is not a failure";
+  w.noteProcessDied("sensors-4", -9, 20.5, 120.0);
+  ASSERT_TRUE(w.abort());
+  EXPECT_EQ(w.abort()->node, "/sensors");
+  EXPECT_DOUBLE_EQ(w.abort()->sim_time, 20.5);
+  EXPECT_NE(w.abort()->reason.find("killed by signal 9"), std::string::npos) << w.abort()->reason;
+  EXPECT_NE(w.abort()->reason.find("lidar: ray budget exceeded"), std::string::npos) << w.abort()->reason;
+  // Later deaths are the first one's echoes: the first is kept.
+  w.noteProcessDied("terrain-2", 1, 21.0, 121.0);
+  EXPECT_EQ(w.abort()->node, "/sensors");
+}
+
+TEST(RunWatch, ExitCodesFatalsAndPings)
+{
+  {
+    RunWatch w({ "/terrain" });
+    w.noteProcessDied("terrain-2", 0, 5.0, 0.0);  // a watched node may not end before the run, even cleanly
+    ASSERT_TRUE(w.abort());
+    EXPECT_NE(w.abort()->reason.find("exited with code 0"), std::string::npos);
+    EXPECT_NE(w.abort()->reason.find("logged no error"), std::string::npos);
+  }
+  {
+    RunWatch w({ "/terrain" });
+    w.noteProcessDied("start_gate-9", 1, 0.0, 0.0);  // any non-zero exit, watched or not
+    ASSERT_TRUE(w.abort());
+    EXPECT_EQ(w.abort()->node, "/start_gate");
+  }
+  {
+    // Exit code unknown (roslaunch's case): a helper gone while the clock has not started fails
+    // the run after kStartGrace without a tick, not before ...
+    RunWatch w({ "/terrain" });
+    w.noteError("/start_gate", "timed out after 300 s waiting for /sensors", false, 0.0);
+    w.noteProcessDied("start_gate-9", std::nullopt, 0.0, 50.0);
+    w.noteTime(0.0, 50.0 + 0.9 * RunWatch::kStartGrace);
+    EXPECT_FALSE(w.abort());
+    w.noteTime(0.0, 50.0 + RunWatch::kStartGrace);
+    ASSERT_TRUE(w.abort());
+    EXPECT_EQ(w.abort()->node, "/start_gate");
+    EXPECT_EQ(w.abort()->reason,
+              "exited before the run started; its last error: timed out after 300 s waiting for /sensors");
+  }
+  {
+    // ... and not at all when the clock starts within it (start_gate's normal exit), or when
+    // it exits once the run is under way.
+    RunWatch w({ "/terrain" });
+    w.noteProcessDied("start_gate-9", std::nullopt, 0.0, 50.0);
+    w.noteTime(0.01, 50.5);
+    w.noteTime(0.0, 60.0);
+    w.noteProcessDied("rviz-30", std::nullopt, 12.0, 70.0);
+    w.noteTime(12.0, 80.0);
+    EXPECT_FALSE(w.abort());
+    w.noteProcessDied("terrain-2", std::nullopt, 13.0, 81.0);  // a watched node: at once
+    ASSERT_TRUE(w.abort());
+    EXPECT_EQ(w.abort()->reason, "exited before the run ended (it logged no error)");
+  }
+  {
+    RunWatch w({ "/environment" });
+    w.noteError("/rviz", "GL context lost", true, 1.0);
+    EXPECT_FALSE(w.abort()) << "a FATAL of an unwatched node";
+    w.noteError("/environment", "parameter ~start_utc: year 2200 out of range", true, 0.0);
+    ASSERT_TRUE(w.abort());
+    EXPECT_EQ(w.abort()->reason, "FATAL: parameter ~start_utc: year 2200 out of range");
+  }
+  {
+    RunWatch w({ "/far/dynamics" });
+    w.notePing("/far/dynamics", false, "not registered", 0.0);
+    w.notePing("/far/dynamics", false, "not registered", 0.0);
+    EXPECT_FALSE(w.abort()) << "never seen alive: still starting";
+    w.notePing("/far/dynamics", true, "", 1.0);
+    w.notePing("/far/dynamics", false, "connection refused", 2.0);
+    EXPECT_FALSE(w.abort()) << "one failed ping may be a timeout";
+    w.notePing("/far/dynamics", true, "", 2.5);
+    w.notePing("/far/dynamics", false, "connection refused", 3.0);
+    EXPECT_FALSE(w.abort()) << "a good ping resets the count";
+    w.notePing("/far/dynamics", false, "connection refused", 3.5);
+    ASSERT_TRUE(w.abort());
+    EXPECT_NE(w.abort()->reason.find("stopped answering (connection refused)"), std::string::npos);
+    EXPECT_DOUBLE_EQ(w.abort()->sim_time, 3.5);
+  }
 }

@@ -224,6 +224,8 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
 
   const YAML::Node summary = YAML::LoadFile(dir + "/summary.json");
   EXPECT_EQ(summary["scenario"].as<std::string>(), "recorder_test");
+  ASSERT_TRUE(summary["aborted"].IsDefined());
+  EXPECT_TRUE(summary["aborted"].IsNull()) << "a complete run is not aborted";
   const double end = summary["sim_time_end"].as<double>();
   EXPECT_GE(end, duration);
   EXPECT_LE(end, duration + 0.5);  // stopped at the duration, not later
@@ -339,6 +341,15 @@ TEST(RunRecorderStartup, BadParametersExitNamingTheParameter)
   });
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~vehicles[1].name 'lead' is listed twice"), std::string::npos) << out;
+
+  std::tie(code, out) = bad("relative_watch", [&](const std::string& ns) {
+    XmlRpc::XmlRpcValue list;
+    list[0] = std::string("/terrain");
+    list[1] = std::string("sensors");
+    nh.setParam(ns + "watch", list);
+  });
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~watch[1] 'sensors' must be a resolved node name"), std::string::npos) << out;
 
   std::tie(code, out) = bad("no_dir", [&](const std::string& ns) { nh.deleteParam(ns + "output_dir"); });
   EXPECT_EQ(code, 1);

@@ -594,6 +594,26 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   // SaveMap services write into the run's results folder (issue 21).
   EXPECT_EQ(paramOf(xml, "terrain", "output_dir"), "/tmp/results/base");
   EXPECT_EQ(paramOf(xml, "sensors", "output_dir"), "/tmp/results/base");
+  // run_recorder watches every node that must live for the whole run (and not start_gate,
+  // which exits once the physics starts): each node of the file, each vehicle's three.
+  {
+    const YAML::Node watch = rosparamOf(xml, "run_recorder", "watch");
+    std::set<std::string> names;
+    for (const YAML::Node& n : watch)
+      names.insert(n.as<std::string>());
+    for (const char* n : { "/map_to_odom", "/terrain", "/sensors", "/environment", "/v2v_radio", "/dynamics" })
+      EXPECT_EQ(names.count(n), 1u) << n;
+    EXPECT_EQ(names.count("/start_gate"), 0u);
+    EXPECT_EQ(names.count("/run_recorder"), 0u);
+    for (std::size_t k = 0; (k = xml.find("<group ns=\"", k)) != std::string::npos; ++k)
+    {
+      const std::string ns = xml.substr(k + 11, xml.find('"', k + 11) - k - 11);
+      EXPECT_EQ(names.count("/" + ns + "/v2v_broadcaster"), 1u) << ns;
+      EXPECT_EQ(names.count("/" + ns + "/robot_state_publisher"), 1u) << ns;
+    }
+    EXPECT_EQ(names.count("/agents"), 1u) << "the scenario has agents";
+    EXPECT_EQ(names.size(), 6u + 1u + 4u * 2u + 3u) << "three of the four vehicles have a controller";
+  }
   EXPECT_EQ(paramOf(xml, "run_recorder", "scenario_name"), "base");
   // one description per vehicle, the start gate, no RViz unless asked.
   std::size_t descriptions = 0;
@@ -774,7 +794,9 @@ TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
             std::string::npos)
       << xml;
   EXPECT_EQ(xml.find("name=\"dynamics\""), std::string::npos);  // no single dynamics_node
-  EXPECT_NE(xml.find("type=\"lockstep_clock\" name=\"clock\" required=\"true\""), std::string::npos);
+  // The clock and the partitions are watched by run_recorder, not required: roslaunch would
+  // stop the run without saying which node died.
+  EXPECT_NE(xml.find("type=\"lockstep_clock\" name=\"clock\">"), std::string::npos);
   const YAML::Node parts = rosparamOf(xml, "clock", "partitions");
   ASSERT_EQ(parts.size(), 3u);
   EXPECT_EQ(parts[0].as<std::string>(), "north");
@@ -783,7 +805,15 @@ TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
   EXPECT_EQ(paramOf(xml, "sensors", "lockstep_interval"), "0.01");
   EXPECT_EQ(paramOf(xml, "clock", "real_time_factor"), "1.0");
   EXPECT_EQ(paramOf(xml, "clock", "sync_interval"), "0.01");
-  EXPECT_NE(xml.find("name=\"dynamics_north\" required=\"true\" machine=\"hostb\""), std::string::npos);
+  EXPECT_NE(xml.find("name=\"dynamics_north\" machine=\"hostb\""), std::string::npos);
+  {
+    std::set<std::string> watched;
+    for (const YAML::Node& n : rosparamOf(xml, "run_recorder", "watch"))
+      watched.insert(n.as<std::string>());
+    for (const char* n : { "/clock", "/dynamics_north", "/dynamics_south", "/sensors" })
+      EXPECT_EQ(watched.count(n), 1u) << n;
+    EXPECT_EQ(watched.count("/dynamics"), 0u);
+  }
   const YAML::Node north = rosparamOf(xml, "dynamics_north", "vehicles");
   ASSERT_EQ(north.size(), 2u);
   EXPECT_EQ(north[0]["name"].as<std::string>(), "lead");

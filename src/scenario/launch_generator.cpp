@@ -265,7 +265,8 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     for (const PartitionSpec& p : s.partitions)
       list += (list.empty() ? "" : ", ") + quoted(p.name);
     list += ", " + quoted(kSensorsPartition);  // the sensors hold the clock too
-    w.open("avsp_dynamics", "lockstep_clock", "clock", true);
+    // Not required: run_recorder watches it, and names it when it dies (roslaunch would not).
+    w.open("avsp_dynamics", "lockstep_clock", "clock");
     w.rosparam("partitions", "[" + list + "]");
     w.param("sync_interval", kSyncInterval);
     w.param("real_time_factor", options.real_time_factor);
@@ -276,7 +277,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     Scenario part;  // the members' specs, for the vehicle list
     for (const std::string& name : members)
       part.vehicles.push_back(s.vehicles[static_cast<std::size_t>(s.vehicleIndex(name))]);
-    w.open("avsp_dynamics", "dynamics_node", node_name, true,
+    w.open("avsp_dynamics", "dynamics_node", node_name, false,
            p && !p->machine.empty() ? " machine=\"" + xmlEscape(p->machine) + "\"" : std::string());
     w.rosparam("vehicles", vehicleListYaml(part));
     w.param("config_dir", options.vehicles_dir);
@@ -459,6 +460,27 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     w.param("duration", duration);
     w.param("progress_period", options.progress_period);
     w.params(terrain);
+    // Every node that must live for the whole run: if one exits, the recorder stops the run,
+    // writes what it has and names the node (README, "Run recorder").
+    std::string watch = "[\"/map_to_odom\", \"/terrain\", \"/sensors\", \"/environment\", \"/v2v_radio\"";
+    if (s.partitions.empty())
+      watch += ", \"/dynamics\"";
+    else
+    {
+      watch += ", \"/clock\"";
+      for (const PartitionSpec& p : s.partitions)
+        watch += ", " + quoted("/dynamics_" + p.name);
+    }
+    if (has_agents && options.have_agents_node)
+      watch += ", \"/agents\"";
+    for (const VehicleSpec& v : s.vehicles)
+    {
+      watch += ", " + quoted("/" + v.name + "/robot_state_publisher");
+      watch += ", " + quoted("/" + v.name + "/v2v_broadcaster");
+      if (v.controller.type != ControllerType::kExternal)
+        watch += ", " + quoted("/" + v.name + "/controller");
+    }
+    w.rosparam("watch", watch + "]");
     w.close();
   }
   else

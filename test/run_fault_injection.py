@@ -1,0 +1,242 @@
+#!/usr/bin/python3
+"""Fault injection (issue 21): a run must stop, keep what it made and say why. Runs
+scenario_node on SCENARIO once per case and writes a JUnit XML result, one test case each:
+
+- kill_<node>: SIGKILL of one node of each type 3 s of sim time into the run. scenario_node must
+  exit 5 within the wall limit (the issue's target is 5 s; the measured time is printed), and
+  summary.json, written by this run, must say "aborted" naming that node;
+- kill_run_recorder: SIGKILL of the recorder itself: the run ends, exit 5, no summary;
+- interrupt: SIGINT of scenario_node (a terminal's Ctrl-C): exit 130, summary.json "aborted"
+  by /run_recorder ("interrupted by SIGINT") with every result file written;
+- startup_failure: a scenario whose start_utc environment_node refuses at start-up (year 2200):
+  exit 5 naming /environment, long before start_gate's 300 s timeout.
+
+usage: run_fault_injection.py SCENARIO RESULT_XML [WALL_LIMIT_S]
+"""
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from xml.sax.saxutils import escape
+
+import yaml
+
+# (case, the node's name as roslaunch passes it (__name:=...), its resolved name)
+KILLS = [
+    ("terrain_node", "terrain", "/terrain"),
+    ("dynamics_node", "dynamics", "/dynamics"),
+    ("sensors_node", "sensors", "/sensors"),
+    ("environment_node", "environment", "/environment"),
+    ("v2v_radio_node", "v2v_radio", "/v2v_radio"),
+    ("agents_node", "agents", "/agents"),
+    ("controller_node", "controller", "/alpha/controller"),
+    ("v2v_broadcaster", "v2v_broadcaster", "/bravo/v2v_broadcaster"),
+    ("robot_state_publisher", "robot_state_publisher", "/alpha/robot_state_publisher"),
+    ("static_frame_publisher", "map_to_odom", "/map_to_odom"),
+]
+
+
+def find_node(name):
+    import roslib.packages
+    found = roslib.packages.find_node("avsp", name)
+    return found[0] if found else None
+
+
+def clock_reaches(t, env, limit, run=None):
+    """Waits (wall limit) until /clock reaches `t` s; True if it did. False at once if `run`
+    ends first."""
+    code = ("import rospy, sys\n"
+            "from rosgraph_msgs.msg import Clock\n"
+            "rospy.init_node('fault_clock_probe', anonymous=True, disable_signals=True)\n"
+            "while rospy.wait_for_message('/clock', Clock, timeout=60).clock.to_sec() < float(sys.argv[1]):\n"
+            "    pass\n")
+    probe = subprocess.Popen([sys.executable, "-c", code, str(t)], env=env, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+    deadline = time.time() + limit
+    try:
+        while time.time() < deadline:
+            if probe.poll() is not None:
+                return probe.returncode == 0
+            if run is not None and run.p.poll() is not None:
+                return False
+            time.sleep(0.1)
+        return False
+    finally:
+        if probe.poll() is None:
+            probe.kill()
+            probe.wait()
+
+
+def pid_of(name, ns, env):
+    """The pid of the process roslaunch started for node `name` in namespace `ns` ("" = global)
+    on this master (roslaunch passes __name:= and the group's namespace as ROS_NAMESPACE)."""
+    pids = subprocess.run(["pgrep", "-f", "__name:=%s( |$)" % name], stdout=subprocess.PIPE,
+                          universal_newlines=True).stdout.split()
+    for pid in pids:
+        try:
+            with open("/proc/%s/environ" % pid, "rb") as f:
+                environ = dict(e.split(b"=", 1) for e in f.read().split(b"\0") if b"=" in e)
+        except OSError:
+            continue
+        if environ.get(b"ROS_MASTER_URI", b"").decode() != env["ROS_MASTER_URI"]:
+            continue
+        if environ.get(b"ROS_NAMESPACE", b"/").decode().strip("/") == ns:
+            return int(pid)
+    return None
+
+
+class Run:
+    """scenario_node on `scenario`, results in `out`, on the master of `env`."""
+
+    def __init__(self, scenario, out, env):
+        self.out = out
+        self.started = time.time()
+        self.log = open(out + ".log", "w")
+        self.p = subprocess.Popen([find_node("scenario_node"), scenario, "--real-time-factor", "1",
+                                   "--output-dir", out], env=env, stdout=self.log, stderr=subprocess.STDOUT,
+                                  preexec_fn=os.setsid)
+
+    def wait(self, limit):
+        """scenario_node's exit code, or None if it had not ended after `limit` s (then it is killed)."""
+        try:
+            return self.p.wait(timeout=limit)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.p.pid, signal.SIGKILL)
+            self.p.wait()
+            return None
+        finally:
+            self.log.close()
+
+    def summary(self):
+        path = os.path.join(self.out, "summary.json")
+        if not os.path.isfile(path) or os.path.getmtime(path) < self.started:
+            return None
+        with open(path) as f:
+            return json.load(f)
+
+    def tail(self):
+        with open(self.out + ".log") as f:
+            return f.read()[-600:]
+
+
+def main(argv):
+    if len(argv) < 3:
+        sys.stderr.write(__doc__)
+        return 2
+    scenario, result = os.path.abspath(argv[1]), argv[2]
+    limit = float(argv[3]) if len(argv) > 3 else 15.0
+    port = random.randint(20000, 40000)
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1")
+    env.pop("ROS_HOSTNAME", None)
+    tmp = tempfile.mkdtemp(prefix="avsp_fault_")
+    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, preexec_fn=os.setsid)
+    cases = []
+    # roslaunch refuses a master whose /run_id it cannot read yet: wait until the master answers.
+    deadline = time.time() + 60
+    while subprocess.run(["rosparam", "get", "/run_id"], env=env, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL).returncode != 0:
+        if time.time() > deadline:
+            raise RuntimeError("roscore on port %d did not start" % port)
+        time.sleep(0.2)
+
+    def started(run, case):
+        if clock_reaches(3.0, env, 120, run):
+            return True
+        run.wait(1)
+        cases.append((case, ["the run did not reach 3 s of sim time: " + run.tail()]))
+        return False
+
+    try:
+        for case, name, resolved in KILLS + [("run_recorder", "run_recorder", "/run_recorder")]:
+            run = Run(scenario, os.path.join(tmp, case), env)
+            if not started(run, "kill_" + case):
+                continue
+            ns = resolved.split("/")[1] if resolved.count("/") > 1 else ""
+            pid = pid_of(name, ns, env)
+            if pid is None:
+                run.wait(1)
+                cases.append(("kill_" + case, ["no process for node " + resolved]))
+                continue
+            killed = time.time()
+            os.kill(pid, signal.SIGKILL)
+            rc = run.wait(limit)
+            took = time.time() - killed
+            print("run_fault_injection: SIGKILL of %s: scenario_node exit %s after %.2f s" % (resolved, rc, took))
+            msgs = []
+            if rc is None:
+                msgs.append("the run did not end within %g s of the SIGKILL of %s" % (limit, resolved))
+            elif rc != 5:
+                msgs.append("scenario_node exited %d, expected 5 (run aborted)" % rc)
+            summary = run.summary()
+            if case == "run_recorder":
+                if summary is not None:
+                    msgs.append("a summary.json appeared though its writer was killed")
+            elif summary is None:
+                msgs.append("no summary.json written by this run: " + run.tail())
+            elif not isinstance(summary.get("aborted"), dict) or summary["aborted"].get("node") != resolved:
+                msgs.append("summary.json 'aborted' is %r, expected node %s" % (summary.get("aborted"), resolved))
+            cases.append(("kill_" + case, msgs))
+
+        run = Run(scenario, os.path.join(tmp, "interrupt"), env)
+        if started(run, "interrupt"):
+            os.killpg(run.p.pid, signal.SIGINT)
+            rc = run.wait(limit)
+            msgs = [] if rc == 130 else ["scenario_node exited %s, expected 130" % rc]
+            summary = run.summary()
+            aborted = summary.get("aborted") if summary else None
+            if not isinstance(aborted, dict) or aborted.get("node") != "/run_recorder" or \
+                    aborted.get("reason") != "interrupted by SIGINT":
+                msgs.append("summary.json 'aborted' is %r" % aborted)
+            for f in ["summary.json", "trajectories.csv", "trajectories.png", "ruts.png", "gaps.png"]:
+                if not os.path.isfile(os.path.join(run.out, f)):
+                    msgs.append("no %s after the interrupt" % f)
+            if summary and summary.get("sim_time_end", 0.0) < 3.0:
+                msgs.append("the partial results end at %s s, before the interrupt" % summary.get("sim_time_end"))
+            cases.append(("interrupt", msgs))
+
+        with open(scenario) as f:
+            bad = yaml.safe_load(f)
+        bad["time"]["start_utc"] = "2200-06-21T18:00:00Z"
+        bad_file = os.path.join(tmp, "startup_failure.yaml")
+        with open(bad_file, "w") as f:
+            yaml.safe_dump(bad, f)
+        run = Run(bad_file, os.path.join(tmp, "startup_failure"), env)
+        rc = run.wait(120)
+        msgs = [] if rc == 5 else ["scenario_node exited %s, expected 5: %s" % (rc, run.tail())]
+        summary = run.summary()
+        aborted = summary.get("aborted") if summary else None
+        if not isinstance(aborted, dict) or aborted.get("node") != "/environment":
+            msgs.append("summary.json 'aborted' is %r, expected node /environment" % aborted)
+        print("run_fault_injection: start-up failure: exit %s after %.1f s" % (rc, time.time() - run.started))
+        cases.append(("startup_failure", msgs))
+    finally:
+        os.killpg(core.pid, signal.SIGINT)
+        core.wait()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+    failures = sum(1 for _n, m in cases if m)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             '<testsuite name="fault_injection" tests="%d" failures="%d" errors="0">' % (len(cases), failures)]
+    for n, msgs in cases:
+        lines.append('  <testcase classname="fault_injection" name="%s">' % n)
+        if msgs:
+            lines.append('    <failure message="%s">%s</failure>' % (escape(msgs[0][:200], {'"': "&quot;"}),
+                                                                    escape("\n".join(msgs))))
+        lines.append("  </testcase>")
+    lines.append("</testsuite>")
+    os.makedirs(os.path.dirname(os.path.abspath(result)), exist_ok=True)
+    with open(result, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    for n, msgs in cases:
+        print("%s: %s" % (n, "FAILED: " + "; ".join(msgs) if msgs else "ok"))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
