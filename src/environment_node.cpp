@@ -23,8 +23,8 @@ using avsp::msgs::boundedParam;
 using avsp::msgs::StartupError;
 
 // ros::Time holds 1970-01-01 .. 2106-02-07; the model accepts 1800-2200.
-constexpr double kMinUtc = 0.0;
-constexpr double kMaxUtc = 4294967295.0;
+constexpr double kMinUtc = ae::kRosTimeMinUtc;
+constexpr double kMaxUtc = ae::kRosTimeMaxUtc;
 
 double requiredDouble(const ros::NodeHandle& pnh, const std::string& key, const std::string& unit)
 {
@@ -99,14 +99,12 @@ public:
       throw StartupError("parameter ~start_utc (string, ISO 8601 UTC such as 2025-06-21T10:30:00Z) is required");
     try
     {
-      config.start_utc = ae::parseUtc(start_utc);
+      config.start_utc = ae::parseRunStartUtc(start_utc);  // the rule scenario_launch --check applies
     }
     catch (const std::invalid_argument& e)
     {
       throw StartupError("parameter ~start_utc: " + std::string(e.what()));
     }
-    if (config.start_utc < kMinUtc || config.start_utc > kMaxUtc)
-      throw StartupError("parameter ~start_utc " + start_utc + " must be between 1970 and 2106 (ROS time)");
     config.time_acceleration = boundedParam(pnh, "time_acceleration", 1.0, 1e-6, 1e6);
     config.air_temperature = boundedParam(pnh, "air_temperature", 288.15, 150.0, 350.0);
     const double rate = boundedParam(pnh, "rate", 1.0, 0.01, 100.0);

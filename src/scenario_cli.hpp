@@ -10,6 +10,7 @@
 #include <ros/package.h>
 
 #include <avsp/scenario/launch_generator.hpp>
+#include <avsp/scenario/ros/node_checks.hpp>
 #include <avsp/scenario/scenario.hpp>
 
 namespace avsp
@@ -65,6 +66,8 @@ inline int generateFromCommandLine(const std::string& program, const std::vector
   try
   {
     out.scenario = loadScenario(cmd.scenario, load);
+    // The sections the nodes parse themselves, through their own parsers (--check and runs alike).
+    checkSensorsAsTheNodeWill(out.scenario);
   }
   catch (const std::exception& e)
   {

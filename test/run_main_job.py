@@ -2,8 +2,10 @@
 """The main job end to end on the shortened reference scenario, and scenario_launch's refusal
 of bad scenario files. Writes a JUnit XML result with one test case per check:
 
-- bad_scenario_*: scenario_launch on a bad file (unknown controller type, missing key, unknown
-  model, a vehicle inside a building) exits 1 and its message names the file and the key path;
+- bad_scenario_*: scenario_launch --check on a bad file (unknown controller type, missing key,
+  unknown model, a vehicle inside a building; what only the nodes once refused: an unknown
+  sensor key or lidar preset, a start time beyond ROS time, a looping agent on two points, a
+  vehicle file with a negative mass) exits 1 and its message names the file and the key path;
 - generated_launch: reference_traverse.launch (scenario_node) wrote the run's launch file into the
   results folder;
 - run_ends: the run ends by itself (run_recorder, required, exits at `duration` s of sim time)
@@ -71,10 +73,36 @@ def bad_scenario_cases(scenario, env, tmp):
     # The staging area's first building spans x 53-67 m, y 218.5-227.5 m.
     edit("inside_building", "vehicles[1].start: 'mrzr' starts inside building",
          lambda d: d["vehicles"][1]["start"].update(x=60.0, y=223.0))
+    # Issue 21, finding 4: what the nodes refuse at start-up, --check and the generator refuse
+    # too, through the nodes' own parsers.
+    edit("unknown_sensor_key", "vehicles[2].sensors (as sensors_node reads it for 'fed_alpha'): "
+         "parameter ~vehicle_sensors/fed_alpha/lidar/colour is not a known key",
+         lambda d: d["vehicles"][2]["sensors"]["lidar"].update(colour="red"))
+    edit("unknown_lidar_preset", "vehicles[3].sensors (as sensors_node reads it for 'tracer_x'): "
+         "parameter ~vehicle_sensors/tracer_x/lidar/preset: lidarPreset: unknown preset 'VLP-99'",
+         lambda d: d["vehicles"][3]["sensors"]["lidar"].update(preset="VLP-99"))
+    edit("start_utc_2200", "time.start_utc: 2200-10-15T15:00:00Z must be between 1970 and 2106 (ROS time)",
+         lambda d: d["time"].update(start_utc="2200-10-15T15:00:00Z"))
+    edit("looping_agent_on_two_points", "agents[0].path: a moving looping agent needs at least 3 points, got 2",
+         lambda d: d["agents"][0].update(loop=True, path=[[95.0, 232.0], [97.0, 252.0]]))
     exe = find_node("scenario_launch")
+    # A vehicle folder with a negative chassis mass, for a one-partition scenario: --check once
+    # never loaded the vehicle files unless the scenario had partitions.
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    bad_root = os.path.join(tmp, "bad_vehicle_folder")
+    shutil.copytree(os.path.join(root, "config"), os.path.join(bad_root, "config"))
+    shutil.copytree(os.path.join(root, "urdf"), os.path.join(bad_root, "urdf"))
+    urdf = os.path.join(bad_root, "urdf", "mrzr.urdf")
+    with open(urdf) as f:
+        text = f.read()
+    with open(urdf, "w") as f:
+        f.write(text.replace('<mass value="770"/>', '<mass value="-770"/>', 1))
+    edit("negative_mass_vehicle_file", "vehicles[1].model: 'mrzr': ", lambda d: None)
+    config_dirs = {"negative_mass_vehicle_file": os.path.join(bad_root, "config")}
     results = []
     for name, path, key in cases:
-        rc, out, err = run([exe, path, "--out", "-"], env, 120)
+        extra = ["--config-dir", config_dirs[name]] if name in config_dirs else []
+        rc, out, err = run([exe, path, "--check"] + extra, env, 120)
         msg = []
         if rc != 1:
             msg.append("exit code %d, expected 1" % rc)

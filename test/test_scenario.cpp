@@ -255,11 +255,18 @@ TEST(Scenario, EmptyPathAndNegativeSpeedsAreRefused)
   n["paths"]["loop"][2]["speed"] = -0.5;  // the last one too
   EXPECT_ERROR(errorOf(n), "paths.loop[2].speed: negative speed");
   n = base();
+  // Agents are checked by the nodes' own validator (avsp_terrain validateAgentSpecs).
   n["agents"][0]["speed"] = -2;
-  EXPECT_ERROR(errorOf(n), "agents[0].speed: negative speed -2 m/s");
+  EXPECT_ERROR(errorOf(n), "agents[0].speed: must be finite and >= 0 m/s, got -2");
   n = base();
   n["agents"][0]["path"] = YAML::Node(YAML::NodeType::Sequence);
-  EXPECT_ERROR(errorOf(n), "agents[0].path: empty path");
+  EXPECT_ERROR(errorOf(n), "agents[0].path: needs at least one point");
+  // Issue 21: a looping agent on two points passed --check, then three nodes refused it.
+  n = base();
+  n["agents"][0]["loop"] = true;
+  n["agents"][0]["path"] = YAML::Load("[[10.0, 10.0], [20.0, 10.0]]");
+  n["agents"][0]["speed"] = 2.0;
+  EXPECT_ERROR(errorOf(n), "agents[0].path: a moving looping agent needs at least 3 points, got 2");
   n = base();
   n["agents"][0]["type"] = "bear";
   EXPECT_ERROR(errorOf(n), "agents[0].type: unknown 'bear' (deer, pedestrian, truck)");

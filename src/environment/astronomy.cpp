@@ -111,6 +111,14 @@ long daysFromCivil(long year, int month, int day)
   return era * 146097 + day_of_era - 719468;  // 719468: days from 0000-03-01 to 1970-01-01
 }
 
+double parseRunStartUtc(const std::string& text)
+{
+  const double utc = parseUtc(text);
+  if (utc < kRosTimeMinUtc || utc > kRosTimeMaxUtc)
+    throw std::invalid_argument(text + " must be between 1970 and 2106 (ROS time)");
+  return utc;
+}
+
 double parseUtc(const std::string& text)
 {
   int year = 0, month = 0, day = 0, hour = 0, minute = 0, consumed = 0;

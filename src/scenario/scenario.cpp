@@ -13,6 +13,7 @@
 #include <avsp/environment/astronomy.hpp>
 #include <avsp/environment/weather.hpp>
 #include <avsp_dynamics/vehicle_model.hpp>
+#include <avsp_terrain/agents.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source.hpp>
 
@@ -463,44 +464,51 @@ std::vector<Waypoint> readPath(const Context& ctx, const YAML::Node& node, const
 YAML::Node readAgents(const Context& ctx, const YAML::Node& node, std::set<std::string>& names)
 {
   if (!node.IsSequence())
-    ctx.fail("agents", "must be a list of agents {name, type, path, speed, start_time, loop}");
+    ctx.fail("agents", "must be a list of agents {name, type, path, speed, start_time, loop, yaw}");
+  std::vector<terrain::AgentSpec> specs;
   for (std::size_t i = 0; i < node.size(); ++i)
   {
     const std::string key = indexKey("agents", i);
     MapReader m(ctx, node[i], key);
-    const std::string name = toString(ctx, m.required("name"), m.key("name"));
-    if (!isRosName(name))
-      ctx.fail(m.key("name"), "'" + name + "' is not a valid name (a letter, then letters, digits, _)");
-    if (!names.insert(name).second)
-      ctx.fail(m.key("name"), "duplicate name '" + name + "'");
+    terrain::AgentSpec spec;
+    spec.name = toString(ctx, m.required("name"), m.key("name"));
+    if (!isRosName(spec.name))
+      ctx.fail(m.key("name"), "'" + spec.name + "' is not a valid name (a letter, then letters, digits, _)");
+    if (!names.insert(spec.name).second)
+      ctx.fail(m.key("name"), "duplicate name '" + spec.name + "'");
     const std::string type = toString(ctx, m.required("type"), m.key("type"));
-    if (type != "deer" && type != "pedestrian" && type != "truck")
+    const std::optional<terrain::AgentType> parsed = terrain::agentTypeFromString(type);
+    if (!parsed)
       ctx.fail(m.key("type"), "unknown '" + type + "' (deer, pedestrian, truck)");
+    spec.type = *parsed;
     const YAML::Node path = m.required("path");
     if (!path.IsSequence())
       ctx.fail(m.key("path"), "must be a list of [x, y] points");
-    if (path.size() == 0)
-      ctx.fail(m.key("path"), "empty path");
     for (std::size_t k = 0; k < path.size(); ++k)
     {
       const std::string pk = indexKey(m.key("path"), k);
       if (!path[k].IsSequence() || path[k].size() != 2)
         ctx.fail(pk, "must be a point [x, y]");
-      toDouble(ctx, path[k][0], pk + "[0]", -1e7, 1e7, "m");
-      toDouble(ctx, path[k][1], pk + "[1]", -1e7, 1e7, "m");
+      spec.path.emplace_back(toDouble(ctx, path[k][0], pk + "[0]", -1e7, 1e7, "m"),
+                             toDouble(ctx, path[k][1], pk + "[1]", -1e7, 1e7, "m"));
     }
-    const YAML::Node speed = m.get("speed");
-    if (present(speed))
-    {
-      const double v = toDouble(ctx, speed, m.key("speed"), -kInf, kInf, "m/s");
-      if (v < 0.0)
-        ctx.fail(m.key("speed"), "negative speed " + shortNumber(v) + " m/s");
-    }
-    readDouble(ctx, m, "start_time", 0.0, 0.0, 1e9, "s");
+    spec.speed = readDouble(ctx, m, "speed", 0.0, -kInf, kInf, "m/s");
+    spec.start_time = readDouble(ctx, m, "start_time", 0.0, 0.0, 1e9, "s");
     const YAML::Node loop = m.get("loop");
     if (present(loop))
-      toBool(ctx, loop, m.key("loop"));
+      spec.loop = toBool(ctx, loop, m.key("loop"));
+    spec.yaw = readDouble(ctx, m, "yaw", 0.0, -100.0, 100.0, "rad");
     m.finish();
+    specs.push_back(spec);
+  }
+  // The rules dynamics_node, sensors_node and agents_node apply to ~agents (one validator).
+  try
+  {
+    terrain::validateAgentSpecs(specs, "agents");
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw ScenarioError(ctx.file() + ": " + e.what());
   }
   return YAML::Clone(node);
 }
@@ -743,7 +751,7 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
       s.start_utc = toString(ctx, t.required("start_utc"), "time.start_utc");
       try
       {
-        environment::parseUtc(s.start_utc);
+        environment::parseRunStartUtc(s.start_utc);  // environment_node's rule
       }
       catch (const std::exception& e)
       {
@@ -776,7 +784,7 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
     const YAML::Node vehicles = top.required("vehicles");
     if (!vehicles.IsSequence() || vehicles.size() == 0)
       ctx.fail("vehicles", "must be a non-empty list of vehicles");
-    std::set<std::string> names;
+    std::set<std::string> names, loaded_models;
     const std::vector<std::string> models = knownModels(options.vehicles_dir);
     for (std::size_t i = 0; i < vehicles.size(); ++i)
     {
@@ -792,6 +800,19 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
       if (std::find(models.begin(), models.end(), v.model) == models.end())
         ctx.fail(m.key("model"), "unknown model '" + v.model + "' (no " + options.vehicles_dir + "/" + v.model +
                                      ".yaml; known: " + join(models) + ")");
+      // The vehicle's files as dynamics_node will read them (YAML, URDF, their consistency),
+      // whatever the layout: a bad file fails here, not at run time.
+      if (loaded_models.insert(v.model).second)
+      {
+        try
+        {
+          dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+        }
+        catch (const std::exception& e)
+        {
+          ctx.fail(m.key("model"), "'" + v.model + "': " + e.what());
+        }
+      }
       {
         MapReader st(ctx, m.required("start"), m.key("start"));
         v.x = requiredDouble(ctx, st, "x", -1e7, 1e7, "m");

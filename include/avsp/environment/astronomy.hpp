@@ -52,6 +52,18 @@ struct Atmosphere
  */
 double parseUtc(const std::string& text);
 
+/// Unix seconds ros::Time can hold: [0, 2^32 - 1], 1970-01-01 .. 2106-02-07 (the model itself
+/// accepts 1800-2200; a run's clock is ROS time).
+constexpr double kRosTimeMinUtc = 0.0;
+constexpr double kRosTimeMaxUtc = 4294967295.0;
+
+/**
+ * @brief parseUtc(), then the ROS time range: what a run's start time may be.
+ * @throw std::invalid_argument saying what is wrong with the text, or "... must be between 1970
+ *        and 2106 (ROS time)"
+ */
+double parseRunStartUtc(const std::string& text);
+
 /// Formats Unix seconds as "YYYY-MM-DDTHH:MM:SS.sssZ".
 std::string formatUtc(double unix_seconds);
 
