@@ -1,0 +1,68 @@
+// A scenario's sections as the nodes receive them (rosparam's typing) and through their parsers.
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include "avsp/scenario/ros/node_checks.hpp"
+
+namespace as = avsp::scenario;
+using XmlRpc::XmlRpcValue;
+
+TEST(ToXmlRpc, TypesScalarsAsRosparamDoes)
+{
+  const XmlRpcValue v = as::toXmlRpc(YAML::Load(
+      "{b1: true, b2: no, i: 42, n: -7, d: 0.5, e: 1.0e-3, inf: -.inf, s: VLP-16, q: '42', t: 'true', "
+      "l: [1, 2.5, x], m: {}, big: 10000000000}"));
+  ASSERT_EQ(v.getType(), XmlRpcValue::TypeStruct);
+  XmlRpcValue c = v;
+  EXPECT_EQ(c["b1"].getType(), XmlRpcValue::TypeBoolean);
+  EXPECT_TRUE(static_cast<bool>(c["b1"]));
+  EXPECT_FALSE(static_cast<bool>(c["b2"]));
+  EXPECT_EQ(static_cast<int>(c["i"]), 42);
+  EXPECT_EQ(static_cast<int>(c["n"]), -7);
+  EXPECT_DOUBLE_EQ(static_cast<double>(c["d"]), 0.5);
+  EXPECT_DOUBLE_EQ(static_cast<double>(c["e"]), 1.0e-3);
+  EXPECT_TRUE(std::isinf(static_cast<double>(c["inf"])) && static_cast<double>(c["inf"]) < 0);
+  EXPECT_EQ(static_cast<std::string>(c["s"]), "VLP-16");
+  // Quoted scalars stay strings, whatever they spell.
+  EXPECT_EQ(c["q"].getType(), XmlRpcValue::TypeString);
+  EXPECT_EQ(c["t"].getType(), XmlRpcValue::TypeString);
+  ASSERT_EQ(c["l"].getType(), XmlRpcValue::TypeArray);
+  EXPECT_EQ(c["l"][0].getType(), XmlRpcValue::TypeInt);
+  EXPECT_EQ(c["l"][1].getType(), XmlRpcValue::TypeDouble);
+  EXPECT_EQ(c["l"][2].getType(), XmlRpcValue::TypeString);
+  EXPECT_EQ(c["m"].getType(), XmlRpcValue::TypeStruct);
+  EXPECT_EQ(c["m"].size(), 0);
+  // Beyond XML-RPC's 32-bit ints: a double, as roslaunch sends it.
+  EXPECT_EQ(c["big"].getType(), XmlRpcValue::TypeDouble);
+  EXPECT_THROW(as::toXmlRpc(YAML::Load("{a: ~}")), std::invalid_argument);
+}
+
+TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
+{
+  as::Scenario s;
+  s.file = "t.yaml";
+  as::VehicleSpec a, b;
+  a.name = "alpha";
+  b.name = "bravo";
+  s.vehicles = { a, b };
+  s.sensors = YAML::Load("{lidar: {preset: VLP-16, columns: 360}, radar: {enabled: false}}");
+  EXPECT_NO_THROW(as::checkSensorsAsTheNodeWill(s));
+  s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16, colour: red}}");
+  try
+  {
+    as::checkSensorsAsTheNodeWill(s);
+    FAIL() << "an unknown key passed";
+  }
+  catch (const as::ScenarioError& e)
+  {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind("t.yaml: vehicles[1].sensors (as sensors_node reads it for 'bravo'): ", 0), 0u) << m;
+    EXPECT_NE(m.find("~vehicle_sensors/bravo/lidar/colour is not a known key"), std::string::npos) << m;
+  }
+  s.vehicles[1].sensors = YAML::Node();
+  s.sensors = YAML::Load("{lidar: {channels: sixteen}}");  // a wrong type in the shared section
+  EXPECT_THROW(as::checkSensorsAsTheNodeWill(s), as::ScenarioError);
+}
