@@ -2,6 +2,7 @@
 // file named by file and key, the start-pose check on the real default course, a seeded fuzz of
 // the loader, and the launch file generated from a scenario.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <fstream>
@@ -376,6 +377,27 @@ TEST(Scenario, SyntaxErrorsAndBadValuesNameTheFile)
   {
     EXPECT_EQ(std::string(e.what()), "/nonexistent/x.yaml: cannot open the file");
   }
+  // Issue 21: a device is read forever, a 60 MB scenario took 4.8 GB to check.
+  const auto refusal = [](const std::string& path) {
+    try
+    {
+      as::loadScenario(path, options());
+    }
+    catch (const as::ScenarioError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(refusal("/dev/zero"), "/dev/zero: not a regular file");
+  const std::string big = "/tmp/avsp_test_scenario_big_" + std::to_string(::getpid()) + ".yaml";
+  {
+    std::ofstream f(big);
+    f << "# " << std::string((4u << 20), 'x') << "\n";
+  }
+  EXPECT_NE(refusal(big).find("bytes, more than the 4194304 a scenario file may have"), std::string::npos)
+      << refusal(big);
+  std::remove(big.c_str());
 }
 
 TEST(Scenario, FuzzedTextsNeverCrashAndAlwaysNameTheFile)
@@ -598,6 +620,9 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   EXPECT_EQ(rec[2]["leader"].as<std::string>(), "second");
   EXPECT_EQ(paramOf(xml, "run_recorder", "duration"), "30.0");
   EXPECT_EQ(paramOf(xml, "run_recorder", "output_dir"), "/tmp/results/base");
+  // Every node holding the terrain gets the same point budget.
+  EXPECT_EQ(paramOf(xml, "terrain", "max_cells"), "250000000");
+  EXPECT_EQ(paramOf(xml, "sensors", "max_cells"), "250000000");
   // SaveMap services write into the run's results folder (issue 21).
   EXPECT_EQ(paramOf(xml, "terrain", "output_dir"), "/tmp/results/base");
   EXPECT_EQ(paramOf(xml, "sensors", "output_dir"), "/tmp/results/base");

@@ -84,8 +84,10 @@ std::uint64_t checkInputFile(const char* function, const std::string& path)
   }
   if (S_ISDIR(st.st_mode))
     fail(function, path, "is a directory, not a file");
-  // A pipe or device has no size; the size-based plausibility checks must then not apply.
-  return S_ISREG(st.st_mode) ? static_cast<std::uint64_t>(st.st_size) : UINT64_MAX / 2048;
+  // A pipe or device may never end (/dev/zero) and has no size to check a header against.
+  if (!S_ISREG(st.st_mode))
+    fail(function, path, "is not a regular file (a device, pipe or socket)");
+  return static_cast<std::uint64_t>(st.st_size);
 }
 
 FilePtr openForRead(const char* function, const std::string& path)
@@ -117,7 +119,8 @@ void closeWritten(const char* function, const std::string& path, FilePtr& f)
   }
 }
 
-void checkDimensions(const char* function, const std::string& path, std::uint64_t columns, std::uint64_t rows)
+void checkDimensions(const char* function, const std::string& path, std::uint64_t columns, std::uint64_t rows,
+                     std::uint64_t max_points = kMaxPoints)
 {
   if (columns == 0 || rows == 0)
     fail(function, path, "zero dimensions (" + std::to_string(columns) + " x " + std::to_string(rows) + ")");
@@ -125,6 +128,39 @@ void checkDimensions(const char* function, const std::string& path, std::uint64_
     fail(function, path,
          "dimensions " + std::to_string(columns) + " x " + std::to_string(rows) +
              " exceed the limit of 2^31 points (corrupt header?)");
+  if (columns * rows > max_points)
+    fail(function, path,
+         "dimensions " + std::to_string(columns) + " x " + std::to_string(rows) + " = " +
+             std::to_string(columns * rows) + " grid points exceed the budget of " + std::to_string(max_points) +
+             " (~max_cells; about 4 bytes of heights per point and process, more once deformed)");
+}
+
+/// The geometry of a raster read from a file, checked before its heights are allocated.
+void checkPlausibleGeometry(const char* function, const std::string& path, double origin_x, double origin_y,
+                            double cell_size)
+{
+  if (!(cell_size >= kMinPlausibleCellSize && cell_size <= kMaxPlausibleCellSize))
+    fail(function, path,
+         "cell size " + std::to_string(cell_size) + " m is outside the plausible range [" +
+             std::to_string(kMinPlausibleCellSize) + ", " + std::to_string(kMaxPlausibleCellSize) + "] m");
+  if (!(std::abs(origin_x) <= kMaxPlausibleCoordinate && std::abs(origin_y) <= kMaxPlausibleCoordinate))
+    fail(function, path,
+         "origin (" + std::to_string(origin_x) + ", " + std::to_string(origin_y) +
+             ") m is beyond the plausible +-1e8 m of a projected CRS");
+}
+
+/// Heights of a raster read from a file: none beyond the deepest trench or the highest peak.
+void checkPlausibleHeights(const char* function, const std::string& path, const HeightRaster& raster)
+{
+  for (std::size_t k = 0; k < raster.heights.size(); ++k)
+  {
+    const float z = raster.heights[k];
+    if (!std::isnan(z) && !(z >= kMinPlausibleHeight && z <= kMaxPlausibleHeight))
+      fail(function, path,
+           "height " + std::to_string(z) + " m at grid point (" + std::to_string(k % raster.columns) + ", " +
+               std::to_string(k / raster.columns) + ") is outside the plausible range [" +
+               std::to_string(kMinPlausibleHeight) + ", " + std::to_string(kMaxPlausibleHeight) + "] m");
+  }
 }
 
 /// A raster read from a file must carry at least one height.
@@ -297,7 +333,7 @@ std::size_t HeightRaster::noDataCount() const
       std::count_if(heights.begin(), heights.end(), [](float h) { return std::isnan(h); }));
 }
 
-HeightRaster readAsciiGrid(const std::string& path)
+HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
 {
   const char* const fn = "readAsciiGrid";
   const std::uint64_t file_bytes = checkInputFile(fn, path);
@@ -392,7 +428,7 @@ HeightRaster readAsciiGrid(const std::string& path)
 
   const auto columns = static_cast<std::uint64_t>(*hdr.ncols);
   const auto rows = static_cast<std::uint64_t>(*hdr.nrows);
-  checkDimensions(fn, path, columns, rows);
+  checkDimensions(fn, path, columns, rows, limits.max_points);
   const std::uint64_t count = columns * rows;
   // Each value takes at least one character and one separator; checking this before the
   // allocation keeps a corrupt header in a small file from reserving gigabytes.
@@ -408,6 +444,7 @@ HeightRaster readAsciiGrid(const std::string& path)
   // A corner names the outer edge of the south-west cell; grid points are cell centres.
   raster.origin_x = hdr.xllcorner ? *hdr.xllcorner + 0.5 * raster.cell_size : *hdr.xllcenter;
   raster.origin_y = hdr.yllcorner ? *hdr.yllcorner + 0.5 * raster.cell_size : *hdr.yllcenter;
+  checkPlausibleGeometry(fn, path, raster.origin_x, raster.origin_y, raster.cell_size);
   raster.heights.assign(static_cast<std::size_t>(count), kNoData);
 
   std::uint64_t n = 0;
@@ -436,6 +473,7 @@ HeightRaster readAsciiGrid(const std::string& path)
   if (n < count)
     fail(fn, path, "truncated: found " + std::to_string(n) + " of " + std::to_string(count) + " values");
   rejectAllNoData(fn, path, raster);
+  checkPlausibleHeights(fn, path, raster);
   return raster;
 }
 
@@ -624,10 +662,11 @@ void writePngFile(const char* fn, const std::string& path, std::size_t columns, 
 }
 }  // namespace
 
-HeightRaster readPng16(const std::string& path, const Png16Georef& georef)
+HeightRaster readPng16(const std::string& path, const Png16Georef& georef, const DemLimits& limits)
 {
   const char* const fn = "readPng16";
   checkGeoref(fn, path, georef);
+  checkPlausibleGeometry(fn, path, georef.origin_x, georef.origin_y, georef.cell_size);
   const std::uint64_t file_bytes = checkInputFile(fn, path);
   FilePtr file = openForRead(fn, path);
 
@@ -653,7 +692,7 @@ HeightRaster readPng16(const std::string& path, const Png16Georef& georef)
          std::string("colour type ") + pngColourName(hdr.colour_type) + " not supported (need 16-bit greyscale)");
   if (hdr.bit_depth != 16)
     fail(fn, path, "bit depth " + std::to_string(hdr.bit_depth) + " not supported (need 16-bit greyscale)");
-  checkDimensions(fn, path, hdr.width, hdr.height);
+  checkDimensions(fn, path, hdr.width, hdr.height, limits.max_points);
   const std::uint64_t width = hdr.width;
   const std::uint64_t height = hdr.height;
   if (hdr.row_bytes != 2 * width)
@@ -691,6 +730,7 @@ HeightRaster readPng16(const std::string& path, const Png16Georef& georef)
       dst[i] = static_cast<float>(georef.z_offset + georef.z_scale * value / 65535.0);
     }
   }
+  checkPlausibleHeights(fn, path, raster);
   return raster;
 }
 
@@ -829,7 +869,7 @@ bool isMetreName(const std::string& unit)
 }
 }  // namespace
 
-HeightRaster readGeoTiff(const std::string& path)
+HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
 {
   const char* const fn = "readGeoTiff";
   // GDAL virtual paths (/vsizip/...) have no local file to check.
@@ -851,7 +891,8 @@ HeightRaster readGeoTiff(const std::string& path)
   const int height = GDALGetRasterYSize(ds.get());
   if (width <= 0 || height <= 0)
     fail(fn, path, "zero dimensions");
-  checkDimensions(fn, path, static_cast<std::uint64_t>(width), static_cast<std::uint64_t>(height));
+  checkDimensions(fn, path, static_cast<std::uint64_t>(width), static_cast<std::uint64_t>(height),
+                  limits.max_points);
 
   GDALRasterBandH band = GDALGetRasterBand(ds.get(), 1);
   const GDALDataType type = GDALGetRasterDataType(band);
@@ -910,6 +951,7 @@ HeightRaster readGeoTiff(const std::string& path)
   // grid point is its centre, and the last pixel row is the southern one.
   raster.origin_x = gt[0] + 0.5 * gt[1];
   raster.origin_y = gt[3] + (height - 0.5) * gt[5];
+  checkPlausibleGeometry(fn, path, raster.origin_x, raster.origin_y, raster.cell_size);
   raster.heights.resize(raster.columns * raster.rows);
 
   // Memory: the heights are read row by row straight into the raster (flipped to row 0
@@ -955,6 +997,7 @@ HeightRaster readGeoTiff(const std::string& path)
     }
   }
   rejectAllNoData(fn, path, raster);
+  checkPlausibleHeights(fn, path, raster);
   return raster;
 }
 

@@ -20,19 +20,29 @@ std::string number(double v)
   return std::to_string(v);
 }
 
+/// Refuses a grid of `columns` x `rows` points beyond the budget, before it is allocated.
+void checkBudget(const std::string& field, double columns, double rows, std::uint64_t max_cells)
+{
+  const double points = columns * rows;
+  if (!(points <= static_cast<double>(max_cells)))
+    throw std::invalid_argument(field + ": " + number(columns) + " x " + number(rows) + " = " + number(points) +
+                                " grid points exceed the budget max_cells = " + std::to_string(max_cells));
+}
+
 HeightRaster readDem(const TerrainSource& source)
 {
   const std::string& path = source.dem_file;
   const std::string ext = fileExtension(path);
+  const DemLimits limits{ source.max_cells };
   if (ext == ".asc")
-    return readAsciiGrid(path);
+    return readAsciiGrid(path, limits);
   if (ext == ".tif" || ext == ".tiff")
-    return readGeoTiff(path);
+    return readGeoTiff(path, limits);
   if (ext == ".png")
   {
     if (!(source.png.cell_size > 0.0) || !(source.png.z_scale > 0.0))
       throw std::invalid_argument("dem_file " + path + " is a PNG: png.cell_size and png.z_scale must be > 0");
-    return readPng16(path, source.png);
+    return readPng16(path, source.png, limits);
   }
   throw std::invalid_argument("dem_file " + path + ": unknown extension '" + ext + "' (use .asc, .tif, .tiff or .png)");
 }
@@ -79,6 +89,7 @@ LoadedSource loadTerrainSource(const TerrainSource& source, const SoilLibrary& s
       throw std::invalid_argument("flat_cell_size = " + number(source.flat_cell_size) +
                                   " must be in [0.005 m, flat_size / 10]");
     const auto n = static_cast<std::size_t>(std::llround(source.flat_size / source.flat_cell_size)) + 1;
+    checkBudget("flat_cell_size", static_cast<double>(n), static_cast<double>(n), source.max_cells);
     ElevationGrid grid(-0.5 * source.flat_size, -0.5 * source.flat_size, source.flat_cell_size,
                        source.flat_cell_size, n, n, std::vector<float>(n * n, 0.0f));
     out.terrain = std::make_unique<DeformableTerrain>(std::move(grid), soils.get(source.flat_soil), options);
@@ -95,6 +106,8 @@ LoadedSource loadTerrainSource(const TerrainSource& source, const SoilLibrary& s
     out.description = source.dem_file;
     return out;
   }
+  checkBudget("course_cell_size", std::floor(source.course.length_x / source.course.cell_size) + 1.0,
+              std::floor(source.course.length_y / source.course.cell_size) + 1.0, source.max_cells);
   Course course = [&source] {
     try
     {

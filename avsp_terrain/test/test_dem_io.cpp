@@ -1,3 +1,5 @@
+#include <sys/stat.h>
+
 #include <cmath>
 #include <csetjmp>
 #include <cstdint>
@@ -16,6 +18,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cpl_string.h>
 #include <gdal.h>
 #include <ogr_srs_api.h>
 #include <png.h>
@@ -279,14 +282,17 @@ TEST_F(DemIo, AsciiRoundTripIsBitExactIncludingNoData)
   HeightRaster in = makeRaster(11, 7, 512345.123456789, -0.1, 0.3);
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> mantissa(-1.0f, 1.0f);
-  std::uniform_int_distribution<int> exponent(-20, 20);
+  std::uniform_int_distribution<int> exponent(-20, 13);
   for (float& h : in.heights)
-    h = std::ldexp(mantissa(rng), exponent(rng));  // magnitudes 1e-6 .. 1e6 need all 9 digits
+    h = std::ldexp(mantissa(rng), exponent(rng));  // magnitudes 1e-6 .. 8e3 need all 9 digits
   in.heights[0] = -0.0f;
   in.heights[3] = kNaN;
   in.heights[in.heights.size() - 1] = kNaN;
   in.heights[20] = std::numeric_limits<float>::denorm_min();
-  in.heights[21] = std::numeric_limits<float>::max();
+  // The plausible extremes (kMinPlausibleHeight, kMaxPlausibleHeight) read back exactly too.
+  in.heights[21] = avsp::terrain::kMaxPlausibleHeight;
+  in.heights[22] = avsp::terrain::kMinPlausibleHeight;
+  in.heights[23] = std::nextafter(avsp::terrain::kMaxPlausibleHeight, 0.0f);
   const std::string path = file("rt.asc");
   writeAsciiGrid(in, path);
   const HeightRaster out = readAsciiGrid(path);
@@ -708,7 +714,18 @@ TEST_F(DemIo, BadAsciiGridsAreRejectedWithTheReason)
     { "ncols_neg.asc", "ncols -3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n", "must be > 0" },
     { "ncols_frac.asc", "ncols 2.5\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n", "non-numeric" },
     { "huge.asc", "ncols 100000\nnrows 100000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1\n", "2^31" },
-    { "big_small_file.asc", "ncols 40000\nnrows 40000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1\n", "truncated" },
+    { "big_small_file.asc", "ncols 15000\nnrows 15000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1\n", "truncated" },
+    // Issue 21: within 2^31 points, but beyond the default budget of 250 M (from the header).
+    { "over_budget.asc", "ncols 20000\nnrows 20000\nxllcorner 0\nyllcorner 0\ncellsize 1\n1\n",
+      "400000000 grid points exceed the budget of 250000000" },
+    { "cell_1e30.asc", "ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1e30\n1 2 3\n4 5 6\n",
+      "outside the plausible range [0.001000, 10000.000000] m" },
+    { "cell_1e-9.asc", "ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1e-9\n1 2 3\n4 5 6\n",
+      "cell size" },
+    { "far_origin.asc", "ncols 3\nnrows 2\nxllcorner 1e12\nyllcorner 0\ncellsize 1\n1 2 3\n4 5 6\n",
+      "beyond the plausible" },
+    { "height_3e38.asc", hdr + "1 2 3\n4 5 3.4e38\n", "height 339999995" },
+    { "height_12km_deep.asc", hdr + "1 2 3\n4 5 -12000.5\n", "at grid point (2, 0) is outside the plausible range" },
     { "extra.asc", hdr + "1 2 3\n4 5 6\n7\n", "more values" },
     { "twice.asc", "ncols 3\nncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n4 5 6\n", "twice" },
     { "both.asc", hdr + "xllcenter 0\n1 2 3\n4 5 6\n", "both" },
@@ -967,4 +984,85 @@ TEST_F(DemIo, AsciiReaderSurvivesRandomByteEdits)
   EXPECT_EQ(loaded + rejected, attempts);
   EXPECT_GT(rejected, attempts / 2) << "loaded " << loaded;
   EXPECT_GT(loaded, 0);  // the edits are not all fatal, so the accepting path ran too
+}
+
+namespace
+{
+/// CRC-32 of PNG chunks (ISO 3309), so the test can declare any size in an IHDR.
+std::uint32_t pngCrc(const unsigned char* data, std::size_t n)
+{
+  std::uint32_t c = 0xffffffffu;
+  for (std::size_t k = 0; k < n; ++k)
+  {
+    c ^= data[k];
+    for (int b = 0; b < 8; ++b)
+      c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return c ^ 0xffffffffu;
+}
+}  // namespace
+
+/// Issue 21, finding 6: a 0.78 MB PNG declaring 20000 x 20000 took terrain_node past 8 GB, a
+/// sparse 40000 x 40000 GeoTIFF too, and devices were read. The header is now checked against
+/// the point budget before any allocation, and only regular files are read.
+TEST_F(DemIo, OversizedHeadersAndDevicesAreRefusedBeforeAllocation)
+{
+  // A 16-bit greyscale PNG's signature and IHDR declaring 20000 x 20000, then nothing.
+  const std::string png = file("declares_20000.png");
+  {
+    std::vector<unsigned char> b = { 0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R' };
+    const std::uint32_t w = 20000, h = 20000;
+    for (std::uint32_t v : { w, h })
+      for (int shift = 24; shift >= 0; shift -= 8)
+        b.push_back(static_cast<unsigned char>(v >> shift));
+    for (unsigned char v : { 16, 0, 0, 0, 0 })  // bit depth 16, greyscale, deflate, filter 0, no interlace
+      b.push_back(v);
+    const std::uint32_t crc = pngCrc(&b[12], 17);
+    for (int shift = 24; shift >= 0; shift -= 8)
+      b.push_back(static_cast<unsigned char>(crc >> shift));
+    // A short IDAT (libpng reads the header up to the first IDAT) and IEND.
+    for (const std::string& chunk : { std::string("IDAT\x78\x9c", 6), std::string("IEND") })
+    {
+      const std::uint32_t n = static_cast<std::uint32_t>(chunk.size() - 4);
+      for (int shift = 24; shift >= 0; shift -= 8)
+        b.push_back(static_cast<unsigned char>(n >> shift));
+      const std::size_t at = b.size();
+      b.insert(b.end(), chunk.begin(), chunk.end());
+      const std::uint32_t c = pngCrc(&b[at], chunk.size());
+      for (int shift = 24; shift >= 0; shift -= 8)
+        b.push_back(static_cast<unsigned char>(c >> shift));
+    }
+    std::ofstream(png, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
+  }
+  Png16Georef g;
+  g.cell_size = 1.0;
+  g.z_scale = 100.0;
+  expectDemError([&] { readPng16(png, g); }, png, "20000 x 20000 = 400000000 grid points exceed the budget of 250000000");
+  // A smaller budget refuses smaller headers; a larger one lets this header through to the
+  // next check (the file is far too small for the image it declares).
+  expectDemError([&] { readPng16(png, g, avsp::terrain::DemLimits{ 1000 }); }, png, "exceed the budget of 1000");
+  expectDemError([&] { readPng16(png, g, avsp::terrain::DemLimits{ 500000000 }); }, png, "cannot fit");
+
+  // A sparse GeoTIFF of 40000 x 40000 Float32 pixels: a few hundred bytes on disk.
+  const std::string tif = file("sparse_40000.tif");
+  {
+    GDALAllRegister();
+    char** options = nullptr;
+    options = CSLSetNameValue(options, "SPARSE_OK", "TRUE");
+    options = CSLSetNameValue(options, "TILED", "YES");
+    GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), tif.c_str(), 40000, 40000, 1, GDT_Float32, options);
+    CSLDestroy(options);
+    ASSERT_NE(ds, nullptr);
+    double gt[6] = { 0.0, 1.0, 0.0, 40000.0, 0.0, -1.0 };
+    GDALSetGeoTransform(ds, gt);
+    GDALClose(ds);
+  }
+  EXPECT_LT(std::filesystem::file_size(tif), 1u << 20);
+  expectDemError([&] { readGeoTiff(tif); }, tif, "1600000000 grid points exceed the budget of 250000000");
+
+  // A pipe would be read until it ends (/dev/zero never does).
+  const std::string fifo = file("pipe.asc");
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  expectDemError([&] { readAsciiGrid(fifo); }, fifo, "not a regular file");
+  expectDemError([&] { readAsciiGrid("/dev/zero"); }, "/dev/zero", "not a regular file");
 }

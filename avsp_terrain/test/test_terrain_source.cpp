@@ -2,6 +2,7 @@
 // bit), and every bad source is refused naming the field or the file.
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 
@@ -182,4 +183,44 @@ TEST(TerrainSource, FileExtensionIsLowerCaseWithItsDot)
   EXPECT_EQ(fileExtension("/a.b/heights"), "");
   EXPECT_EQ(fileExtension("x.asc"), ".asc");
   EXPECT_EQ(fileExtension(""), "");
+}
+
+/// Issue 21: the point budget (~max_cells) holds for every source, checked before the grid is
+/// built: a course at 1 mm (600 M x 400 M points) once started allocating.
+TEST(TerrainSource, EverySourceKeepsToThePointBudget)
+{
+  TerrainSource s;
+  s.course = smallCourse();  // 301 x 201 points at 1 m
+  s.max_cells = 301 * 201;
+  EXPECT_EQ(errorOf(s), "");
+  s.max_cells = 301 * 201 - 1;
+  EXPECT_NE(errorOf(s).find("course_cell_size: 301.000000 x 201.000000 = 60501.000000 grid points exceed the budget "
+                            "max_cells = 60500"),
+            std::string::npos)
+      << errorOf(s);
+  s = TerrainSource();
+  s.course.cell_size = 0.001;  // the default budget: 600 001 x 400 001 points refused at once
+  EXPECT_NE(errorOf(s).find("exceed the budget max_cells = 250000000"), std::string::npos) << errorOf(s);
+
+  s = TerrainSource();
+  s.flat_soil = "gravel";
+  s.flat_size = 100.0;
+  s.flat_cell_size = 1.0;  // 101 x 101
+  s.max_cells = 101 * 101;
+  EXPECT_EQ(errorOf(s), "");
+  s.max_cells = 10000;
+  EXPECT_NE(errorOf(s).find("flat_cell_size: 101.000000 x 101.000000"), std::string::npos) << errorOf(s);
+
+  // A DEM: the reader checks its header against the same budget.
+  s = TerrainSource();
+  s.dem_file = tempPath("budget.asc");
+  {
+    std::ofstream f(s.dem_file);
+    f << "ncols 4\nnrows 3\nxllcenter 0\nyllcenter 0\ncellsize 1\n1 2 3 4\n5 6 7 8\n9 10 11 12\n";
+  }
+  s.max_cells = 12;
+  EXPECT_EQ(errorOf(s), "");
+  s.max_cells = 11;
+  EXPECT_NE(errorOf(s).find("4 x 3 = 12 grid points exceed the budget of 11"), std::string::npos) << errorOf(s);
+  std::remove(s.dem_file.c_str());
 }

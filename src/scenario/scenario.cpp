@@ -26,6 +26,8 @@ namespace fs = std::filesystem;
 namespace
 {
 constexpr double kInf = std::numeric_limits<double>::infinity();
+/// Largest scenario file read: 4 MiB, some 50 000 waypoints.
+constexpr std::uintmax_t kMaxScenarioBytes = 4u << 20;
 
 std::string join(const std::vector<std::string>& items, const char* separator = ", ")
 {
@@ -336,6 +338,9 @@ TerrainSpec readTerrain(const Context& ctx, const YAML::Node& node, const LoadOp
   const YAML::Node transport = m.get("transport");
   if (present(transport))
     t.transport = toBool(ctx, transport, "terrain.transport");
+  const YAML::Node max_cells = m.get("max_cells");
+  if (present(max_cells))
+    t.max_cells = static_cast<std::uint64_t>(toInt(ctx, max_cells, "terrain.max_cells", 1, 2147483647));
   m.finish();
   // Soil names against the library, so a typo is named here and not by every node.
   try
@@ -649,6 +654,7 @@ std::vector<NodeParam> TerrainSpec::nodeParams() const
       break;
   }
   p.push_back({ "transport", transport ? "true" : "false", "bool" });
+  p.push_back({ "max_cells", std::to_string(max_cells), "int" });
   p.push_back({ "soils_file", soils_file, "str" });
   return p;
 }
@@ -693,6 +699,7 @@ std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& 
       break;
   }
   source.transport = spec.transport;
+  source.max_cells = spec.max_cells;
   const terrain::SoilLibrary soils = terrain::SoilLibrary::load(spec.soils_file);
   terrain::LoadedSource loaded = terrain::loadTerrainSource(source, soils);
   auto out = std::make_shared<TerrainFootprint>();
@@ -707,6 +714,15 @@ std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& 
 
 Scenario loadScenario(const std::string& path, const LoadOptions& options)
 {
+  // A regular file of bounded size: a device never ends, and a huge file (1.4 M waypoints
+  // once needed 4.8 GB to check) is no scenario anyone wrote.
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!ec && fs::exists(st) && !fs::is_regular_file(st))
+    throw ScenarioError(path + ": not a regular file");
+  if (fs::is_regular_file(st) && fs::file_size(path, ec) > kMaxScenarioBytes)
+    throw ScenarioError(path + ": " + std::to_string(fs::file_size(path, ec)) + " bytes, more than the " +
+                        std::to_string(kMaxScenarioBytes) + " a scenario file may have");
   std::ifstream in(path);
   if (!in)
     throw ScenarioError(path + ": cannot open the file");

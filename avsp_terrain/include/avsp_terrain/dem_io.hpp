@@ -76,6 +76,26 @@ struct ClassRaster
   std::vector<std::uint8_t> values;   ///< row-major, index j * columns + i
 };
 
+/// Default budget of grid points of a raster read from a file (a node's ~max_cells): 250 M
+/// points, 1 GB of float heights per process (the site-scale bench's 218 M fit).
+constexpr std::uint64_t kDefaultMaxPoints = 250000000;
+
+/// What a DEM read from a file may be. The readers check the header against it before they
+/// allocate anything.
+struct DemLimits
+{
+  std::uint64_t max_points = kDefaultMaxPoints;  ///< columns x rows at most
+};
+
+/// Plausible geometry of a DEM read from a file: cell size 1 mm .. 10 km; origin within
+/// +-1e8 m (any projected CRS); heights from 12 km below sea level (deeper than the Mariana
+/// Trench, 11 km) to 10 km above it (higher than Everest, 8.85 km).
+constexpr double kMinPlausibleCellSize = 1e-3;
+constexpr double kMaxPlausibleCellSize = 1e4;
+constexpr double kMaxPlausibleCoordinate = 1e8;
+constexpr float kMinPlausibleHeight = -12000.0f;
+constexpr float kMaxPlausibleHeight = 10000.0f;
+
 /**
  * @brief Reads an ESRI ASCII grid (.asc).
  *
@@ -84,9 +104,11 @@ struct ClassRaster
  * corner of the south-west cell, so the origin is half a cell further in; xll/yllcenter is
  * the south-west grid point itself. Values equal to NODATA_value become NaN; exactly
  * ncols * nrows finite values must follow (text "nan"/"inf" is rejected).
- * @throw DemError naming @p path and the reason
+ * @throw DemError naming @p path and the reason; also for a file that is not regular, more than
+ *        `limits.max_points` grid points (from the header, before allocating) and geometry or
+ *        heights outside the plausible ranges above
  */
-HeightRaster readAsciiGrid(const std::string& path);
+HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits = DemLimits());
 
 /**
  * @brief Writes an ESRI ASCII grid with xllcenter/yllcenter and NODATA_value -9999.
@@ -102,9 +124,11 @@ void writeAsciiGrid(const HeightRaster& raster, const std::string& path);
  * @brief Reads a 16-bit greyscale PNG heightmap (libpng); pixel row 0 is the north edge.
  *
  * 8-bit, grey+alpha, RGB(A) and palette images are rejected. The result has no no-data.
- * @throw DemError naming @p path and the reason (also for an invalid @p georef)
+ * @throw DemError naming @p path and the reason (also for an invalid @p georef); also for a
+ *        file that is not regular, more than `limits.max_points` grid points (from the header,
+ *        before allocating) and geometry or heights outside the plausible ranges above
  */
-HeightRaster readPng16(const std::string& path, const Png16Georef& georef);
+HeightRaster readPng16(const std::string& path, const Png16Georef& georef, const DemLimits& limits = DemLimits());
 
 /**
  * @brief Writes a 16-bit greyscale PNG, quantising heights to round((z - z_offset) / z_scale * 65535).
@@ -158,9 +182,11 @@ void writeClassGeoTiff(const ClassRaster& raster, const std::string& path);
  * Memory: the heights once (4 B per point) plus one row. Rows are read straight into the
  * result and GDAL's block cache is released after each row of blocks, so a site-size
  * raster is not held a second time in that cache.
- * @throw DemError naming @p path and the reason
+ * @throw DemError naming @p path and the reason; also for a file that is not regular, more than
+ *        `limits.max_points` grid points (from the header, before allocating) and geometry or
+ *        heights outside the plausible ranges above
  */
-HeightRaster readGeoTiff(const std::string& path);
+HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits = DemLimits());
 
 /**
  * @brief Writes a Float32 GeoTIFF with a north-up geotransform, no CRS (map frame), band

@@ -7,6 +7,7 @@
  *        same parameters they hold the same ground (heights, soils, objects) bit for bit.
  */
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -32,6 +33,9 @@ struct TerrainSource
   double flat_cell_size = 0.1;  ///< m, its grid spacing
   CourseOptions course;      ///< the default course's seed, cell size and extent
   bool transport = true;     ///< DeformableTerrain::Options::transport (T5 flow to neighbours)
+  /// Grid points the terrain may have, whatever its source (a DEM's header is checked before
+  /// any allocation; a flat square's and the course's size from their parameters).
+  std::uint64_t max_cells = kDefaultMaxPoints;
 };
 
 /// The loaded ground.

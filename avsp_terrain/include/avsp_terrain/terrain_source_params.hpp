@@ -19,7 +19,7 @@ namespace avsp
 {
 namespace terrain
 {
-/// Reads ~terrain_file, ~dem_file, ~png_*, ~soil, ~flat_*, ~course_*, ~transport.
+/// Reads ~terrain_file, ~dem_file, ~png_*, ~soil, ~flat_*, ~course_*, ~transport, ~max_cells.
 /// @throw avsp::msgs::StartupError naming the parameter
 inline TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
 {
@@ -53,6 +53,9 @@ inline TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
   s.course.cell_size = boundedParam(pnh, "course_cell_size", 0.1, 1e-3, 100.0);
   s.course.length_x = boundedParam(pnh, "course_length_x", 600.0, 1.0, 1e5);
   s.course.length_y = boundedParam(pnh, "course_length_y", 400.0, 1.0, 1e5);
+  // XML-RPC integers are 32-bit: the budget is given in grid points up to 2^31 - 1.
+  s.max_cells = static_cast<std::uint64_t>(avsp::msgs::boundedIntParam(
+      pnh, "max_cells", static_cast<int>(kDefaultMaxPoints), 1, 2147483647));
   return s;
 }
 

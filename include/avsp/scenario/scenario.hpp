@@ -22,6 +22,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <avsp/control/leader_follower.hpp>
+#include <avsp_terrain/dem_io.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
 
 namespace avsp
@@ -64,6 +65,7 @@ struct TerrainSpec
   std::string flat_soil;
   double flat_size = 100.0, flat_cell_size = 0.1;  ///< m
   bool transport = true;        ///< T5 soil transport
+  std::uint64_t max_cells = terrain::kDefaultMaxPoints;  ///< grid-point budget of every node holding the terrain
   std::string soils_file;       ///< absolute; empty = LoadOptions::soils_file
 
   /// The terrain-source parameters of the component nodes (avsp_terrain README, "Terrain
