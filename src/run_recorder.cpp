@@ -37,6 +37,7 @@
 #include <ros/package.h>
 #include <ros/ros.h>
 
+#include "avsp/results/anomaly_monitor.hpp"
 #include "avsp/results/gap.hpp"
 #include "avsp/results/output.hpp"
 #include "avsp/results/ros/run_supervisor.hpp"
@@ -112,13 +113,34 @@ std::vector<ar::VehicleSpec> vehicleList(const ros::NodeHandle& pnh)
     if (e.getType() != XmlRpc::XmlRpcValue::TypeStruct)
       throw StartupError(where + " must be a {name, leader} map");
     ar::VehicleSpec v;
+    int limits = 0;
     for (auto it = e.begin(); it != e.end(); ++it)
     {
+      if (it->first == "max_speed" || it->first == "rest_height" || it->first == "wheel_radius")
+      {
+        const XmlRpc::XmlRpcValue& n = it->second;
+        double value = 0.0;
+        if (n.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+          value = static_cast<double>(const_cast<XmlRpc::XmlRpcValue&>(n));
+        else if (n.getType() == XmlRpc::XmlRpcValue::TypeInt)
+          value = static_cast<int>(const_cast<XmlRpc::XmlRpcValue&>(n));
+        else
+          throw StartupError(where + "." + it->first + " must be a number (m/s or m)");
+        const bool positive = it->first != "rest_height";
+        if (!std::isfinite(value) || (positive && !(value > 0.0)))
+          throw StartupError(where + "." + it->first + " must be finite" + (positive ? " and > 0" : ""));
+        (it->first == "max_speed" ? v.max_speed : it->first == "rest_height" ? v.rest_height : v.wheel_radius) = value;
+        ++limits;
+        continue;
+      }
       if (it->first != "name" && it->first != "leader")
-        throw StartupError(where + "." + it->first + ": unknown key (name, leader)");
+        throw StartupError(where + "." + it->first +
+                           ": unknown key (name, leader, max_speed, rest_height, wheel_radius)");
       if (it->second.getType() != XmlRpc::XmlRpcValue::TypeString)
         throw StartupError(where + "." + it->first + " must be a string");
     }
+    if (limits != 0 && limits != 3)
+      throw StartupError(where + ": max_speed, rest_height and wheel_radius go together (all or none)");
     if (!e.hasMember("name"))
       throw StartupError(where + ".name is required");
     v.name = static_cast<std::string>(e["name"]);
@@ -255,6 +277,8 @@ public:
           [this, raw](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { onTelemetry(*raw, *m); });
       v->odom_topic = v->odom_sub.getTopic();
       v->telemetry_topic = v->telemetry_sub.getTopic();
+      if (s.max_speed > 0.0)
+        anomalies_.addVehicle(s.name, ar::VehicleLimits{ s.max_speed, s.rest_height, s.wheel_radius });
       vehicles_.push_back(std::move(v));
     }
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 200, &RunRecorder::onPatch, this);
@@ -393,6 +417,13 @@ private:
     const auto& p = m.pose.pose.position;
     const auto& l = m.twist.twist.linear;
     const double speed = std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z);
+    double ground = 0.0;
+    const bool on_terrain = std::isfinite(p.x) && std::isfinite(p.y) && terrain_->base().heightAt(p.x, p.y, ground);
+    const std::string anomaly = anomalies_.sample(v.spec.name, t, p.x, p.y, p.z, speed,
+                                                  on_terrain ? std::optional<double>(ground) : std::nullopt);
+    if (!anomaly.empty())
+      ROS_WARN("run_recorder: anomaly: %s (counted in summary.json; each kind is reported once per vehicle)",
+               anomaly.c_str());
     if (!v.record.addOdometry(t, p.x, p.y, p.z, speed))
       warnThrottled(v.odom_topic, 5.0, format("odometry at %.3f s ignored (a non-finite value, or out of order)", t));
   }
@@ -570,6 +601,17 @@ private:
             gap = ar::gapStats(g.series);
         j.set("gap_min", gap ? ar::Json(gap->min) : ar::Json());
         j.set("gap_mean", gap ? ar::Json(gap->mean) : ar::Json());
+        if (v->spec.max_speed > 0.0)
+        {
+          const ar::AnomalyCounts& c = anomalies_.counts(v->spec.name);
+          ar::Json a = ar::Json::object();
+          a.set("overspeed", c.overspeed);
+          a.set("airborne", c.airborne);
+          a.set("non_finite", c.non_finite);
+          j.set("anomalies", a);
+        }
+        else
+          j.set("anomalies", ar::Json());
         j.set("odometry_samples", r.samples().size());
         j.set("telemetry_messages", r.telemetryCount());
         if (!r.samples().empty())
@@ -590,6 +632,7 @@ private:
       rut.set("patches", patches_);
       rut.set("patches_rejected", patches_rejected_);
       summary.set("ruts", rut);
+      summary.set("anomalies", anomalies_.total());
       if (aborted_)
       {
         ar::Json a = ar::Json::object();
@@ -646,6 +689,8 @@ private:
     u.set("wall_time", "s from the first /clock tick to the end");
     u.set("real_time_factor", "sim time / wall time over the run");
     u.set("ruts", "m (depth below the undeformed terrain), m^2");
+    u.set("anomalies", "odometry samples: overspeed (> 1.5 x governed), airborne (base_link > one wheel radius "
+                       "above its rest height over the undeformed ground), non_finite; null = limits not given");
     u.set("aborted", "null, or why the run stopped before its duration: {node, reason, sim_time (s)}");
     return u;
   }
@@ -711,6 +756,7 @@ private:
   double duration_ = 0.0, progress_period_ = 1.0, watch_period_ = 0.25;
   std::unique_ptr<ar::RunSupervisor> supervisor_;
   std::optional<ar::Abort> aborted_;  // set when the run stopped early
+  ar::AnomalyMonitor anomalies_;
   std::unique_ptr<at::SoilLibrary> soils_;
   std::unique_ptr<at::DeformableTerrain> terrain_;
   at::ObjectSet objects_;

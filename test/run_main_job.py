@@ -11,7 +11,8 @@ of bad scenario files. Writes a JUnit XML result with one test case per check:
 - run_ends: the run ends by itself (run_recorder, required, exits at `duration` s of sim time)
   within the wall-clock limit;
 - results: summary.json, trajectories.png, ruts.png and gaps.png exist, written by this run,
-  and summary.json has every vehicle of the scenario;
+  and summary.json has every vehicle of the scenario, is not aborted and counts no anomalies
+  (overspeed, airborne, non-finite samples);
 - plausible_motion: in trajectories.csv no vehicle goes faster than 1.05 x its model's governed
   drivetrain.max_speed, nor rises or falls faster than 2 m/s between samples (a vehicle set down
   overlapping the ground or a building was once thrown 5 m up at 12 m/s, governed 2 m/s);
@@ -300,6 +301,9 @@ def main(argv):
                     msgs.append("summary.json has no 'aborted' entry")
                 elif summary["aborted"] is not None:
                     msgs.append("the run was aborted: %s" % summary["aborted"])
+                if summary.get("anomalies") != 0:
+                    msgs.append("summary.json counts %s anomalies: %s" % (
+                        summary.get("anomalies"), [(e.get("name"), e.get("anomalies")) for e in entries or []]))
             except Exception as e:  # noqa: BLE001 - any reason is a failure to report
                 msgs.append("summary.json unreadable: %s" % e)
             cases.append(("results", msgs))

@@ -19,6 +19,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include "avsp/results/anomaly_monitor.hpp"
 #include "avsp/results/gap.hpp"
 #include "avsp/results/output.hpp"
 #include "avsp/results/rut_map.hpp"
@@ -519,4 +520,34 @@ TEST(RunWatch, ExitCodesFatalsAndPings)
     EXPECT_NE(w.abort()->reason.find("stopped answering (connection refused)"), std::string::npos);
     EXPECT_DOUBLE_EQ(w.abort()->sim_time, 3.5);
   }
+}
+
+TEST(AnomalyMonitor, CountsOverspeedAirborneAndNonFiniteSamplesAndReportsEachKindOnce)
+{
+  AnomalyMonitor m;
+  // tracer_x-like: governed 2 m/s, base_link 0.30 m above the ground at rest, wheels r 0.15 m.
+  m.addVehicle("tracer_x", VehicleLimits{ 2.0, 0.30, 0.15 });
+  EXPECT_THROW(m.addVehicle("bad", VehicleLimits{ 0.0, 0.3, 0.1 }), std::invalid_argument);
+  EXPECT_THROW(m.addVehicle("bad", VehicleLimits{ 2.0, std::nan(""), 0.1 }), std::invalid_argument);
+  const double ground = 10.0;
+  // At rest, and driving at the governed speed, on the ground: nothing.
+  EXPECT_EQ(m.sample("tracer_x", 0.0, 0, 0, ground + 0.30, 0.0, ground), "");
+  EXPECT_EQ(m.sample("tracer_x", 1.0, 2, 0, ground + 0.30 + 0.149, 2.0 * kOverspeedFactor, ground), "")
+      << "exactly 1.5 x, and just under one wheel radius up, are still plausible";
+  // The CI scenario's old launch: 12.3 m/s, 4.8 m up. Both kinds, reported once.
+  const std::string first = m.sample("tracer_x", 2.0, 4, 0, ground + 5.1, 12.3, ground);
+  EXPECT_NE(first.find("12.30 m/s at 2.000 s, above 1.5 x its governed 2.00 m/s"), std::string::npos) << first;
+  EXPECT_NE(first.find("base_link 4.80 m above its rest height at 2.000 s"), std::string::npos) << first;
+  EXPECT_EQ(m.sample("tracer_x", 2.1, 4, 0, ground + 5.0, 12.0, ground), "") << "the second of a kind is only counted";
+  EXPECT_EQ(m.counts("tracer_x").overspeed, 2u);
+  EXPECT_EQ(m.counts("tracer_x").airborne, 2u);
+  // Off the terrain there is no ground to judge height by.
+  EXPECT_EQ(m.sample("tracer_x", 3.0, 900, 0, ground + 50.0, 1.0, std::nullopt), "");
+  EXPECT_EQ(m.counts("tracer_x").airborne, 2u);
+  const std::string nan = m.sample("tracer_x", 4.0, std::nan(""), 0, ground, 1.0, ground);
+  EXPECT_NE(nan.find("non-finite state at 4.000 s"), std::string::npos) << nan;
+  EXPECT_EQ(m.sample("tracer_x", 4.1, 0, 0, INFINITY, 1.0, ground), "");
+  EXPECT_EQ(m.counts("tracer_x").non_finite, 2u);
+  EXPECT_EQ(m.total(), 6u);
+  EXPECT_EQ(m.sample("unknown", 0.0, 0, 0, 1e9, 1e9, 0.0), "") << "vehicles without limits are not judged";
 }

@@ -41,8 +41,12 @@ namespace
 {
 struct Sample
 {
-  double t, x, y, z;
+  double t, x, y, z, speed;
 };
+
+/// The limits the recorder is given (fed_alpha's, but the follower "governed" at 1 m/s so that
+/// its driving is counted as overspeed above 1.5 m/s).
+constexpr double kLeadMaxSpeed = 30.0, kFollowMaxSpeed = 1.0, kWheelRadius = 0.546;
 
 std::string readFile(const std::string& path)
 {
@@ -73,8 +77,14 @@ void setRecorderParams(ros::NodeHandle& nh, const std::string& name, const std::
   XmlRpc::XmlRpcValue vehicles, lead, follow;
   lead["name"] = std::string("lead");
   lead["leader"] = std::string("");
+  lead["max_speed"] = kLeadMaxSpeed;
+  lead["rest_height"] = kWheelRadius;
+  lead["wheel_radius"] = kWheelRadius;
   follow["name"] = std::string("follow");
   follow["leader"] = std::string("lead");
+  follow["max_speed"] = kFollowMaxSpeed;
+  follow["rest_height"] = kWheelRadius;
+  follow["wheel_radius"] = kWheelRadius;
   vehicles[0] = lead;
   vehicles[1] = follow;
   ros::NodeHandle pnh("~");
@@ -123,8 +133,10 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     subs.push_back(nh.subscribe<nav_msgs::Odometry>("/" + v + "/avt_341/odometry", 5000,
                                                     [&odom, v](const nav_msgs::Odometry::ConstPtr& m) {
                                                       const auto& p = m->pose.pose.position;
+                                                      const auto& l = m->twist.twist.linear;
                                                       if (std::isfinite(p.x))  // not the test's own NaN
-                                                        odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z });
+                                                        odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z,
+                                                                            std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z) });
                                                     }));
     subs.push_back(nh.subscribe<avsp_msgs::VehicleTelemetry>(
         "/" + v + "/telemetry", 5000, [&collisions, v, duration](const avsp_msgs::VehicleTelemetry::ConstPtr& m) {
@@ -265,7 +277,24 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     EXPECT_EQ(v["collisions"].as<unsigned>(), collisions[name]) << name;
     EXPECT_GE(v["collisions"].as<unsigned>(), 1u) << name << ": the rear-end";
     EXPECT_DOUBLE_EQ(v["time_stuck"].as<double>(), 0.0) << name;
+    // Anomalies: exactly the samples of the test's own odometry beyond 1.5 x the given governed
+    // speed; on flat ground nobody leaves it; the lead's one non-finite sample is the test's NaN.
+    std::size_t fast = 0;
+    const double governed = name == "lead" ? kLeadMaxSpeed : kFollowMaxSpeed;
+    for (const Sample& s : odom[name])
+      if (s.t >= t0 - 1e-9 && s.t <= t1 + 1e-9 && s.speed > 1.5 * governed)
+        ++fast;
+    EXPECT_EQ(v["anomalies"]["overspeed"].as<std::size_t>(), fast) << name;
+    EXPECT_EQ(v["anomalies"]["airborne"].as<std::size_t>(), 0u) << name;
+    EXPECT_EQ(v["anomalies"]["non_finite"].as<std::size_t>(), name == "lead" ? 1u : 0u) << name;
+    if (name == "follow")
+      EXPECT_GT(fast, 100u) << "the follower drives above 1.5 m/s for a while";
+    else
+      EXPECT_EQ(fast, 0u);
   }
+  EXPECT_EQ(summary["anomalies"].as<std::size_t>(),
+            summary["vehicles"][1]["anomalies"]["overspeed"].as<std::size_t>() + 1u);
+  EXPECT_NE(output.find("anomaly: follow: "), std::string::npos) << "the first overspeed is reported";
   EXPECT_TRUE(summary["vehicles"][0]["gap_min"].IsNull());
   EXPECT_TRUE(summary["vehicles"][0]["leader"].IsNull());
   EXPECT_EQ(summary["vehicles"][1]["leader"].as<std::string>(), "lead");
@@ -341,6 +370,16 @@ TEST(RunRecorderStartup, BadParametersExitNamingTheParameter)
   });
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~vehicles[1].name 'lead' is listed twice"), std::string::npos) << out;
+
+  std::tie(code, out) = bad("half_limits", [&](const std::string& ns) {
+    XmlRpc::XmlRpcValue list, a;
+    a["name"] = std::string("lead");
+    a["max_speed"] = 2.0;
+    list[0] = a;
+    nh.setParam(ns + "vehicles", list);
+  });
+  EXPECT_EQ(code, 1);
+  EXPECT_NE(out.find("~vehicles[0]: max_speed, rest_height and wheel_radius go together"), std::string::npos) << out;
 
   std::tie(code, out) = bad("relative_watch", [&](const std::string& ns) {
     XmlRpc::XmlRpcValue list;

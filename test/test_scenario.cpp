@@ -618,6 +618,13 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   ASSERT_EQ(rec.size(), 4u);
   EXPECT_EQ(rec[0]["leader"].as<std::string>(), "");
   EXPECT_EQ(rec[2]["leader"].as<std::string>(), "second");
+  // What each model can do, from its files, for the recorder's anomaly counts: tracer_x is
+  // governed at 2 m/s (config/vehicles/tracer_x.yaml) on wheels whose axles carry base_link.
+  EXPECT_DOUBLE_EQ(rec[2]["max_speed"].as<double>(), 2.0);
+  EXPECT_GT(rec[2]["wheel_radius"].as<double>(), 0.1);
+  EXPECT_LT(rec[2]["wheel_radius"].as<double>(), 0.2);
+  EXPECT_DOUBLE_EQ(rec[2]["rest_height"].as<double>(), rec[2]["wheel_radius"].as<double>());
+  EXPECT_DOUBLE_EQ(rec[3]["max_speed"].as<double>(), 18.0) << "the m113";
   EXPECT_EQ(paramOf(xml, "run_recorder", "duration"), "30.0");
   EXPECT_EQ(paramOf(xml, "run_recorder", "output_dir"), "/tmp/results/base");
   // Every node holding the terrain gets the same point budget.

@@ -451,8 +451,15 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     {
       std::string list = "[";
       for (std::size_t i = 0; i < s.vehicles.size(); ++i)
-        list += std::string(i ? ", " : "") + "{name: " + quoted(s.vehicles[i].name) +
-                ", leader: " + quoted(leader(s.vehicles[i])) + "}";
+      {
+        const VehicleSpec& v = s.vehicles[i];
+        list += std::string(i ? ", " : "") + "{name: " + quoted(v.name) + ", leader: " + quoted(leader(v));
+        // What the model can do, for the recorder's anomaly counts.
+        if (v.max_speed > 0.0 && v.wheel_radius > 0.0)
+          list += ", max_speed: " + yamlDouble(v.max_speed) + ", rest_height: " + yamlDouble(v.rest_height) +
+                  ", wheel_radius: " + yamlDouble(v.wheel_radius);
+        list += "}";
+      }
       w.rosparam("vehicles", list + "]");
     }
     w.param("output_dir", options.output_dir);

@@ -800,7 +800,12 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
     const YAML::Node vehicles = top.required("vehicles");
     if (!vehicles.IsSequence() || vehicles.size() == 0)
       ctx.fail("vehicles", "must be a non-empty list of vehicles");
-    std::set<std::string> names, loaded_models;
+    std::set<std::string> names;
+    struct ModelLimits
+    {
+      double max_speed = 0.0, rest_height = 0.0, wheel_radius = 0.0;
+    };
+    std::map<std::string, ModelLimits> loaded_models;
     const std::vector<std::string> models = knownModels(options.vehicles_dir);
     for (std::size_t i = 0; i < vehicles.size(); ++i)
     {
@@ -818,17 +823,39 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
                                      ".yaml; known: " + join(models) + ")");
       // The vehicle's files as dynamics_node will read them (YAML, URDF, their consistency),
       // whatever the layout: a bad file fails here, not at run time.
-      if (loaded_models.insert(v.model).second)
+      if (!loaded_models.count(v.model))
       {
         try
         {
-          dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+          const dynamics::VehicleModel model =
+              dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+          // The lowest running-gear point sets the rest height of base_link (suspension at 0).
+          ModelLimits limits;
+          limits.max_speed = model.drivetrain.max_speed;
+          double lowest = kInf;
+          auto consider = [&](const Eigen::Vector3d& centre, double radius) {
+            if (centre.z() - radius < lowest)
+            {
+              lowest = centre.z() - radius;
+              limits.wheel_radius = radius;
+            }
+          };
+          for (const dynamics::WheelSpec& w : model.wheels)
+            consider(w.rest_position, w.radius);
+          for (const dynamics::TrackSpec& t : model.tracks)
+            for (const dynamics::RoadWheelSpec& r : t.road_wheels)
+              consider(r.rest_position, r.radius);
+          limits.rest_height = -lowest;
+          loaded_models[v.model] = limits;
         }
         catch (const std::exception& e)
         {
           ctx.fail(m.key("model"), "'" + v.model + "': " + e.what());
         }
       }
+      v.max_speed = loaded_models[v.model].max_speed;
+      v.rest_height = loaded_models[v.model].rest_height;
+      v.wheel_radius = loaded_models[v.model].wheel_radius;
       {
         MapReader st(ctx, m.required("start"), m.key("start"));
         v.x = requiredDouble(ctx, st, "x", -1e7, 1e7, "m");

@@ -20,6 +20,8 @@ struct VehicleSpec
 {
   std::string name;
   std::string leader;
+  /// From the model, for the anomaly counts (anomaly_monitor.hpp); all 0 = not judged.
+  double max_speed = 0.0, rest_height = 0.0, wheel_radius = 0.0;
 };
 
 /**

@@ -103,6 +103,10 @@ struct VehicleSpec
   double x = 0.0, y = 0.0, yaw = 0.0;  ///< start pose in map: m, m, rad
   YAML::Node sensors;                  ///< sections replacing Scenario::sensors' (may be null)
   ControllerSpec controller;
+  // From the model's files (for run_recorder's anomaly counts):
+  double max_speed = 0.0;     ///< m/s, governed
+  double rest_height = 0.0;   ///< m, base_link above flat ground at rest (lowest wheel centre + radius)
+  double wheel_radius = 0.0;  ///< m, of that lowest wheel
 };
 
 struct FormationSpec
