@@ -2,6 +2,8 @@
 // values, night, daylight, weather timeline interpolation and validation, world clock.
 #include <cmath>
 #include <limits>
+#include <random>
+#include <vector>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -396,4 +398,90 @@ TEST(EnvironmentModel, WeatherOverrideReplacesTimelineAndIsValidated)
     EXPECT_NE(std::string(e.what()).find("hail_rate_mm_h"), std::string::npos);
   }
   EXPECT_EQ(model.at(50.0).weather.snow_rate_mm_h, 3.0);  // the refused override changed nothing
+}
+
+/// Issue 21: 2000 seeded SetEnvironment-like requests (the service applies setTime and
+/// overrideWeather to a copy, then keeps it). Wild values (NaN, infinities, negatives, 1e300,
+/// times before 1800 or after 2200) must never crash; a refused request leaves the model's
+/// state at every probe time bit for bit as it was; an accepted one is what was asked, and the
+/// state stays finite where it must.
+TEST(EnvironmentModel, SeededFuzzOfRunTimeChanges)
+{
+  ae::EnvironmentConfig config;
+  config.site = { 39.74, -105.18, 1829.0 };
+  config.start_utc = ae::parseUtc("2025-10-15T15:00:00Z");
+  ae::EnvironmentModel model(config);
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::nan("");
+  const std::vector<double> wild = { nan, inf, -inf, -1.0, 0.0, 1e300, -1e300, 1e-300, 5e-324 };
+  auto value = [&](double lo, double hi) {
+    return unit(rng) < 0.3 ? wild[static_cast<std::size_t>(unit(rng) * wild.size()) % wild.size()]
+                           : lo + (hi - lo) * unit(rng);
+  };
+  auto fingerprint = [&](const ae::EnvironmentModel& m) {
+    std::vector<double> f;
+    for (double t : { 0.0, 10.0, 3600.0 })
+    {
+      const ae::EnvironmentState s = m.at(t);
+      for (double v : { s.utc, s.time_acceleration, s.sky.sun.elevation, s.ambient_light, s.weather.fog_visibility,
+                        s.weather.rain_rate_mm_h, s.weather.snow_rate_mm_h, s.weather.hail_rate_mm_h,
+                        s.weather.wind_x, s.air_temperature })
+        f.push_back(v);
+    }
+    return f;
+  };
+  int accepted = 0, refused = 0;
+  for (int k = 0; k < 2000; ++k)
+  {
+    const std::vector<double> before = fingerprint(model);
+    ae::EnvironmentModel changed = model;
+    const double now = 100.0 * unit(rng);
+    const bool set_time = unit(rng) < 0.5, set_weather = !set_time || unit(rng) < 0.5;
+    const double utc = value(ae::parseUtc("1790-01-01T00:00:00Z"), ae::parseUtc("2210-01-01T00:00:00Z"));
+    const double acceleration = value(1e-7, 1e7);
+    ae::WeatherState w;
+    w.fog_visibility = unit(rng) < 0.2 ? inf : value(1.0, 1e5);
+    w.rain_rate_mm_h = value(0.0, 200.0);
+    w.snow_rate_mm_h = value(0.0, 50.0);
+    w.hail_rate_mm_h = value(0.0, 50.0);
+    w.wind_x = value(-60.0, 60.0);
+    const double air = value(150.0, 350.0);
+    try
+    {
+      if (set_time)
+        changed.setTime(now, utc, acceleration);
+      if (set_weather)
+        changed.overrideWeather(w, air);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      ++refused;
+      ASSERT_FALSE(std::string(e.what()).empty());
+      // The service keeps `model` (the copy is dropped): nothing changed.
+      ASSERT_EQ(fingerprint(model), before) << "case " << k;
+      continue;
+    }
+    ++accepted;
+    model = changed;
+    const ae::EnvironmentState s = model.at(now);
+    if (set_time)
+    {
+      ASSERT_DOUBLE_EQ(model.utcAt(now), utc) << "case " << k;
+      ASSERT_EQ(model.timeAcceleration(), acceleration);
+    }
+    if (set_weather)
+    {
+      ASSERT_EQ(s.weather.rain_rate_mm_h, w.rain_rate_mm_h) << "case " << k;
+      ASSERT_EQ(s.air_temperature, air);
+    }
+    for (double v : { s.utc, s.sky.sun.elevation, s.ambient_light, s.weather.rain_rate_mm_h, s.air_temperature })
+      ASSERT_TRUE(std::isfinite(v)) << "case " << k << ": a non-finite state was accepted (utc " << s.utc
+                                    << ", sun elevation " << s.sky.sun.elevation << ", light " << s.ambient_light
+                                    << ", rain " << s.weather.rain_rate_mm_h << ", air " << s.air_temperature
+                                    << "; asked: set_time " << set_time << " utc " << utc << " x" << acceleration
+                                    << ", set_weather " << set_weather << ")";
+  }
+  EXPECT_GT(accepted, 200);
+  EXPECT_GT(refused, 200);
 }

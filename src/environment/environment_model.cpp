@@ -46,8 +46,10 @@ void checkWeather(const WeatherState& w, double air_temperature)
       throw std::invalid_argument(std::string(key) + " = " + number(value) + " must be finite and >= 0 (mm/h)");
   if (!std::isfinite(w.wind_x) || !std::isfinite(w.wind_y) || !std::isfinite(w.wind_z))
     throw std::invalid_argument("wind must be finite (m/s)");
-  if (!std::isfinite(air_temperature) || air_temperature <= 0.0 || air_temperature > 400.0)
-    throw std::invalid_argument("air_temperature = " + number(air_temperature) + " must be in (0, 400] K");
+  // Earth's air: 184 K (Vostok) to 330 K (Death Valley) measured; refraction divides by it, so
+  // a denormal temperature once made the Sun's elevation NaN.
+  if (!std::isfinite(air_temperature) || air_temperature < 150.0 || air_temperature > 350.0)
+    throw std::invalid_argument("air_temperature = " + number(air_temperature) + " must be in [150, 350] K");
 }
 }  // namespace
 
