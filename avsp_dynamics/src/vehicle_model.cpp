@@ -1,8 +1,14 @@
 #include "avsp_dynamics/vehicle_model.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <set>
 #include <sstream>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -20,6 +26,114 @@ namespace
 {
 /// YAML map reader whose errors are ConfigErrors naming the file and key.
 using Section = avsp::terrain::YamlSection<ConfigError>;
+
+/// Neither the YAML nor the URDF of a vehicle is anywhere near this (the reference URDFs are
+/// 8-21 kB): a bigger file is not a vehicle description, and reading it would only cost memory.
+constexpr std::size_t kMaxVehicleFileBytes = 16u << 20;  // 16 MiB
+
+/// Why a vehicle file is not read; the caller adds which file and what names it.
+class FileRefused : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+std::string fileKind(mode_t mode)
+{
+  if (S_ISDIR(mode))
+    return "a directory";
+  if (S_ISCHR(mode))
+    return "a character device";
+  if (S_ISBLK(mode))
+    return "a block device";
+  if (S_ISFIFO(mode))
+    return "a FIFO (named pipe)";
+  if (S_ISSOCK(mode))
+    return "a socket";
+  return "not a regular file";
+}
+
+/// Refuses, before reading a byte, anything but a regular file of at most kMaxVehicleFileBytes.
+void checkRegularAndSmall(const struct stat& st)
+{
+  if (!S_ISREG(st.st_mode))
+    throw FileRefused("is " + fileKind(st.st_mode) + ", not a regular file: refused without reading it");
+  if (static_cast<unsigned long long>(st.st_size) > kMaxVehicleFileBytes)
+    throw FileRefused("is " + std::to_string(st.st_size) + " bytes, more than the " +
+                      std::to_string(kMaxVehicleFileBytes) + " (16 MiB) a vehicle file may have: refused without reading it");
+}
+
+/**
+ * @brief The whole text of a vehicle file (YAML or URDF), which must be a regular file of at
+ *        most 16 MiB: /dev/zero, a FIFO, a directory or a huge file are refused before reading
+ *        (they would read forever, block, or fill the memory).
+ * @throw FileRefused with the reason (without the path)
+ */
+std::string readVehicleFile(const std::string& path)
+{
+  // stat first: opening a device or a FIFO can itself block or have effects.
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0)
+    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
+  checkRegularAndSmall(st);
+  // O_NONBLOCK: if the path became a FIFO since the stat, open returns instead of waiting for
+  // a writer; fstat of what was opened then refuses it.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0)
+    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
+  struct Closer
+  {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{ fd };
+  if (::fstat(fd, &st) != 0)
+    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
+  checkRegularAndSmall(st);
+  // Read at most one byte more than the limit: a file that grows while it is read is refused too.
+  std::string text;
+  char buffer[65536];
+  while (true)
+  {
+    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n < 0)
+      throw FileRefused(std::string("cannot be read (") + std::strerror(errno) + ")");
+    if (n == 0)
+      break;
+    text.append(buffer, static_cast<std::size_t>(n));
+    if (text.size() > kMaxVehicleFileBytes)
+      throw FileRefused("grew beyond " + std::to_string(kMaxVehicleFileBytes) + " bytes (16 MiB) while it was read");
+  }
+  return text;
+}
+
+/// The vehicle's YAML, read by readVehicleFile, as a Section (the checks of avsp_terrain's
+/// loadYamlFile, which reads whatever the path names).
+Section loadVehicleYaml(const std::string& path)
+{
+  std::string text;
+  try
+  {
+    text = readVehicleFile(path);
+  }
+  catch (const FileRefused& e)
+  {
+    throw ConfigError(path + ": " + e.what());
+  }
+  YAML::Node doc;
+  try
+  {
+    doc = YAML::Load(text);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw ConfigError(path + ": line " + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  if (!doc.IsMap())
+    throw ConfigError(path + ": the top level must be a map of keys");
+  return Section(doc, path, "");
+}
 
 std::string directoryOf(const std::string& path)
 {
@@ -39,11 +153,12 @@ Eigen::Isometry3d toIsometry(const urdf::Pose& p)
 class UrdfChecker
 {
 public:
-  UrdfChecker(std::string path, const std::string& yaml_file) : path_(std::move(path))
+  /// `text` is the file's content (read by readVehicleFile), `path` names it in errors.
+  UrdfChecker(std::string path, const std::string& text, const std::string& yaml_file) : path_(std::move(path))
   {
-    model_ = urdf::parseURDFFile(path_);
+    model_ = urdf::parseURDF(text);
     if (!model_)
-      throw ConfigError(yaml_file + ": key 'urdf': '" + path_ + "' is missing or is not a valid URDF");
+      throw ConfigError(yaml_file + ": key 'urdf': '" + path_ + "' is not a valid URDF");
     if (!model_->getRoot() || model_->getRoot()->name != "base_link")
       fail("root link must be 'base_link'");
   }
@@ -439,7 +554,7 @@ double VehicleModel::trackWidth() const
 
 VehicleModel loadVehicleModel(const std::string& yaml_path)
 {
-  const Section root = avsp::terrain::loadYamlFile<ConfigError>(yaml_path);
+  const Section root = loadVehicleYaml(yaml_path);
 
   try
   {
@@ -471,7 +586,16 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
 
     const std::string urdf_rel = root.string("urdf");
     m.urdf_path = (!urdf_rel.empty() && urdf_rel[0] == '/') ? urdf_rel : directoryOf(yaml_path) + "/" + urdf_rel;
-    const UrdfChecker urdf(m.urdf_path, yaml_path);
+    std::string urdf_text;
+    try
+    {
+      urdf_text = readVehicleFile(m.urdf_path);
+    }
+    catch (const FileRefused& e)
+    {
+      root.fail("urdf", "'" + m.urdf_path + "' " + e.what());
+    }
+    const UrdfChecker urdf(m.urdf_path, urdf_text, yaml_path);
     m.bodies = urdf.bodies();
     for (const Body& b : m.bodies)
       m.total_mass += b.mass;

@@ -8,6 +8,9 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "avsp_dynamics/vehicle_model.hpp"
@@ -85,6 +88,69 @@ std::string loadError(const std::string& path)
   }
   ADD_FAILURE() << path << " loaded but should have failed";
   return "";
+}
+
+off_t fileSize(const std::string& path)
+{
+  struct stat st;
+  return stat(path.c_str(), &st) == 0 ? st.st_size : -1;
+}
+
+/**
+ * loadError in a child process limited to 10 s and 1 GiB, for files the loader must refuse
+ * without reading them: a loader that read /dev/zero or opened a FIFO would fill the memory or
+ * wait forever; here it fails the test instead of hanging it.
+ */
+std::string loadErrorBounded(const std::string& path)
+{
+  int out[2];
+  if (pipe(out) != 0)
+  {
+    ADD_FAILURE() << "pipe failed";
+    return "";
+  }
+  const pid_t pid = fork();
+  if (pid == 0)
+  {
+    close(out[0]);
+    const rlimit memory{ 1ull << 30, 1ull << 30 };
+    setrlimit(RLIMIT_AS, &memory);
+    alarm(10);
+    std::string text;
+    int code = 0;
+    try
+    {
+      loadVehicleModel(path);
+      text = "loaded but should have failed";
+      code = 2;
+    }
+    catch (const ConfigError& e)
+    {
+      text = e.what();
+    }
+    catch (const std::exception& e)
+    {
+      text = std::string("not a ConfigError: ") + e.what();
+      code = 3;
+    }
+    if (write(out[1], text.data(), text.size()) < 0)
+      code = 4;
+    _exit(code);
+  }
+  close(out[1]);
+  std::string text;
+  char buffer[4096];
+  ssize_t n;
+  while ((n = read(out[0], buffer, sizeof(buffer))) > 0)
+    text.append(buffer, static_cast<std::size_t>(n));
+  close(out[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (WIFSIGNALED(status))
+    ADD_FAILURE() << path << ": the loader did not return within 10 s and 1 GiB (signal " << WTERMSIG(status) << ")";
+  else if (WEXITSTATUS(status) != 0)
+    ADD_FAILURE() << path << ": " << text;
+  return text;
 }
 
 #define EXPECT_CONTAINS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << (text)
@@ -426,6 +492,73 @@ TEST(VehicleModelErrors, MissingFilesAndBrokenYaml)
   const std::string err = loadError(d.write());
   EXPECT_CONTAINS(err, "not valid YAML");
   EXPECT_CONTAINS(err, "line");
+}
+
+// --- vehicle files: regular files of at most 16 MiB, refused before reading otherwise ---
+
+TEST(VehicleFiles, UrdfThatIsNotARegularFileIsRefusedUnread)
+{
+  ScratchConfig c("fed_alpha");
+  const std::string fifo = c.urdfPath() + ".fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const std::string folder = c.urdfPath() + ".d";
+  ASSERT_EQ(mkdir(folder.c_str(), 0700), 0);
+  const std::pair<std::string, std::string> cases[] = {
+    { "/dev/zero", "is a character device, not a regular file" },
+    { fifo, "is a FIFO (named pipe), not a regular file" },
+    { folder, "is a directory, not a regular file" },
+  };
+  for (const auto& [path, why] : cases)
+  {
+    ScratchConfig v("fed_alpha");
+    v.editYaml("urdf: fed_alpha.urdf", "urdf: " + path);
+    const std::string yaml = v.write();
+    const std::string err = loadErrorBounded(yaml);
+    EXPECT_CONTAINS(err, yaml);
+    EXPECT_CONTAINS(err, "key 'urdf'");
+    EXPECT_CONTAINS(err, "'" + path + "' " + why);
+  }
+  std::remove(fifo.c_str());
+  rmdir(folder.c_str());
+}
+
+TEST(VehicleFiles, YamlThatIsNotARegularFileIsRefusedUnread)
+{
+  EXPECT_CONTAINS(loadErrorBounded("/dev/zero"), "/dev/zero: is a character device, not a regular file");
+  char tmpl[] = "/tmp/avsp_vehicle_test_XXXXXX";
+  const std::string dir = mkdtemp(tmpl);
+  const std::string fifo = dir + "/fed_alpha.yaml";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_CONTAINS(loadErrorBounded(fifo), fifo + ": is a FIFO (named pipe), not a regular file");
+  std::remove(fifo.c_str());
+  const std::string folder = dir + "/fed_alpha.yaml";
+  ASSERT_EQ(mkdir(folder.c_str(), 0700), 0);
+  EXPECT_CONTAINS(loadErrorBounded(folder), folder + ": is a directory, not a regular file");
+  rmdir(folder.c_str());
+  rmdir(dir.c_str());
+}
+
+TEST(VehicleFiles, FilesOver16MiBAreRefused)
+{
+  // 17 MiB of comment in an otherwise valid file.
+  const std::string padding(17u << 20, 'x');
+  ScratchConfig urdf("fed_alpha");
+  urdf.editUrdf("</robot>", "</robot>\n<!-- " + padding + " -->");
+  std::string err = loadErrorBounded(urdf.write());
+  EXPECT_CONTAINS(err, urdf.urdfPath() + "' is " + std::to_string(fileSize(urdf.urdfPath())) + " bytes");
+  EXPECT_CONTAINS(err, "bytes, more than the 16777216 (16 MiB)");
+
+  ScratchConfig yaml("fed_alpha");
+  yaml.setYaml(yaml.yaml() + "\n# " + padding + "\n");
+  const std::string path = yaml.write();
+  err = loadErrorBounded(path);
+  EXPECT_CONTAINS(err, path + ": is " + std::to_string(fileSize(path)) + " bytes");
+  EXPECT_CONTAINS(err, "(16 MiB)");
+
+  // The limit is not near real files: 15 MiB of comment still loads.
+  ScratchConfig big("fed_alpha");
+  big.editUrdf("</robot>", "</robot>\n<!-- " + std::string(15u << 20, 'x') + " -->");
+  EXPECT_EQ(loadVehicleModel(big.write()).model, "fed_alpha");
 }
 
 // --- fuzz: random edits of a valid file either load or throw ConfigError, never crash ---
