@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <set>
 #include <sstream>
 
@@ -561,6 +562,12 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     VehicleModel m;
     m.yaml_path = yaml_path;
     m.model = root.string("model");
+    // Scenarios name a vehicle by its file (config/vehicles/<model>.yaml) and the nodes by its
+    // `model`: a file that says it is another vehicle would run under two names.
+    const std::string stem = std::filesystem::path(yaml_path).stem().string();
+    if (m.model != stem)
+      root.fail("model", "'" + m.model + "' contradicts the file's name '" + stem +
+                             "' (config/vehicles/<model>.yaml: the key must be the file's name without .yaml)");
     const std::string drive = root.string("drive_type");
     if (drive == "ackermann")
     {

@@ -494,6 +494,16 @@ TEST(VehicleModelErrors, MissingFilesAndBrokenYaml)
   EXPECT_CONTAINS(err, "line");
 }
 
+TEST(VehicleModelErrors, ModelKeyMustBeTheFileName)
+{
+  ScratchConfig c("mrzr");
+  c.editYaml("model: mrzr", "model: m113");
+  const std::string path = c.write();
+  const std::string err = loadError(path);
+  EXPECT_CONTAINS(err, path + ": key 'model'");
+  EXPECT_CONTAINS(err, "'m113' contradicts the file's name 'mrzr'");
+}
+
 // --- vehicle files: regular files of at most 16 MiB, refused before reading otherwise ---
 
 TEST(VehicleFiles, UrdfThatIsNotARegularFileIsRefusedUnread)
