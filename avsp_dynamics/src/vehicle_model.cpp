@@ -28,6 +28,80 @@ namespace
 /// YAML map reader whose errors are ConfigErrors naming the file and key.
 using Section = avsp::terrain::YamlSection<ConfigError>;
 
+// --- Plausible physical ranges (issue 21, finding 5) -----------------------------------------
+// Every physical value the loader reads, from the URDF or the YAML, is refused outside a range
+// that every real ground vehicle lies inside, from a 1 kg toy robot to a ~200 t vehicle. The
+// bounds are orders of magnitude, deliberately generous and not fitted to the reference
+// vehicles: they refuse what is no vehicle at all (a 1e308 kg chassis, on which ODE aborts with
+// !bSafeNormalize4Fault; a 1e-9 m wheel; a value three decades off), never a design. Lengths
+// stop at kMaxDimension: 50 m is three times the largest self-propelled wheeled vehicles (ultra
+// class mining haul trucks, about 15 m long). A test scales each reference vehicle to 1 kg and
+// to 200 t (Froude similarity) and loads it.
+struct Range
+{
+  double lo;
+  double hi;
+  const char* unit;  ///< with its leading space (" kg"); "" for ratios
+  bool contains(double v) const { return v >= lo && v <= hi; }  // false for NaN
+};
+
+constexpr double kMaxDimension = 50.0;  // m
+/// A 1 g part of a 1 kg toy robot up to the hull of a 200 t vehicle.
+constexpr Range kLinkMass{ 1e-3, 2e5, " kg" };
+/// The vehicle (its links together): a toy robot of 0.2 kg up to 300 t (a 200 t hull plus its
+/// running gear and payload).
+constexpr Range kVehicleMass{ 0.2, 3e5, " kg" };
+/// Each principal moment I of a link of mass m as a radius of gyration sqrt(I / m): no body is
+/// thinner than 0.1 mm about an axis through its centre of mass (a point mass has none, and ODE
+/// divides by it) or wider than the largest vehicle; I <= m (50 m)^2 ties the inertia to the mass.
+constexpr Range kGyrationRadius{ 1e-4, kMaxDimension, " m" };
+/// Any link's origin, centre of mass or collision box from base_link at the rest pose.
+constexpr Range kDistanceFromBase{ 0.0, kMaxDimension, " m" };
+/// Chassis collision box edges: a 1 mm sensor housing up to the largest vehicle.
+constexpr Range kBoxEdge{ 1e-3, kMaxDimension, " m" };
+/// Wheel, road wheel, sprocket and idler cylinders: a toy's 5 mm wheel up to 5 m (the largest
+/// tyres, 63-inch rim haul-truck tyres, are about 2 m in radius and 1.5 m wide).
+constexpr Range kGearRadius{ 5e-3, 5.0, " m" };
+constexpr Range kGearWidth{ 2e-3, 5.0, " m" };
+/// Suspension joint limits (lower < 0 < upper): long-travel desert racers have about 1 m of
+/// wheel travel in all; 2 m either way is no suspension.
+constexpr Range kSuspensionLimit{ -2.0, 2.0, " m" };
+/// Steering joint limits: at most half a turn either way.
+constexpr Range kSteeringLimit{ -M_PI, M_PI, " rad" };
+/// Road arm (torsion bar) joint limits: an arm swung more than a quarter turn from its rest
+/// angle would be inside the hull or the ground.
+constexpr Range kArmLimit{ -M_PI / 2.0, M_PI / 2.0, " rad" };
+/// Road arm length, pivot to wheel centre.
+constexpr Range kArmLength{ 1e-3, 5.0, " m" };
+/// A vehicle with individually modelled track shoes has a few hundred links.
+constexpr std::size_t kMaxLinks = 2000;
+
+std::string format(double v)
+{
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+/// "[lo, hi]<unit>"
+std::string rangeText(const Range& r)
+{
+  return "[" + format(r.lo) + ", " + format(r.hi) + "]" + r.unit;
+}
+
+/// "<what> <v><unit> is outside the plausible range [lo, hi]<unit>"
+std::string outside(const std::string& what, double v, const Range& r)
+{
+  return what + " " + format(v) + r.unit + " is outside the plausible range " + rangeText(r);
+}
+
+/// "<what> is <d> m from base_link, outside the plausible range [0, 50] m"
+std::string tooFar(const std::string& what, double distance)
+{
+  return what + " is " + format(distance) + " m from base_link, outside the plausible range " +
+         rangeText(kDistanceFromBase);
+}
+
 /// Neither the YAML nor the URDF of a vehicle is anywhere near this (the reference URDFs are
 /// 8-21 kB): a bigger file is not a vehicle description, and reading it would only cost memory.
 constexpr std::size_t kMaxVehicleFileBytes = 16u << 20;  // 16 MiB
@@ -162,6 +236,31 @@ public:
       throw ConfigError(yaml_file + ": key 'urdf': '" + path_ + "' is not a valid URDF");
     if (!model_->getRoot() || model_->getRoot()->name != "base_link")
       fail("root link must be 'base_link'");
+    if (model_->links_.size() > kMaxLinks)
+      fail("has " + std::to_string(model_->links_.size()) + " links, more than the " + std::to_string(kMaxLinks) +
+           " a vehicle plausibly has");
+    // Every link at the rest pose within the largest vehicle's size of base_link (joint origins
+    // of 1e308 m would put wheels where no contact or collision could be computed).
+    for (const auto& kv : model_->links_)
+    {
+      const urdf::LinkSharedPtr& link = kv.second;
+      if (!link->parent_joint)
+        continue;
+      const Eigen::Isometry3d pose = restPose(link->name);
+      const double distance = pose.translation().norm();
+      if (!pose.matrix().allFinite() || !kDistanceFromBase.contains(distance))
+        fail("joint '" + link->parent_joint->name + "': " + tooFar("link '" + link->name + "' at rest", distance));
+    }
+  }
+
+  /// Refuses a joint whose limits lie outside `range` (`what` says which joint it is).
+  void checkLimits(const urdf::Joint& j, const Range& range, const std::string& what) const
+  {
+    if (!j.limits)
+      return;
+    if (!range.contains(j.limits->lower) || !range.contains(j.limits->upper))
+      fail("joint '" + j.name + "': limits [" + format(j.limits->lower) + ", " + format(j.limits->upper) + "]" +
+           range.unit + " are outside the plausible range " + rangeText(range) + " (" + what + ")");
   }
 
   [[noreturn]] void fail(const std::string& reason) const { throw ConfigError(path_ + ": " + reason); }
@@ -190,6 +289,8 @@ public:
       const urdf::Inertial& in = *link->inertial;
       if (!std::isfinite(in.mass) || !(in.mass > 0.0))
         fail("link '" + link->name + "': mass must be > 0, got " + std::to_string(in.mass));
+      if (!kLinkMass.contains(in.mass))
+        fail("link '" + link->name + "': " + outside("mass", in.mass, kLinkMass));
       Eigen::Matrix3d inertia;
       inertia << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       if (!inertia.allFinite())
@@ -201,11 +302,23 @@ public:
       const double tol = 1e-9 * ev.maxCoeff();
       if (ev(0) + ev(1) < ev(2) - tol || ev(0) + ev(2) < ev(1) - tol || ev(1) + ev(2) < ev(0) - tol)
         fail("link '" + link->name + "': principal inertias violate the triangle inequality");
+      for (int k = 0; k < 3; ++k)
+      {
+        const Range moment{ in.mass * kGyrationRadius.lo * kGyrationRadius.lo,
+                            in.mass * kGyrationRadius.hi * kGyrationRadius.hi, " kg m^2" };
+        if (!moment.contains(ev(k)))
+          fail("link '" + link->name + "': " + outside("principal moment of inertia", ev(k), moment) +
+               " for its mass " + format(in.mass) + " kg (a radius of gyration of " + format(kGyrationRadius.lo) +
+               " to " + format(kGyrationRadius.hi) + " m)");
+      }
       // The dynamics lumps and places bodies in base_link: express the tensor there, about
       // the centre of mass (URDF gives it in the <inertial> origin's frame).
       const Eigen::Isometry3d link_pose = restPose(link->name);
       const Eigen::Isometry3d inertial_pose = link_pose * toIsometry(in.origin);
       const Eigen::Matrix3d r = inertial_pose.linear();
+      const double com_distance = inertial_pose.translation().norm();
+      if (!inertial_pose.matrix().allFinite() || !kDistanceFromBase.contains(com_distance))
+        fail("link '" + link->name + "': " + tooFar("its centre of mass", com_distance));
       out.push_back(Body{ link->name, in.mass, ev, link_pose.translation(), inertial_pose.translation(),
                           r * inertia * r.transpose() });
     }
@@ -245,6 +358,10 @@ public:
     width = cyl->length;
     if (!(radius > 0.0) || !(width > 0.0))
       s.fail(key, "link '" + link->name + "' cylinder radius and length must be > 0 in " + path_);
+    if (!kGearRadius.contains(radius))
+      fail("link '" + link->name + "': " + outside("collision cylinder radius", radius, kGearRadius));
+    if (!kGearWidth.contains(width))
+      fail("link '" + link->name + "': " + outside("collision cylinder length (width)", width, kGearWidth));
     if (!link->inertial)
       s.fail(key, "link '" + link->name + "' needs an <inertial> (a wheel has mass) in " + path_);
   }
@@ -289,6 +406,11 @@ public:
         box.pose = restPose(link->name) * toIsometry(c->origin);
         if (!box.size.allFinite() || !(box.size.minCoeff() > 0.0) || !box.pose.matrix().allFinite())
           fail("link '" + link->name + "': <collision> box size must be finite and > 0 and its origin finite");
+        for (int k = 0; k < 3; ++k)
+          if (!kBoxEdge.contains(box.size(k)))
+            fail("link '" + link->name + "': " + outside("<collision> box edge", box.size(k), kBoxEdge));
+        if (!kDistanceFromBase.contains(box.pose.translation().norm()))
+          fail("link '" + link->name + "': " + tooFar("its <collision> box's centre", box.pose.translation().norm()));
         out.push_back(box);
       }
     }
@@ -345,6 +467,7 @@ void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     spec.suspension_joint = susp->name;
     if (!susp->limits || !(susp->limits->lower < 0.0 && susp->limits->upper > 0.0))
       w.fail("suspension_joint", "joint '" + susp->name + "' needs limits with lower < 0 < upper (travel, m)");
+    urdf.checkLimits(*susp, kSuspensionLimit, "suspension travel");
     spec.suspension_lower = susp->limits->lower;
     spec.suspension_upper = susp->limits->upper;
     if (w.node()["steering_joint"])
@@ -352,6 +475,7 @@ void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       const auto steer =
           urdf.joint(w, "steering_joint", urdf::Joint::REVOLUTE, "revolute", Eigen::Vector3d::UnitZ());
       spec.steering_joint = steer->name;
+      urdf.checkLimits(*steer, kSteeringLimit, "steering, at most half a turn either way");
     }
     spec.driven = w.boolean("driven");
     spec.rest_position = urdf.restPose(spec.link).translation();
@@ -411,10 +535,15 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       wheel.arm_axis_sign = (arm_pose.linear() * Eigen::Vector3d(arm->axis.x, arm->axis.y, arm->axis.z)).y() < 0.0 ? -1.0 : 1.0;
       if (!arm->limits || !(arm->limits->lower < 0.0 && arm->limits->upper > 0.0))
         r.fail("arm_joint", "joint '" + arm->name + "' needs limits with lower < 0 < upper (arm travel, rad)");
+      urdf.checkLimits(*arm, kArmLimit, "road arm swing, at most a quarter turn either way");
       wheel.arm_lower = arm->limits->lower;
       wheel.arm_upper = arm->limits->upper;
       if ((wheel.rest_position - wheel.pivot).norm() < 1e-3)
         r.fail("arm_joint", "joint '" + arm->name + "' sits on the wheel's axle: a road arm needs a length");
+      if (!kArmLength.contains((wheel.rest_position - wheel.pivot).norm()))
+        urdf.fail("joint '" + arm->name + "': " +
+                  outside("road arm length (pivot to wheel centre)", (wheel.rest_position - wheel.pivot).norm(),
+                          kArmLength));
       spec.road_wheels.push_back(wheel);
     }
     if (spec.road_wheels.size() < 2)
@@ -606,6 +735,8 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     m.bodies = urdf.bodies();
     for (const Body& b : m.bodies)
       m.total_mass += b.mass;
+    if (!kVehicleMass.contains(m.total_mass))
+      urdf.fail(outside("the links' total mass", m.total_mass, kVehicleMass));
     m.sensor_mounts = urdf.sensorMounts();
 
     if (m.drive_type == DriveType::kTracked)

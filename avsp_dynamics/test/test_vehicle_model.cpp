@@ -3,7 +3,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <random>
+#include <regex>
 #include <sstream>
 #include <string>
 
@@ -63,6 +65,8 @@ public:
   void editUrdf(const std::string& from, const std::string& to) { replaceIn(urdf_, from, to); }
   void setYaml(const std::string& text) { yaml_ = text; }
   const std::string& yaml() const { return yaml_; }
+  void setUrdf(const std::string& text) { urdf_ = text; }
+  const std::string& urdf() const { return urdf_; }
   std::string write() const
   {
     std::ofstream(yaml_path_) << yaml_;
@@ -502,6 +506,252 @@ TEST(VehicleModelErrors, ModelKeyMustBeTheFileName)
   const std::string err = loadError(path);
   EXPECT_CONTAINS(err, path + ": key 'model'");
   EXPECT_CONTAINS(err, "'m113' contradicts the file's name 'mrzr'");
+}
+
+// --- plausible ranges: every physical value, refused outside what a real vehicle can have ---
+
+TEST(VehicleModelPlausible, LinkMassOutsideRangeNamesFileLinkAndRange)
+{
+  ScratchConfig huge("mrzr");
+  huge.editUrdf("<mass value=\"770\"/>", "<mass value=\"1e308\"/>");
+  EXPECT_CONTAINS(loadError(huge.write()),
+                  huge.urdfPath() + ": link 'chassis': mass 1e+308 kg is outside the plausible range [0.001, 200000] kg");
+  ScratchConfig tiny("mrzr");
+  tiny.editUrdf("<mass value=\"770\"/>", "<mass value=\"1e-6\"/>");
+  EXPECT_CONTAINS(loadError(tiny.write()), ": link 'chassis': mass 1e-06 kg is outside the plausible range");
+  // Each link plausible, the vehicle not: 200 t + 150 t + the rest.
+  ScratchConfig heavy("mrzr");
+  heavy.editUrdf("<mass value=\"770\"/>", "<mass value=\"200000\"/>");
+  heavy.editUrdf("<mass value=\"15\"/>", "<mass value=\"150000\"/>");
+  EXPECT_CONTAINS(loadError(heavy.write()),
+                  heavy.urdfPath() + ": the links' total mass 350");
+  EXPECT_CONTAINS(loadError(heavy.write()), "kg is outside the plausible range [0.2, 300000] kg");
+}
+
+TEST(VehicleModelPlausible, InertiaMustMatchTheMass)
+{
+  // The chassis (5240 kg) with a million times its inertia: 2742 t m^2 > 5240 kg x (50 m)^2.
+  ScratchConfig big("fed_alpha");
+  big.editUrdf(R"(<inertia ixx="2742.27" ixy="0" ixz="0" iyy="11113.2" iyz="0" izz="12597.8"/>)",
+               R"(<inertia ixx="2742.27e6" ixy="0" ixz="0" iyy="11113.2e6" iyz="0" izz="12597.8e6"/>)");
+  std::string err = loadError(big.write());
+  EXPECT_CONTAINS(err, big.urdfPath() + ": link 'chassis': principal moment of inertia");
+  EXPECT_CONTAINS(err, "is outside the plausible range [5.24e-05, 1.31e+07] kg m^2 for its mass 5240 kg");
+  // A 70 kg wheel with the inertia of a point: 1e-9 kg m^2 < 70 kg x (0.1 mm)^2.
+  ScratchConfig point("fed_alpha");
+  point.editUrdf(R"(<inertia ixx="5.99418" ixy="0" ixz="0" iyy="10.4341" iyz="0" izz="5.99418"/>)",
+                 R"(<inertia ixx="1e-9" ixy="0" ixz="0" iyy="1e-9" iyz="0" izz="1e-9"/>)");
+  err = loadError(point.write());
+  EXPECT_CONTAINS(err, "link 'front_left_wheel': principal moment of inertia 1e-09 kg m^2 is outside");
+  EXPECT_CONTAINS(err, "for its mass 70 kg");
+}
+
+TEST(VehicleModelPlausible, WheelRadiusAndWidthOutsideRange)
+{
+  ScratchConfig c("tracer_x");
+  c.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="0.165" length="0.12"/></geometry>)",
+             R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="1e-9" length="0.12"/></geometry>)");
+  EXPECT_CONTAINS(loadError(c.write()), c.urdfPath() +
+                                            ": link 'front_left_wheel': collision cylinder radius 1e-09 m is outside "
+                                            "the plausible range [0.005, 5] m");
+  // A road wheel 100 m wide.
+  ScratchConfig m("m113");
+  m.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="0.305" length="0.3"/></geometry>)",
+             R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="0.305" length="100"/></geometry>)");
+  EXPECT_CONTAINS(loadError(m.write()), "link 'left_road_wheel_1': collision cylinder length (width) 100 m is outside "
+                                        "the plausible range [0.002, 5] m");
+}
+
+TEST(VehicleModelPlausible, LinksFarFromBaseLinkAreRefused)
+{
+  ScratchConfig chassis("fed_alpha");
+  chassis.editUrdf(R"(<origin xyz="0 0 0.55" rpy="0 0 0"/>)", R"(<origin xyz="1e308 0 0.55" rpy="0 0 0"/>)");
+  EXPECT_CONTAINS(loadError(chassis.write()), chassis.urdfPath() + ": joint 'chassis_mount': link 'chassis' at rest is "
+                                                                   "inf m from base_link, outside the plausible range "
+                                                                   "[0, 50] m");
+  ScratchConfig lidar("fed_alpha");
+  lidar.editUrdf(R"(<origin xyz="1 0 1.4" rpy="0 0 0"/>)", R"(<origin xyz="60 0 1.4" rpy="0 0 0"/>)");
+  EXPECT_CONTAINS(loadError(lidar.write()), "joint 'lidar_mount': link 'lidar' at rest is 60.0");
+  ScratchConfig com("fed_alpha");
+  com.editUrdf(R"(<origin xyz="0 0 0" rpy="0 0 0"/>
+      <mass value="5240"/>)",
+               R"(<origin xyz="0 0 80" rpy="0 0 0"/>
+      <mass value="5240"/>)");
+  EXPECT_CONTAINS(loadError(com.write()), "link 'chassis': its centre of mass is 80.55 m from base_link");
+  ScratchConfig box("fed_alpha");
+  box.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>)",
+               R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1000"/></geometry>)");
+  EXPECT_CONTAINS(loadError(box.write()),
+                  "link 'chassis': <collision> box edge 1000 m is outside the plausible range [0.001, 50] m");
+}
+
+TEST(VehicleModelPlausible, MoreLinksThanAVehicleHasAreRefused)
+{
+  // 2001 massless links on fixed joints: no vehicle has that many (each costs a rest-pose walk).
+  std::string extra;
+  for (int k = 0; k < 2001; ++k)
+  {
+    const std::string n = std::to_string(k);
+    extra += "<link name=\"extra_" + n + "\"/><joint name=\"extra_" + n +
+             "_mount\" type=\"fixed\"><parent link=\"base_link\"/><child link=\"extra_" + n + "\"/></joint>\n";
+  }
+  ScratchConfig c("tracer_x");
+  c.editUrdf("</robot>", extra + "</robot>");
+  EXPECT_CONTAINS(loadError(c.write()), c.urdfPath() + ": has 2015 links, more than the 2000 a vehicle plausibly has");
+}
+
+TEST(VehicleModelPlausible, JointLimitsOutsideRange)
+{
+  ScratchConfig susp("fed_alpha");
+  susp.editUrdf(R"(<limit lower="-0.15" upper="0.15")", R"(<limit lower="-1e308" upper="0.15")");
+  EXPECT_CONTAINS(loadError(susp.write()),
+                  susp.urdfPath() + ": joint 'front_left_suspension': limits [-1e+308, 0.15] m are outside the "
+                                    "plausible range [-2, 2] m (suspension travel)");
+  ScratchConfig steer("fed_alpha");
+  steer.editUrdf(R"(<limit lower="-0.6" upper="0.6")", R"(<limit lower="-0.6" upper="100")");
+  EXPECT_CONTAINS(loadError(steer.write()), "joint 'front_left_steering': limits [-0.6, 100] rad are outside the "
+                                            "plausible range [-3.14159, 3.14159] rad");
+  ScratchConfig arm("m113");
+  arm.editUrdf(R"(<limit lower="-0.45" upper="0.45")", R"(<limit lower="-0.45" upper="3")");
+  EXPECT_CONTAINS(loadError(arm.write()), "joint 'left_road_arm_1_swing': limits [-0.45, 3] rad are outside the "
+                                          "plausible range [-1.5708, 1.5708] rad");
+}
+
+/**
+ * The vehicle's URDF and YAML scaled by `s` with Froude similarity: lengths s, masses s^3,
+ * inertias s^5, times and speeds s^0.5 (so forces s^3, torques s^4, power s^3.5). The result is
+ * the same machine as a toy or a giant, as consistent as the original (ride frequencies, Froude
+ * number, T10, preloads and steering angles all carry over).
+ */
+void scaleVehicle(ScratchConfig& c, double s)
+{
+  auto number = [](double v) {
+    std::ostringstream out;
+    out.precision(12);
+    out << v;
+    return out.str();
+  };
+  // Scales every number of the named attributes on one line.
+  auto scaleAttributes = [&](const std::string& line, const std::map<std::string, double>& factors) {
+    static const std::regex attribute(R"re(([a-z]+)="([^"]*)")re");
+    std::string out;
+    auto last = line.cbegin();
+    for (std::sregex_iterator it(line.begin(), line.end(), attribute), end; it != end; ++it)
+    {
+      const auto& match = *it;
+      out.append(last, match[0].first);
+      const auto factor = factors.find(match[1].str());
+      if (factor == factors.end())
+      {
+        out += match[0].str();
+      }
+      else
+      {
+        std::istringstream in(match[2].str());
+        std::string scaled;
+        double v;
+        while (in >> v)
+          scaled += (scaled.empty() ? "" : " ") + number(v * factor->second);
+        out += match[1].str() + "=\"" + scaled + "\"";
+      }
+      last = match[0].second;
+    }
+    out.append(last, line.cend());
+    return out;
+  };
+  std::istringstream urdf(c.urdf());
+  std::string line, scaled, joint_type;
+  static const std::regex joint(R"re(<joint name="[^"]*" type="([a-z]+)")re");
+  while (std::getline(urdf, line))
+  {
+    std::smatch m;
+    if (std::regex_search(line, m, joint))
+      joint_type = m[1];
+    if (line.find("<origin") != std::string::npos)
+      line = scaleAttributes(line, { { "xyz", s } });
+    else if (line.find("<box") != std::string::npos)
+      line = scaleAttributes(line, { { "size", s } });
+    else if (line.find("<cylinder") != std::string::npos)
+      line = scaleAttributes(line, { { "radius", s }, { "length", s } });
+    else if (line.find("<mass") != std::string::npos)
+      line = scaleAttributes(line, { { "value", s * s * s } });
+    else if (line.find("<inertia") != std::string::npos)
+    {
+      const double i = std::pow(s, 5);
+      line = scaleAttributes(line, { { "ixx", i }, { "ixy", i }, { "ixz", i }, { "iyy", i }, { "iyz", i }, { "izz", i } });
+    }
+    else if (line.find("<limit") != std::string::npos && joint_type == "prismatic")
+      line = scaleAttributes(line, { { "lower", s }, { "upper", s } });
+    scaled += line + "\n";
+  }
+  c.setUrdf(scaled);
+
+  // The power of s of each YAML number's unit.
+  static const std::map<std::string, double> exponent{
+    { "stiffness", 2.0 },          { "damping", 2.5 },           { "preload_deflection", 1.0 },
+    { "torsion_stiffness", 4.0 },  { "torsion_damping", 4.5 },   { "preload_angle", 0.0 },
+    { "max_angle", 0.0 },          { "max_rate", -0.5 },         { "pitch", 1.0 },
+    { "sprocket_teeth", 0.0 },     { "shoe_width", 1.0 },        { "coefficient", 0.0 },
+    { "per_speed", -0.5 },         { "engine_max_torque", 4.0 }, { "engine_max_power", 3.5 },
+    { "gear_ratio", 0.0 },         { "efficiency", 0.0 },        { "max_speed", 0.5 },
+    { "reverse_max_speed", 0.5 },  { "max_torque", 4.0 },        { "vertical_stiffness", 2.0 },
+    { "longitudinal_stiffness", 0.0 }, { "cornering_stiffness", 0.0 }, { "relaxation_length", 1.0 },
+  };
+  static const std::regex key_number(R"re(^(\s*)([a-z_]+): ([-+0-9.eE]+)(\s.*)?$)re");
+  std::istringstream yaml(c.yaml());
+  scaled.clear();
+  while (std::getline(yaml, line))
+  {
+    std::smatch m;
+    if (std::regex_match(line, m, key_number))
+    {
+      const auto e = exponent.find(m[2]);
+      if (e == exponent.end())
+        ADD_FAILURE() << "scaleVehicle: no unit for key '" << m[2] << "'";
+      else if (e->second != 0.0)
+        line = m[1].str() + m[2].str() + ": " + number(std::stod(m[3]) * std::pow(s, e->second)) + m[4].str();
+    }
+    scaled += line + "\n";
+  }
+  c.setYaml(scaled);
+}
+
+// The ranges admit any real ground vehicle from a 1 kg toy robot to a 200 t machine: each
+// reference vehicle, scaled to either mass, still loads.
+TEST(VehicleModelPlausible, ReferenceVehiclesScaledTo1KgAnd200TLoad)
+{
+  for (const char* model : { "fed_alpha", "mrzr", "tracer_x", "m113" })
+  {
+    const double mass = loadVehicleModel(kConfigDir + "/" + model + ".yaml").total_mass;
+    for (const double target : { 1.0, 200000.0 })
+    {
+      ScratchConfig c(model);
+      const double s = std::cbrt(target / mass);
+      scaleVehicle(c, s);
+      try
+      {
+        const VehicleModel m = loadVehicleModel(c.write());
+        EXPECT_NEAR(m.total_mass, target, 1e-6 * target) << model;
+        EXPECT_NEAR(m.wheelbase(), s * loadVehicleModel(kConfigDir + "/" + model + ".yaml").wheelbase(), 1e-6) << model;
+      }
+      catch (const ConfigError& e)
+      {
+        ADD_FAILURE() << model << " scaled to " << target << " kg (lengths x " << s << "): " << e.what();
+      }
+    }
+  }
 }
 
 // --- vehicle files: regular files of at most 16 MiB, refused before reading otherwise ---
