@@ -76,6 +76,50 @@ constexpr Range kArmLength{ 1e-3, 5.0, " m" };
 /// A vehicle with individually modelled track shoes has a few hundred links.
 constexpr std::size_t kMaxLinks = 2000;
 
+// The YAML's keys (SI units). With Froude similarity a torque goes as the mass to the 4/3 (a
+// 1 kg toy's is about 5e-6 of a 10 t vehicle's): the lower bounds sit well below a toy's.
+/// suspension.stiffness, per wheel: a toy's corner (0.25 kg) sags 0.25 m on 10 N/m; 1e9 N/m is
+/// stiffer than the steel it is bolted to (firm_ground.vertical_stiffness has the same top).
+constexpr Range kSuspensionStiffness{ 10.0, 1e9, " N/m" };
+/// suspension.damping: critical damping of 50 t on 1e9 N/m is 1.4e7 N s/m.
+constexpr Range kSuspensionDamping{ 0.0, 1e8, " N s/m" };
+/// suspension.torsion_stiffness, per road arm: 2.5 g of toy on a 1 cm arm up to 20 t per arm.
+constexpr Range kTorsionStiffness{ 0.01, 1e8, " N m/rad" };
+constexpr Range kTorsionDamping{ 0.0, 1e7, " N m s/rad" };
+/// suspension.preload_angle: the bar's static twist; past a quarter turn it is no torsion bar.
+constexpr Range kPreloadAngle{ 0.0, M_PI / 2.0, " rad" };
+/// steering.max_angle, the road wheel at full lock (3 to 80 deg): the geometry takes its tangent.
+constexpr Range kSteeringAngle{ 0.05, 1.4, " rad" };
+/// steering.max_rate: a hobby servo turns 60 deg in 0.1 s (10 rad/s).
+constexpr Range kSteeringRate{ 0.01, 20.0, " rad/s" };
+/// track.pitch: a toy's 2 mm rubber track up to 1 m excavator shoes; track.shoe_width likewise.
+constexpr Range kTrackPitch{ 0.002, 1.0, " m" };
+constexpr Range kSprocketTeeth{ 3.0, 100.0, "" };
+constexpr Range kShoeWidth{ 0.005, 5.0, " m" };
+/// track.internal_resistance: fractions of the weight (Bekker: a few per cent for steel tracks).
+constexpr Range kInternalResistance{ 0.0, 0.3, "" };
+constexpr Range kInternalResistancePerSpeed{ 0.0, 0.05, " per m/s" };
+/// drivetrain.engine_max_torque: a toy's 0.1 mN m motor up to 1000 kN m (large diesels give
+/// about 15 kN m at the crankshaft).
+constexpr Range kEngineTorque{ 1e-4, 1e6, " N m" };
+/// drivetrain.engine_max_power: 0.1 W up to 100 MW (the largest haul trucks have about 3.5 MW).
+constexpr Range kEnginePower{ 0.1, 1e8, " W" };
+/// drivetrain.gear_ratio, engine : wheel: an overdriven hub motor up to a 1000:1 micro gearmotor
+/// times 5.
+constexpr Range kGearRatio{ 0.1, 5000.0, "" };
+/// drivetrain.efficiency: a toy's worm gear (about 0.3) down to 0.05; lossless at most.
+constexpr Range kEfficiency{ 0.05, 1.0, "" };
+/// drivetrain.max_speed: 1 cm/s up to 150 m/s (540 km/h; the fastest production cars do less);
+/// reverse_max_speed from 1 cm/s to max_speed.
+constexpr Range kMaxSpeed{ 0.01, 150.0, " m/s" };
+/// brakes.max_torque, per wheel or sprocket: 1 mN m (a toy's 2 cm wheel stops 1 kg at 0.2 g
+/// with 10 mN m) up to 10 MN m.
+constexpr Range kBrakeTorque{ 1e-3, 1e7, " N m" };
+/// firm_ground.longitudinal_stiffness and cornering_stiffness, per unit load (tyres 5-30).
+constexpr Range kSlipStiffness{ 0.1, 100.0, "" };
+/// firm_ground.relaxation_length: 1 mm up to 10 m (a long track's contact).
+constexpr Range kRelaxationLength{ 0.001, 10.0, " m" };
+
 std::string format(double v)
 {
   std::ostringstream out;
@@ -93,6 +137,15 @@ std::string rangeText(const Range& r)
 std::string outside(const std::string& what, double v, const Range& r)
 {
   return what + " " + format(v) + r.unit + " is outside the plausible range " + rangeText(r);
+}
+
+/// `v`, read from `s`'s `key`, or a refusal naming the file, the key, `v` and the range.
+double plausible(const Section& s, const std::string& key, double v, const Range& r, const std::string& why = "")
+{
+  if (!r.contains(v))
+    s.fail(key, format(v) + r.unit + " is outside the plausible range " + rangeText(r) +
+                    (why.empty() ? std::string() : " (" + why + ")"));
+  return v;
 }
 
 /// "<what> is <d> m from base_link, outside the plausible range [0, 50] m"
@@ -558,17 +611,18 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
 
   const Section track = root.map("track");
   track.allowOnly({ "pitch", "sprocket_teeth", "shoe_width", "internal_resistance" });
-  m.track.pitch = track.positive("pitch");
+  m.track.pitch = plausible(track, "pitch", track.positive("pitch"), kTrackPitch);
   m.track.sprocket_teeth = track.positiveInt("sprocket_teeth");
-  m.track.shoe_width = track.positive("shoe_width");
+  plausible(track, "sprocket_teeth", m.track.sprocket_teeth, kSprocketTeeth);
+  m.track.shoe_width = plausible(track, "shoe_width", track.positive("shoe_width"), kShoeWidth);
   const Section internal = track.map("internal_resistance");
   internal.allowOnly({ "coefficient", "per_speed" });
-  m.track.internal_resistance = internal.nonNegative("coefficient");
-  m.track.internal_resistance_per_speed = internal.nonNegative("per_speed");
-  if (m.track.internal_resistance > 0.3)
-    internal.fail("coefficient", "is a fraction of the weight: must be in [0, 0.3]");
-  if (m.track.internal_resistance_per_speed > 0.05)
-    internal.fail("per_speed", "is a fraction of the weight per m/s: must be in [0, 0.05]");
+  m.track.internal_resistance =
+      plausible(internal, "coefficient", internal.nonNegative("coefficient"), kInternalResistance,
+                "a fraction of the weight");
+  m.track.internal_resistance_per_speed =
+      plausible(internal, "per_speed", internal.nonNegative("per_speed"), kInternalResistancePerSpeed,
+                "a fraction of the weight per m/s");
   // T10 turns sprocket speed into track speed with p N / 2 pi; the URDF sprocket must agree.
   for (const TrackSpec& t : m.tracks)
   {
@@ -594,17 +648,13 @@ void readFirmGround(const Section& root, VehicleModel& m)
   // nobody drives on (a typo's 1e3 for 1e6); above 1e9 N/m the contact is stiffer than steel.
   const double weight_share = m.total_mass * 9.81 / std::max<std::size_t>(1, m.wheels.size() + 2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
   if (g.vertical_stiffness < weight_share / 0.2 || g.vertical_stiffness > 1e9)
-    f.fail("vertical_stiffness", "must be between " + std::to_string(weight_share / 0.2) +
+    f.fail("vertical_stiffness", format(g.vertical_stiffness) + " N/m must be between " + format(weight_share / 0.2) +
                                      " N/m (0.2 m of deflection under its share of the weight) and 1e9 N/m");
-  g.longitudinal_stiffness = f.positive("longitudinal_stiffness");
-  if (g.longitudinal_stiffness > 100.0)
-    f.fail("longitudinal_stiffness", "is C_x / F_z per unit slip: must be in (0, 100]");
-  g.cornering_stiffness = f.positive("cornering_stiffness");
-  if (g.cornering_stiffness > 100.0)
-    f.fail("cornering_stiffness", "is C_alpha / F_z per rad: must be in (0, 100]");
-  g.relaxation_length = f.positive("relaxation_length");
-  if (g.relaxation_length > 10.0)
-    f.fail("relaxation_length", "must be in (0, 10] m");
+  g.longitudinal_stiffness = plausible(f, "longitudinal_stiffness", f.positive("longitudinal_stiffness"),
+                                       kSlipStiffness, "C_x / F_z per unit slip");
+  g.cornering_stiffness =
+      plausible(f, "cornering_stiffness", f.positive("cornering_stiffness"), kSlipStiffness, "C_alpha / F_z per rad");
+  g.relaxation_length = plausible(f, "relaxation_length", f.positive("relaxation_length"), kRelaxationLength);
 }
 
 void readDrivetrain(const Section& root, VehicleModel& m)
@@ -612,16 +662,15 @@ void readDrivetrain(const Section& root, VehicleModel& m)
   const Section d = root.map("drivetrain");
   d.allowOnly({ "engine_max_torque", "engine_max_power", "gear_ratio", "efficiency", "max_speed", "reverse_max_speed",
                 "differentials" });
-  m.drivetrain.engine_max_torque = d.positive("engine_max_torque");
-  m.drivetrain.engine_max_power = d.positive("engine_max_power");
-  m.drivetrain.gear_ratio = d.positive("gear_ratio");
-  m.drivetrain.efficiency = d.positive("efficiency");
-  if (m.drivetrain.efficiency > 1.0)
-    d.fail("efficiency", "must be in (0, 1]");
-  m.drivetrain.max_speed = d.positive("max_speed");
+  m.drivetrain.engine_max_torque = plausible(d, "engine_max_torque", d.positive("engine_max_torque"), kEngineTorque);
+  m.drivetrain.engine_max_power = plausible(d, "engine_max_power", d.positive("engine_max_power"), kEnginePower);
+  m.drivetrain.gear_ratio = plausible(d, "gear_ratio", d.positive("gear_ratio"), kGearRatio);
+  m.drivetrain.efficiency = plausible(d, "efficiency", d.positive("efficiency"), kEfficiency);
+  m.drivetrain.max_speed = plausible(d, "max_speed", d.positive("max_speed"), kMaxSpeed);
   m.drivetrain.reverse_max_speed = d.positive("reverse_max_speed");
   if (m.drivetrain.reverse_max_speed > m.drivetrain.max_speed)
     d.fail("reverse_max_speed", "must not exceed max_speed");
+  plausible(d, "reverse_max_speed", m.drivetrain.reverse_max_speed, kMaxSpeed);
   const Section diffs = d.map("differentials");
   const std::set<std::string> names = m.drive_type == DriveType::kAckermann ?
                                           std::set<std::string>{ "front", "rear", "center" } :
@@ -744,17 +793,20 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
       readTracks(root, urdf, m);
       const Section s = root.map("suspension");
       s.allowOnly({ "torsion_stiffness", "torsion_damping", "preload_angle" });
-      m.torsion.torsion_stiffness = s.positive("torsion_stiffness");
-      m.torsion.torsion_damping = s.nonNegative("torsion_damping");
-      m.torsion.preload_angle = s.nonNegative("preload_angle");
+      m.torsion.torsion_stiffness =
+          plausible(s, "torsion_stiffness", s.positive("torsion_stiffness"), kTorsionStiffness, "per road arm");
+      m.torsion.torsion_damping =
+          plausible(s, "torsion_damping", s.nonNegative("torsion_damping"), kTorsionDamping, "per road arm");
+      m.torsion.preload_angle = plausible(s, "preload_angle", s.nonNegative("preload_angle"), kPreloadAngle);
     }
     else
     {
       readWheels(root, urdf, m);
       const Section s = root.map("suspension");
       s.allowOnly({ "stiffness", "damping", "preload_deflection" });
-      m.suspension.stiffness = s.positive("stiffness");
-      m.suspension.damping = s.nonNegative("damping");
+      m.suspension.stiffness = plausible(s, "stiffness", s.positive("stiffness"), kSuspensionStiffness, "per wheel");
+      m.suspension.damping = plausible(s, "damping", s.nonNegative("damping"), kSuspensionDamping, "per wheel");
+      // At most the travel (below): the URDF's suspension limits bound it.
       m.suspension.preload_deflection = s.nonNegative("preload_deflection");
       for (const WheelSpec& w : m.wheels)
       {
@@ -775,8 +827,9 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
           root.fail("wheels", "an ackermann vehicle needs at least one steering_joint");
         const Section st = root.map("steering");
         st.allowOnly({ "max_angle", "max_rate" });
-        m.steering.max_angle = st.positive("max_angle");
-        m.steering.max_rate = st.positive("max_rate");
+        m.steering.max_angle =
+            plausible(st, "max_angle", st.positive("max_angle"), kSteeringAngle, "the road wheel's angle at full lock");
+        m.steering.max_rate = plausible(st, "max_rate", st.positive("max_rate"), kSteeringRate);
         for (const WheelSpec& w : m.wheels)
         {
           if (w.steering_joint.empty())
@@ -809,7 +862,7 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     readFirmGround(root, m);
     const Section b = root.map("brakes");
     b.allowOnly({ "max_torque" });
-    m.brakes.max_torque = b.positive("max_torque");
+    m.brakes.max_torque = plausible(b, "max_torque", b.positive("max_torque"), kBrakeTorque, "per wheel or sprocket");
     return m;
   }
   catch (const YAML::Exception& e)

@@ -629,6 +629,75 @@ TEST(VehicleModelPlausible, JointLimitsOutsideRange)
                                           "plausible range [-1.5708, 1.5708] rad");
 }
 
+// Every physical YAML key outside its range: the refusal names the file, the key and the range.
+TEST(VehicleModelPlausible, YamlValuesOutsideRangeNameFileKeyAndRange)
+{
+  struct Case
+  {
+    const char* model;
+    const char* from;
+    const char* to;
+    const char* key;
+    const char* text;
+  };
+  const Case cases[] = {
+    { "fed_alpha", "stiffness: 95000.0", "stiffness: 1e12", "suspension.stiffness",
+      "1e+12 N/m is outside the plausible range [10, 1e+09] N/m (per wheel)" },
+    { "fed_alpha", "damping: 8150.0", "damping: 1e10", "suspension.damping",
+      "1e+10 N s/m is outside the plausible range [0, 1e+08] N s/m" },
+    { "fed_alpha", "max_angle: 0.55", "max_angle: 0.01", "steering.max_angle",
+      "0.01 rad is outside the plausible range [0.05, 1.4] rad" },
+    { "fed_alpha", "max_rate: 0.8", "max_rate: 1000", "steering.max_rate",
+      "1000 rad/s is outside the plausible range [0.01, 20] rad/s" },
+    { "fed_alpha", "engine_max_torque: 700.0", "engine_max_torque: 1e9", "drivetrain.engine_max_torque",
+      "1e+09 N m is outside the plausible range [0.0001, 1e+06] N m" },
+    { "fed_alpha", "engine_max_power: 150000.0", "engine_max_power: 1e12", "drivetrain.engine_max_power",
+      "1e+12 W is outside the plausible range [0.1, 1e+08] W" },
+    { "fed_alpha", "gear_ratio: 20.0", "gear_ratio: 1e6", "drivetrain.gear_ratio",
+      "1e+06 is outside the plausible range [0.1, 5000]" },
+    { "fed_alpha", "efficiency: 0.85", "efficiency: 1e-9", "drivetrain.efficiency",
+      "1e-09 is outside the plausible range [0.05, 1]" },
+    { "fed_alpha", "max_speed: 30.0", "max_speed: 1e5", "drivetrain.max_speed",
+      "100000 m/s is outside the plausible range [0.01, 150] m/s" },
+    { "fed_alpha", "reverse_max_speed: 5.0", "reverse_max_speed: 0.001", "drivetrain.reverse_max_speed",
+      "0.001 m/s is outside the plausible range [0.01, 150] m/s" },
+    { "fed_alpha", "max_torque: 8000.0", "max_torque: 1e12", "brakes.max_torque",
+      "1e+12 N m is outside the plausible range [0.001, 1e+07] N m" },
+    { "fed_alpha", "longitudinal_stiffness: 8.0", "longitudinal_stiffness: 0.001", "firm_ground.longitudinal_stiffness",
+      "0.001 is outside the plausible range [0.1, 100] (C_x / F_z per unit slip)" },
+    { "fed_alpha", "cornering_stiffness: 9.5", "cornering_stiffness: 1000", "firm_ground.cornering_stiffness",
+      "1000 is outside the plausible range [0.1, 100]" },
+    { "fed_alpha", "relaxation_length: 0.55", "relaxation_length: 1e-6", "firm_ground.relaxation_length",
+      "1e-06 m is outside the plausible range [0.001, 10] m" },
+    { "fed_alpha", "vertical_stiffness: 565000.0", "vertical_stiffness: 1e12", "firm_ground.vertical_stiffness",
+      "1e+12 N/m must be between" },
+    { "m113", "torsion_stiffness: 10800.0", "torsion_stiffness: 1e12", "suspension.torsion_stiffness",
+      "1e+12 N m/rad is outside the plausible range [0.01, 1e+08] N m/rad" },
+    { "m113", "torsion_damping: 650.0", "torsion_damping: 1e9", "suspension.torsion_damping",
+      "1e+09 N m s/rad is outside the plausible range [0, 1e+07] N m s/rad" },
+    { "m113", "preload_angle: 0.276", "preload_angle: 3", "suspension.preload_angle",
+      "3 rad is outside the plausible range [0, 1.5708] rad" },
+    { "m113", "pitch: 0.152", "pitch: 1e-6", "track.pitch", "1e-06 m is outside the plausible range [0.002, 1] m" },
+    { "m113", "sprocket_teeth: 10", "sprocket_teeth: 1000", "track.sprocket_teeth",
+      "1000 is outside the plausible range [3, 100]" },
+    { "m113", "shoe_width: 0.38", "shoe_width: 1e-6", "track.shoe_width",
+      "1e-06 m is outside the plausible range [0.005, 5] m" },
+    { "m113", "coefficient: 0.022", "coefficient: 0.5", "track.internal_resistance.coefficient",
+      "0.5 is outside the plausible range [0, 0.3] (a fraction of the weight)" },
+    { "m113", "per_speed: 0.0011", "per_speed: 0.1", "track.internal_resistance.per_speed",
+      "0.1 per m/s is outside the plausible range [0, 0.05] per m/s" },
+  };
+  for (const Case& c : cases)
+  {
+    ScratchConfig v(c.model);
+    v.editYaml(c.from, c.to);
+    const std::string path = v.write();
+    const std::string err = loadError(path);
+    EXPECT_CONTAINS(err, path + ": key '" + c.key + "'");
+    EXPECT_CONTAINS(err, c.text);
+  }
+}
+
 /**
  * The vehicle's URDF and YAML scaled by `s` with Froude similarity: lengths s, masses s^3,
  * inertias s^5, times and speeds s^0.5 (so forces s^3, torques s^4, power s^3.5). The result is
