@@ -1,8 +1,15 @@
 #include "avsp_dynamics/vehicle_model.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <set>
 #include <sstream>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -20,6 +27,241 @@ namespace
 {
 /// YAML map reader whose errors are ConfigErrors naming the file and key.
 using Section = avsp::terrain::YamlSection<ConfigError>;
+
+// --- Plausible physical ranges (issue 21, finding 5) -----------------------------------------
+// Every physical value the loader reads, from the URDF or the YAML, is refused outside a range
+// that every real ground vehicle lies inside, from a 1 kg toy robot to a ~200 t vehicle. The
+// bounds are orders of magnitude, deliberately generous and not fitted to the reference
+// vehicles: they refuse what is no vehicle at all (a 1e308 kg chassis, on which ODE aborts with
+// !bSafeNormalize4Fault; a 1e-9 m wheel; a value three decades off), never a design. Lengths
+// stop at kMaxDimension: 50 m is three times the largest self-propelled wheeled vehicles (ultra
+// class mining haul trucks, about 15 m long). A test scales each reference vehicle to 1 kg and
+// to 200 t (Froude similarity) and loads it.
+struct Range
+{
+  double lo;
+  double hi;
+  const char* unit;  ///< with its leading space (" kg"); "" for ratios
+  bool contains(double v) const { return v >= lo && v <= hi; }  // false for NaN
+};
+
+constexpr double kMaxDimension = 50.0;  // m
+/// A 1 g part of a 1 kg toy robot up to the hull of a 200 t vehicle.
+constexpr Range kLinkMass{ 1e-3, 2e5, " kg" };
+/// The vehicle (its links together): a toy robot of 0.2 kg up to 300 t (a 200 t hull plus its
+/// running gear and payload).
+constexpr Range kVehicleMass{ 0.2, 3e5, " kg" };
+/// Each principal moment I of a link of mass m as a radius of gyration sqrt(I / m): no body is
+/// thinner than 0.1 mm about an axis through its centre of mass (a point mass has none, and ODE
+/// divides by it) or wider than the largest vehicle; I <= m (50 m)^2 ties the inertia to the mass.
+constexpr Range kGyrationRadius{ 1e-4, kMaxDimension, " m" };
+/// Any link's origin, centre of mass or collision box from base_link at the rest pose.
+constexpr Range kDistanceFromBase{ 0.0, kMaxDimension, " m" };
+/// Chassis collision box edges: a 1 mm sensor housing up to the largest vehicle.
+constexpr Range kBoxEdge{ 1e-3, kMaxDimension, " m" };
+/// Wheel, road wheel, sprocket and idler cylinders: a toy's 5 mm wheel up to 5 m (the largest
+/// tyres, 63-inch rim haul-truck tyres, are about 2 m in radius and 1.5 m wide).
+constexpr Range kGearRadius{ 5e-3, 5.0, " m" };
+constexpr Range kGearWidth{ 2e-3, 5.0, " m" };
+/// Suspension joint limits (lower < 0 < upper): long-travel desert racers have about 1 m of
+/// wheel travel in all; 2 m either way is no suspension.
+constexpr Range kSuspensionLimit{ -2.0, 2.0, " m" };
+/// Steering joint limits: at most half a turn either way.
+constexpr Range kSteeringLimit{ -M_PI, M_PI, " rad" };
+/// Road arm (torsion bar) joint limits: an arm swung more than a quarter turn from its rest
+/// angle would be inside the hull or the ground.
+constexpr Range kArmLimit{ -M_PI / 2.0, M_PI / 2.0, " rad" };
+/// Road arm length, pivot to wheel centre.
+constexpr Range kArmLength{ 1e-3, 5.0, " m" };
+/// A vehicle with individually modelled track shoes has a few hundred links.
+constexpr std::size_t kMaxLinks = 2000;
+
+// The YAML's keys (SI units). With Froude similarity a torque goes as the mass to the 4/3 (a
+// 1 kg toy's is about 5e-6 of a 10 t vehicle's): the lower bounds sit well below a toy's.
+/// suspension.stiffness, per wheel: a toy's corner (0.25 kg) sags 0.25 m on 10 N/m; 1e9 N/m is
+/// stiffer than the steel it is bolted to (firm_ground.vertical_stiffness has the same top).
+constexpr Range kSuspensionStiffness{ 10.0, 1e9, " N/m" };
+/// suspension.damping: critical damping of 50 t on 1e9 N/m is 1.4e7 N s/m.
+constexpr Range kSuspensionDamping{ 0.0, 1e8, " N s/m" };
+/// suspension.torsion_stiffness, per road arm: 2.5 g of toy on a 1 cm arm up to 20 t per arm.
+constexpr Range kTorsionStiffness{ 0.01, 1e8, " N m/rad" };
+constexpr Range kTorsionDamping{ 0.0, 1e7, " N m s/rad" };
+/// suspension.preload_angle: the bar's static twist; past a quarter turn it is no torsion bar.
+constexpr Range kPreloadAngle{ 0.0, M_PI / 2.0, " rad" };
+/// steering.max_angle, the road wheel at full lock (3 to 80 deg): the geometry takes its tangent.
+constexpr Range kSteeringAngle{ 0.05, 1.4, " rad" };
+/// steering.max_rate: a hobby servo turns 60 deg in 0.1 s (10 rad/s).
+constexpr Range kSteeringRate{ 0.01, 20.0, " rad/s" };
+/// track.pitch: a toy's 2 mm rubber track up to 1 m excavator shoes; track.shoe_width likewise.
+constexpr Range kTrackPitch{ 0.002, 1.0, " m" };
+constexpr Range kSprocketTeeth{ 3.0, 100.0, "" };
+constexpr Range kShoeWidth{ 0.005, 5.0, " m" };
+/// track.internal_resistance: fractions of the weight (Bekker: a few per cent for steel tracks).
+constexpr Range kInternalResistance{ 0.0, 0.3, "" };
+constexpr Range kInternalResistancePerSpeed{ 0.0, 0.05, " per m/s" };
+/// drivetrain.engine_max_torque: a toy's 0.1 mN m motor up to 1000 kN m (large diesels give
+/// about 15 kN m at the crankshaft).
+constexpr Range kEngineTorque{ 1e-4, 1e6, " N m" };
+/// drivetrain.engine_max_power: 0.1 W up to 100 MW (the largest haul trucks have about 3.5 MW).
+constexpr Range kEnginePower{ 0.1, 1e8, " W" };
+/// drivetrain.gear_ratio, engine : wheel: an overdriven hub motor up to a 1000:1 micro gearmotor
+/// times 5.
+constexpr Range kGearRatio{ 0.1, 5000.0, "" };
+/// drivetrain.efficiency: a toy's worm gear (about 0.3) down to 0.05; lossless at most.
+constexpr Range kEfficiency{ 0.05, 1.0, "" };
+/// drivetrain.max_speed: 1 cm/s up to 150 m/s (540 km/h; the fastest production cars do less);
+/// reverse_max_speed from 1 cm/s to max_speed.
+constexpr Range kMaxSpeed{ 0.01, 150.0, " m/s" };
+/// brakes.max_torque, per wheel or sprocket: 1 mN m (a toy's 2 cm wheel stops 1 kg at 0.2 g
+/// with 10 mN m) up to 10 MN m.
+constexpr Range kBrakeTorque{ 1e-3, 1e7, " N m" };
+/// firm_ground.longitudinal_stiffness and cornering_stiffness, per unit load (tyres 5-30).
+constexpr Range kSlipStiffness{ 0.1, 100.0, "" };
+/// firm_ground.relaxation_length: 1 mm up to 10 m (a long track's contact).
+constexpr Range kRelaxationLength{ 0.001, 10.0, " m" };
+
+std::string format(double v)
+{
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+/// "[lo, hi]<unit>"
+std::string rangeText(const Range& r)
+{
+  return "[" + format(r.lo) + ", " + format(r.hi) + "]" + r.unit;
+}
+
+/// "<what> <v><unit> is outside the plausible range [lo, hi]<unit>"
+std::string outside(const std::string& what, double v, const Range& r)
+{
+  return what + " " + format(v) + r.unit + " is outside the plausible range " + rangeText(r);
+}
+
+/// `v`, read from `s`'s `key`, or a refusal naming the file, the key, `v` and the range.
+double plausible(const Section& s, const std::string& key, double v, const Range& r, const std::string& why = "")
+{
+  if (!r.contains(v))
+    s.fail(key, format(v) + r.unit + " is outside the plausible range " + rangeText(r) +
+                    (why.empty() ? std::string() : " (" + why + ")"));
+  return v;
+}
+
+/// "<what> is <d> m from base_link, outside the plausible range [0, 50] m"
+std::string tooFar(const std::string& what, double distance)
+{
+  return what + " is " + format(distance) + " m from base_link, outside the plausible range " +
+         rangeText(kDistanceFromBase);
+}
+
+/// Neither the YAML nor the URDF of a vehicle is anywhere near this (the reference URDFs are
+/// 8-21 kB): a bigger file is not a vehicle description, and reading it would only cost memory.
+constexpr std::size_t kMaxVehicleFileBytes = 16u << 20;  // 16 MiB
+
+/// Why a vehicle file is not read; the caller adds which file and what names it.
+class FileRefused : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+std::string fileKind(mode_t mode)
+{
+  if (S_ISDIR(mode))
+    return "a directory";
+  if (S_ISCHR(mode))
+    return "a character device";
+  if (S_ISBLK(mode))
+    return "a block device";
+  if (S_ISFIFO(mode))
+    return "a FIFO (named pipe)";
+  if (S_ISSOCK(mode))
+    return "a socket";
+  return "not a regular file";
+}
+
+/// Refuses, before reading a byte, anything but a regular file of at most kMaxVehicleFileBytes.
+void checkRegularAndSmall(const struct stat& st)
+{
+  if (!S_ISREG(st.st_mode))
+    throw FileRefused("is " + fileKind(st.st_mode) + ", not a regular file: refused without reading it");
+  if (static_cast<unsigned long long>(st.st_size) > kMaxVehicleFileBytes)
+    throw FileRefused("is " + std::to_string(st.st_size) + " bytes, more than the " +
+                      std::to_string(kMaxVehicleFileBytes) + " (16 MiB) a vehicle file may have: refused without reading it");
+}
+
+/**
+ * @brief The whole text of a vehicle file (YAML or URDF), which must be a regular file of at
+ *        most 16 MiB: /dev/zero, a FIFO, a directory or a huge file are refused before reading
+ *        (they would read forever, block, or fill the memory).
+ * @throw FileRefused with the reason (without the path)
+ */
+std::string readVehicleFile(const std::string& path)
+{
+  // stat first: opening a device or a FIFO can itself block or have effects.
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0)
+    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
+  checkRegularAndSmall(st);
+  // O_NONBLOCK: if the path became a FIFO since the stat, open returns instead of waiting for
+  // a writer; fstat of what was opened then refuses it.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0)
+    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
+  struct Closer
+  {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{ fd };
+  if (::fstat(fd, &st) != 0)
+    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
+  checkRegularAndSmall(st);
+  // Read at most one byte more than the limit: a file that grows while it is read is refused too.
+  std::string text;
+  char buffer[65536];
+  while (true)
+  {
+    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n < 0)
+      throw FileRefused(std::string("cannot be read (") + std::strerror(errno) + ")");
+    if (n == 0)
+      break;
+    text.append(buffer, static_cast<std::size_t>(n));
+    if (text.size() > kMaxVehicleFileBytes)
+      throw FileRefused("grew beyond " + std::to_string(kMaxVehicleFileBytes) + " bytes (16 MiB) while it was read");
+  }
+  return text;
+}
+
+/// The vehicle's YAML, read by readVehicleFile, as a Section (the checks of avsp_terrain's
+/// loadYamlFile, which reads whatever the path names).
+Section loadVehicleYaml(const std::string& path)
+{
+  std::string text;
+  try
+  {
+    text = readVehicleFile(path);
+  }
+  catch (const FileRefused& e)
+  {
+    throw ConfigError(path + ": " + e.what());
+  }
+  YAML::Node doc;
+  try
+  {
+    doc = YAML::Load(text);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw ConfigError(path + ": line " + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  if (!doc.IsMap())
+    throw ConfigError(path + ": the top level must be a map of keys");
+  return Section(doc, path, "");
+}
 
 std::string directoryOf(const std::string& path)
 {
@@ -39,13 +281,39 @@ Eigen::Isometry3d toIsometry(const urdf::Pose& p)
 class UrdfChecker
 {
 public:
-  UrdfChecker(std::string path, const std::string& yaml_file) : path_(std::move(path))
+  /// `text` is the file's content (read by readVehicleFile), `path` names it in errors.
+  UrdfChecker(std::string path, const std::string& text, const std::string& yaml_file) : path_(std::move(path))
   {
-    model_ = urdf::parseURDFFile(path_);
+    model_ = urdf::parseURDF(text);
     if (!model_)
-      throw ConfigError(yaml_file + ": key 'urdf': '" + path_ + "' is missing or is not a valid URDF");
+      throw ConfigError(yaml_file + ": key 'urdf': '" + path_ + "' is not a valid URDF");
     if (!model_->getRoot() || model_->getRoot()->name != "base_link")
       fail("root link must be 'base_link'");
+    if (model_->links_.size() > kMaxLinks)
+      fail("has " + std::to_string(model_->links_.size()) + " links, more than the " + std::to_string(kMaxLinks) +
+           " a vehicle plausibly has");
+    // Every link at the rest pose within the largest vehicle's size of base_link (joint origins
+    // of 1e308 m would put wheels where no contact or collision could be computed).
+    for (const auto& kv : model_->links_)
+    {
+      const urdf::LinkSharedPtr& link = kv.second;
+      if (!link->parent_joint)
+        continue;
+      const Eigen::Isometry3d pose = restPose(link->name);
+      const double distance = pose.translation().norm();
+      if (!pose.matrix().allFinite() || !kDistanceFromBase.contains(distance))
+        fail("joint '" + link->parent_joint->name + "': " + tooFar("link '" + link->name + "' at rest", distance));
+    }
+  }
+
+  /// Refuses a joint whose limits lie outside `range` (`what` says which joint it is).
+  void checkLimits(const urdf::Joint& j, const Range& range, const std::string& what) const
+  {
+    if (!j.limits)
+      return;
+    if (!range.contains(j.limits->lower) || !range.contains(j.limits->upper))
+      fail("joint '" + j.name + "': limits [" + format(j.limits->lower) + ", " + format(j.limits->upper) + "]" +
+           range.unit + " are outside the plausible range " + rangeText(range) + " (" + what + ")");
   }
 
   [[noreturn]] void fail(const std::string& reason) const { throw ConfigError(path_ + ": " + reason); }
@@ -74,6 +342,8 @@ public:
       const urdf::Inertial& in = *link->inertial;
       if (!std::isfinite(in.mass) || !(in.mass > 0.0))
         fail("link '" + link->name + "': mass must be > 0, got " + std::to_string(in.mass));
+      if (!kLinkMass.contains(in.mass))
+        fail("link '" + link->name + "': " + outside("mass", in.mass, kLinkMass));
       Eigen::Matrix3d inertia;
       inertia << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       if (!inertia.allFinite())
@@ -85,11 +355,23 @@ public:
       const double tol = 1e-9 * ev.maxCoeff();
       if (ev(0) + ev(1) < ev(2) - tol || ev(0) + ev(2) < ev(1) - tol || ev(1) + ev(2) < ev(0) - tol)
         fail("link '" + link->name + "': principal inertias violate the triangle inequality");
+      for (int k = 0; k < 3; ++k)
+      {
+        const Range moment{ in.mass * kGyrationRadius.lo * kGyrationRadius.lo,
+                            in.mass * kGyrationRadius.hi * kGyrationRadius.hi, " kg m^2" };
+        if (!moment.contains(ev(k)))
+          fail("link '" + link->name + "': " + outside("principal moment of inertia", ev(k), moment) +
+               " for its mass " + format(in.mass) + " kg (a radius of gyration of " + format(kGyrationRadius.lo) +
+               " to " + format(kGyrationRadius.hi) + " m)");
+      }
       // The dynamics lumps and places bodies in base_link: express the tensor there, about
       // the centre of mass (URDF gives it in the <inertial> origin's frame).
       const Eigen::Isometry3d link_pose = restPose(link->name);
       const Eigen::Isometry3d inertial_pose = link_pose * toIsometry(in.origin);
       const Eigen::Matrix3d r = inertial_pose.linear();
+      const double com_distance = inertial_pose.translation().norm();
+      if (!inertial_pose.matrix().allFinite() || !kDistanceFromBase.contains(com_distance))
+        fail("link '" + link->name + "': " + tooFar("its centre of mass", com_distance));
       out.push_back(Body{ link->name, in.mass, ev, link_pose.translation(), inertial_pose.translation(),
                           r * inertia * r.transpose() });
     }
@@ -129,6 +411,10 @@ public:
     width = cyl->length;
     if (!(radius > 0.0) || !(width > 0.0))
       s.fail(key, "link '" + link->name + "' cylinder radius and length must be > 0 in " + path_);
+    if (!kGearRadius.contains(radius))
+      fail("link '" + link->name + "': " + outside("collision cylinder radius", radius, kGearRadius));
+    if (!kGearWidth.contains(width))
+      fail("link '" + link->name + "': " + outside("collision cylinder length (width)", width, kGearWidth));
     if (!link->inertial)
       s.fail(key, "link '" + link->name + "' needs an <inertial> (a wheel has mass) in " + path_);
   }
@@ -173,6 +459,11 @@ public:
         box.pose = restPose(link->name) * toIsometry(c->origin);
         if (!box.size.allFinite() || !(box.size.minCoeff() > 0.0) || !box.pose.matrix().allFinite())
           fail("link '" + link->name + "': <collision> box size must be finite and > 0 and its origin finite");
+        for (int k = 0; k < 3; ++k)
+          if (!kBoxEdge.contains(box.size(k)))
+            fail("link '" + link->name + "': " + outside("<collision> box edge", box.size(k), kBoxEdge));
+        if (!kDistanceFromBase.contains(box.pose.translation().norm()))
+          fail("link '" + link->name + "': " + tooFar("its <collision> box's centre", box.pose.translation().norm()));
         out.push_back(box);
       }
     }
@@ -229,6 +520,7 @@ void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     spec.suspension_joint = susp->name;
     if (!susp->limits || !(susp->limits->lower < 0.0 && susp->limits->upper > 0.0))
       w.fail("suspension_joint", "joint '" + susp->name + "' needs limits with lower < 0 < upper (travel, m)");
+    urdf.checkLimits(*susp, kSuspensionLimit, "suspension travel");
     spec.suspension_lower = susp->limits->lower;
     spec.suspension_upper = susp->limits->upper;
     if (w.node()["steering_joint"])
@@ -236,6 +528,7 @@ void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       const auto steer =
           urdf.joint(w, "steering_joint", urdf::Joint::REVOLUTE, "revolute", Eigen::Vector3d::UnitZ());
       spec.steering_joint = steer->name;
+      urdf.checkLimits(*steer, kSteeringLimit, "steering, at most half a turn either way");
     }
     spec.driven = w.boolean("driven");
     spec.rest_position = urdf.restPose(spec.link).translation();
@@ -295,10 +588,15 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       wheel.arm_axis_sign = (arm_pose.linear() * Eigen::Vector3d(arm->axis.x, arm->axis.y, arm->axis.z)).y() < 0.0 ? -1.0 : 1.0;
       if (!arm->limits || !(arm->limits->lower < 0.0 && arm->limits->upper > 0.0))
         r.fail("arm_joint", "joint '" + arm->name + "' needs limits with lower < 0 < upper (arm travel, rad)");
+      urdf.checkLimits(*arm, kArmLimit, "road arm swing, at most a quarter turn either way");
       wheel.arm_lower = arm->limits->lower;
       wheel.arm_upper = arm->limits->upper;
       if ((wheel.rest_position - wheel.pivot).norm() < 1e-3)
         r.fail("arm_joint", "joint '" + arm->name + "' sits on the wheel's axle: a road arm needs a length");
+      if (!kArmLength.contains((wheel.rest_position - wheel.pivot).norm()))
+        urdf.fail("joint '" + arm->name + "': " +
+                  outside("road arm length (pivot to wheel centre)", (wheel.rest_position - wheel.pivot).norm(),
+                          kArmLength));
       spec.road_wheels.push_back(wheel);
     }
     if (spec.road_wheels.size() < 2)
@@ -313,17 +611,18 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
 
   const Section track = root.map("track");
   track.allowOnly({ "pitch", "sprocket_teeth", "shoe_width", "internal_resistance" });
-  m.track.pitch = track.positive("pitch");
+  m.track.pitch = plausible(track, "pitch", track.positive("pitch"), kTrackPitch);
   m.track.sprocket_teeth = track.positiveInt("sprocket_teeth");
-  m.track.shoe_width = track.positive("shoe_width");
+  plausible(track, "sprocket_teeth", m.track.sprocket_teeth, kSprocketTeeth);
+  m.track.shoe_width = plausible(track, "shoe_width", track.positive("shoe_width"), kShoeWidth);
   const Section internal = track.map("internal_resistance");
   internal.allowOnly({ "coefficient", "per_speed" });
-  m.track.internal_resistance = internal.nonNegative("coefficient");
-  m.track.internal_resistance_per_speed = internal.nonNegative("per_speed");
-  if (m.track.internal_resistance > 0.3)
-    internal.fail("coefficient", "is a fraction of the weight: must be in [0, 0.3]");
-  if (m.track.internal_resistance_per_speed > 0.05)
-    internal.fail("per_speed", "is a fraction of the weight per m/s: must be in [0, 0.05]");
+  m.track.internal_resistance =
+      plausible(internal, "coefficient", internal.nonNegative("coefficient"), kInternalResistance,
+                "a fraction of the weight");
+  m.track.internal_resistance_per_speed =
+      plausible(internal, "per_speed", internal.nonNegative("per_speed"), kInternalResistancePerSpeed,
+                "a fraction of the weight per m/s");
   // T10 turns sprocket speed into track speed with p N / 2 pi; the URDF sprocket must agree.
   for (const TrackSpec& t : m.tracks)
   {
@@ -349,17 +648,13 @@ void readFirmGround(const Section& root, VehicleModel& m)
   // nobody drives on (a typo's 1e3 for 1e6); above 1e9 N/m the contact is stiffer than steel.
   const double weight_share = m.total_mass * 9.81 / std::max<std::size_t>(1, m.wheels.size() + 2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
   if (g.vertical_stiffness < weight_share / 0.2 || g.vertical_stiffness > 1e9)
-    f.fail("vertical_stiffness", "must be between " + std::to_string(weight_share / 0.2) +
+    f.fail("vertical_stiffness", format(g.vertical_stiffness) + " N/m must be between " + format(weight_share / 0.2) +
                                      " N/m (0.2 m of deflection under its share of the weight) and 1e9 N/m");
-  g.longitudinal_stiffness = f.positive("longitudinal_stiffness");
-  if (g.longitudinal_stiffness > 100.0)
-    f.fail("longitudinal_stiffness", "is C_x / F_z per unit slip: must be in (0, 100]");
-  g.cornering_stiffness = f.positive("cornering_stiffness");
-  if (g.cornering_stiffness > 100.0)
-    f.fail("cornering_stiffness", "is C_alpha / F_z per rad: must be in (0, 100]");
-  g.relaxation_length = f.positive("relaxation_length");
-  if (g.relaxation_length > 10.0)
-    f.fail("relaxation_length", "must be in (0, 10] m");
+  g.longitudinal_stiffness = plausible(f, "longitudinal_stiffness", f.positive("longitudinal_stiffness"),
+                                       kSlipStiffness, "C_x / F_z per unit slip");
+  g.cornering_stiffness =
+      plausible(f, "cornering_stiffness", f.positive("cornering_stiffness"), kSlipStiffness, "C_alpha / F_z per rad");
+  g.relaxation_length = plausible(f, "relaxation_length", f.positive("relaxation_length"), kRelaxationLength);
 }
 
 void readDrivetrain(const Section& root, VehicleModel& m)
@@ -367,16 +662,15 @@ void readDrivetrain(const Section& root, VehicleModel& m)
   const Section d = root.map("drivetrain");
   d.allowOnly({ "engine_max_torque", "engine_max_power", "gear_ratio", "efficiency", "max_speed", "reverse_max_speed",
                 "differentials" });
-  m.drivetrain.engine_max_torque = d.positive("engine_max_torque");
-  m.drivetrain.engine_max_power = d.positive("engine_max_power");
-  m.drivetrain.gear_ratio = d.positive("gear_ratio");
-  m.drivetrain.efficiency = d.positive("efficiency");
-  if (m.drivetrain.efficiency > 1.0)
-    d.fail("efficiency", "must be in (0, 1]");
-  m.drivetrain.max_speed = d.positive("max_speed");
+  m.drivetrain.engine_max_torque = plausible(d, "engine_max_torque", d.positive("engine_max_torque"), kEngineTorque);
+  m.drivetrain.engine_max_power = plausible(d, "engine_max_power", d.positive("engine_max_power"), kEnginePower);
+  m.drivetrain.gear_ratio = plausible(d, "gear_ratio", d.positive("gear_ratio"), kGearRatio);
+  m.drivetrain.efficiency = plausible(d, "efficiency", d.positive("efficiency"), kEfficiency);
+  m.drivetrain.max_speed = plausible(d, "max_speed", d.positive("max_speed"), kMaxSpeed);
   m.drivetrain.reverse_max_speed = d.positive("reverse_max_speed");
   if (m.drivetrain.reverse_max_speed > m.drivetrain.max_speed)
     d.fail("reverse_max_speed", "must not exceed max_speed");
+  plausible(d, "reverse_max_speed", m.drivetrain.reverse_max_speed, kMaxSpeed);
   const Section diffs = d.map("differentials");
   const std::set<std::string> names = m.drive_type == DriveType::kAckermann ?
                                           std::set<std::string>{ "front", "rear", "center" } :
@@ -439,13 +733,19 @@ double VehicleModel::trackWidth() const
 
 VehicleModel loadVehicleModel(const std::string& yaml_path)
 {
-  const Section root = avsp::terrain::loadYamlFile<ConfigError>(yaml_path);
+  const Section root = loadVehicleYaml(yaml_path);
 
   try
   {
     VehicleModel m;
     m.yaml_path = yaml_path;
     m.model = root.string("model");
+    // Scenarios name a vehicle by its file (config/vehicles/<model>.yaml) and the nodes by its
+    // `model`: a file that says it is another vehicle would run under two names.
+    const std::string stem = std::filesystem::path(yaml_path).stem().string();
+    if (m.model != stem)
+      root.fail("model", "'" + m.model + "' contradicts the file's name '" + stem +
+                             "' (config/vehicles/<model>.yaml: the key must be the file's name without .yaml)");
     const std::string drive = root.string("drive_type");
     if (drive == "ackermann")
     {
@@ -471,10 +771,21 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
 
     const std::string urdf_rel = root.string("urdf");
     m.urdf_path = (!urdf_rel.empty() && urdf_rel[0] == '/') ? urdf_rel : directoryOf(yaml_path) + "/" + urdf_rel;
-    const UrdfChecker urdf(m.urdf_path, yaml_path);
+    std::string urdf_text;
+    try
+    {
+      urdf_text = readVehicleFile(m.urdf_path);
+    }
+    catch (const FileRefused& e)
+    {
+      root.fail("urdf", "'" + m.urdf_path + "' " + e.what());
+    }
+    const UrdfChecker urdf(m.urdf_path, urdf_text, yaml_path);
     m.bodies = urdf.bodies();
     for (const Body& b : m.bodies)
       m.total_mass += b.mass;
+    if (!kVehicleMass.contains(m.total_mass))
+      urdf.fail(outside("the links' total mass", m.total_mass, kVehicleMass));
     m.sensor_mounts = urdf.sensorMounts();
 
     if (m.drive_type == DriveType::kTracked)
@@ -482,17 +793,20 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
       readTracks(root, urdf, m);
       const Section s = root.map("suspension");
       s.allowOnly({ "torsion_stiffness", "torsion_damping", "preload_angle" });
-      m.torsion.torsion_stiffness = s.positive("torsion_stiffness");
-      m.torsion.torsion_damping = s.nonNegative("torsion_damping");
-      m.torsion.preload_angle = s.nonNegative("preload_angle");
+      m.torsion.torsion_stiffness =
+          plausible(s, "torsion_stiffness", s.positive("torsion_stiffness"), kTorsionStiffness, "per road arm");
+      m.torsion.torsion_damping =
+          plausible(s, "torsion_damping", s.nonNegative("torsion_damping"), kTorsionDamping, "per road arm");
+      m.torsion.preload_angle = plausible(s, "preload_angle", s.nonNegative("preload_angle"), kPreloadAngle);
     }
     else
     {
       readWheels(root, urdf, m);
       const Section s = root.map("suspension");
       s.allowOnly({ "stiffness", "damping", "preload_deflection" });
-      m.suspension.stiffness = s.positive("stiffness");
-      m.suspension.damping = s.nonNegative("damping");
+      m.suspension.stiffness = plausible(s, "stiffness", s.positive("stiffness"), kSuspensionStiffness, "per wheel");
+      m.suspension.damping = plausible(s, "damping", s.nonNegative("damping"), kSuspensionDamping, "per wheel");
+      // At most the travel (below): the URDF's suspension limits bound it.
       m.suspension.preload_deflection = s.nonNegative("preload_deflection");
       for (const WheelSpec& w : m.wheels)
       {
@@ -513,8 +827,9 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
           root.fail("wheels", "an ackermann vehicle needs at least one steering_joint");
         const Section st = root.map("steering");
         st.allowOnly({ "max_angle", "max_rate" });
-        m.steering.max_angle = st.positive("max_angle");
-        m.steering.max_rate = st.positive("max_rate");
+        m.steering.max_angle =
+            plausible(st, "max_angle", st.positive("max_angle"), kSteeringAngle, "the road wheel's angle at full lock");
+        m.steering.max_rate = plausible(st, "max_rate", st.positive("max_rate"), kSteeringRate);
         for (const WheelSpec& w : m.wheels)
         {
           if (w.steering_joint.empty())
@@ -547,7 +862,7 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     readFirmGround(root, m);
     const Section b = root.map("brakes");
     b.allowOnly({ "max_torque" });
-    m.brakes.max_torque = b.positive("max_torque");
+    m.brakes.max_torque = plausible(b, "max_torque", b.positive("max_torque"), kBrakeTorque, "per wheel or sprocket");
     return m;
   }
   catch (const YAML::Exception& e)

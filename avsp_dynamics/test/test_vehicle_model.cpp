@@ -3,11 +3,16 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <random>
+#include <regex>
 #include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "avsp_dynamics/vehicle_model.hpp"
@@ -60,6 +65,8 @@ public:
   void editUrdf(const std::string& from, const std::string& to) { replaceIn(urdf_, from, to); }
   void setYaml(const std::string& text) { yaml_ = text; }
   const std::string& yaml() const { return yaml_; }
+  void setUrdf(const std::string& text) { urdf_ = text; }
+  const std::string& urdf() const { return urdf_; }
   std::string write() const
   {
     std::ofstream(yaml_path_) << yaml_;
@@ -85,6 +92,69 @@ std::string loadError(const std::string& path)
   }
   ADD_FAILURE() << path << " loaded but should have failed";
   return "";
+}
+
+off_t fileSize(const std::string& path)
+{
+  struct stat st;
+  return stat(path.c_str(), &st) == 0 ? st.st_size : -1;
+}
+
+/**
+ * loadError in a child process limited to 10 s and 1 GiB, for files the loader must refuse
+ * without reading them: a loader that read /dev/zero or opened a FIFO would fill the memory or
+ * wait forever; here it fails the test instead of hanging it.
+ */
+std::string loadErrorBounded(const std::string& path)
+{
+  int out[2];
+  if (pipe(out) != 0)
+  {
+    ADD_FAILURE() << "pipe failed";
+    return "";
+  }
+  const pid_t pid = fork();
+  if (pid == 0)
+  {
+    close(out[0]);
+    const rlimit memory{ 1ull << 30, 1ull << 30 };
+    setrlimit(RLIMIT_AS, &memory);
+    alarm(10);
+    std::string text;
+    int code = 0;
+    try
+    {
+      loadVehicleModel(path);
+      text = "loaded but should have failed";
+      code = 2;
+    }
+    catch (const ConfigError& e)
+    {
+      text = e.what();
+    }
+    catch (const std::exception& e)
+    {
+      text = std::string("not a ConfigError: ") + e.what();
+      code = 3;
+    }
+    if (write(out[1], text.data(), text.size()) < 0)
+      code = 4;
+    _exit(code);
+  }
+  close(out[1]);
+  std::string text;
+  char buffer[4096];
+  ssize_t n;
+  while ((n = read(out[0], buffer, sizeof(buffer))) > 0)
+    text.append(buffer, static_cast<std::size_t>(n));
+  close(out[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (WIFSIGNALED(status))
+    ADD_FAILURE() << path << ": the loader did not return within 10 s and 1 GiB (signal " << WTERMSIG(status) << ")";
+  else if (WEXITSTATUS(status) != 0)
+    ADD_FAILURE() << path << ": " << text;
+  return text;
 }
 
 #define EXPECT_CONTAINS(text, part) EXPECT_NE(std::string(text).find(part), std::string::npos) << (text)
@@ -426,6 +496,398 @@ TEST(VehicleModelErrors, MissingFilesAndBrokenYaml)
   const std::string err = loadError(d.write());
   EXPECT_CONTAINS(err, "not valid YAML");
   EXPECT_CONTAINS(err, "line");
+}
+
+TEST(VehicleModelErrors, ModelKeyMustBeTheFileName)
+{
+  ScratchConfig c("mrzr");
+  c.editYaml("model: mrzr", "model: m113");
+  const std::string path = c.write();
+  const std::string err = loadError(path);
+  EXPECT_CONTAINS(err, path + ": key 'model'");
+  EXPECT_CONTAINS(err, "'m113' contradicts the file's name 'mrzr'");
+}
+
+// --- plausible ranges: every physical value, refused outside what a real vehicle can have ---
+
+TEST(VehicleModelPlausible, LinkMassOutsideRangeNamesFileLinkAndRange)
+{
+  ScratchConfig huge("mrzr");
+  huge.editUrdf("<mass value=\"770\"/>", "<mass value=\"1e308\"/>");
+  EXPECT_CONTAINS(loadError(huge.write()),
+                  huge.urdfPath() + ": link 'chassis': mass 1e+308 kg is outside the plausible range [0.001, 200000] kg");
+  ScratchConfig tiny("mrzr");
+  tiny.editUrdf("<mass value=\"770\"/>", "<mass value=\"1e-6\"/>");
+  EXPECT_CONTAINS(loadError(tiny.write()), ": link 'chassis': mass 1e-06 kg is outside the plausible range");
+  // Each link plausible, the vehicle not: 200 t + 150 t + the rest.
+  ScratchConfig heavy("mrzr");
+  heavy.editUrdf("<mass value=\"770\"/>", "<mass value=\"200000\"/>");
+  heavy.editUrdf("<mass value=\"15\"/>", "<mass value=\"150000\"/>");
+  EXPECT_CONTAINS(loadError(heavy.write()),
+                  heavy.urdfPath() + ": the links' total mass 350");
+  EXPECT_CONTAINS(loadError(heavy.write()), "kg is outside the plausible range [0.2, 300000] kg");
+}
+
+TEST(VehicleModelPlausible, InertiaMustMatchTheMass)
+{
+  // The chassis (5240 kg) with a million times its inertia: 2742 t m^2 > 5240 kg x (50 m)^2.
+  ScratchConfig big("fed_alpha");
+  big.editUrdf(R"(<inertia ixx="2742.27" ixy="0" ixz="0" iyy="11113.2" iyz="0" izz="12597.8"/>)",
+               R"(<inertia ixx="2742.27e6" ixy="0" ixz="0" iyy="11113.2e6" iyz="0" izz="12597.8e6"/>)");
+  std::string err = loadError(big.write());
+  EXPECT_CONTAINS(err, big.urdfPath() + ": link 'chassis': principal moment of inertia");
+  EXPECT_CONTAINS(err, "is outside the plausible range [5.24e-05, 1.31e+07] kg m^2 for its mass 5240 kg");
+  // A 70 kg wheel with the inertia of a point: 1e-9 kg m^2 < 70 kg x (0.1 mm)^2.
+  ScratchConfig point("fed_alpha");
+  point.editUrdf(R"(<inertia ixx="5.99418" ixy="0" ixz="0" iyy="10.4341" iyz="0" izz="5.99418"/>)",
+                 R"(<inertia ixx="1e-9" ixy="0" ixz="0" iyy="1e-9" iyz="0" izz="1e-9"/>)");
+  err = loadError(point.write());
+  EXPECT_CONTAINS(err, "link 'front_left_wheel': principal moment of inertia 1e-09 kg m^2 is outside");
+  EXPECT_CONTAINS(err, "for its mass 70 kg");
+}
+
+TEST(VehicleModelPlausible, WheelRadiusAndWidthOutsideRange)
+{
+  ScratchConfig c("tracer_x");
+  c.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="0.165" length="0.12"/></geometry>)",
+             R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="1e-9" length="0.12"/></geometry>)");
+  EXPECT_CONTAINS(loadError(c.write()), c.urdfPath() +
+                                            ": link 'front_left_wheel': collision cylinder radius 1e-09 m is outside "
+                                            "the plausible range [0.005, 5] m");
+  // A road wheel 100 m wide.
+  ScratchConfig m("m113");
+  m.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="0.305" length="0.3"/></geometry>)",
+             R"(<collision>
+      <origin xyz="0 0 0" rpy="1.5708 0 0"/>
+      <geometry><cylinder radius="0.305" length="100"/></geometry>)");
+  EXPECT_CONTAINS(loadError(m.write()), "link 'left_road_wheel_1': collision cylinder length (width) 100 m is outside "
+                                        "the plausible range [0.002, 5] m");
+}
+
+TEST(VehicleModelPlausible, LinksFarFromBaseLinkAreRefused)
+{
+  ScratchConfig chassis("fed_alpha");
+  chassis.editUrdf(R"(<origin xyz="0 0 0.55" rpy="0 0 0"/>)", R"(<origin xyz="1e308 0 0.55" rpy="0 0 0"/>)");
+  EXPECT_CONTAINS(loadError(chassis.write()), chassis.urdfPath() + ": joint 'chassis_mount': link 'chassis' at rest is "
+                                                                   "inf m from base_link, outside the plausible range "
+                                                                   "[0, 50] m");
+  ScratchConfig lidar("fed_alpha");
+  lidar.editUrdf(R"(<origin xyz="1 0 1.4" rpy="0 0 0"/>)", R"(<origin xyz="60 0 1.4" rpy="0 0 0"/>)");
+  EXPECT_CONTAINS(loadError(lidar.write()), "joint 'lidar_mount': link 'lidar' at rest is 60.0");
+  ScratchConfig com("fed_alpha");
+  com.editUrdf(R"(<origin xyz="0 0 0" rpy="0 0 0"/>
+      <mass value="5240"/>)",
+               R"(<origin xyz="0 0 80" rpy="0 0 0"/>
+      <mass value="5240"/>)");
+  EXPECT_CONTAINS(loadError(com.write()), "link 'chassis': its centre of mass is 80.55 m from base_link");
+  ScratchConfig box("fed_alpha");
+  box.editUrdf(R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1.2"/></geometry>)",
+               R"(<collision>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <geometry><box size="4.9 2.2 1000"/></geometry>)");
+  EXPECT_CONTAINS(loadError(box.write()),
+                  "link 'chassis': <collision> box edge 1000 m is outside the plausible range [0.001, 50] m");
+}
+
+TEST(VehicleModelPlausible, MoreLinksThanAVehicleHasAreRefused)
+{
+  // 2001 massless links on fixed joints: no vehicle has that many (each costs a rest-pose walk).
+  std::string extra;
+  for (int k = 0; k < 2001; ++k)
+  {
+    const std::string n = std::to_string(k);
+    extra += "<link name=\"extra_" + n + "\"/><joint name=\"extra_" + n +
+             "_mount\" type=\"fixed\"><parent link=\"base_link\"/><child link=\"extra_" + n + "\"/></joint>\n";
+  }
+  ScratchConfig c("tracer_x");
+  c.editUrdf("</robot>", extra + "</robot>");
+  EXPECT_CONTAINS(loadError(c.write()), c.urdfPath() + ": has 2015 links, more than the 2000 a vehicle plausibly has");
+}
+
+TEST(VehicleModelPlausible, JointLimitsOutsideRange)
+{
+  ScratchConfig susp("fed_alpha");
+  susp.editUrdf(R"(<limit lower="-0.15" upper="0.15")", R"(<limit lower="-1e308" upper="0.15")");
+  EXPECT_CONTAINS(loadError(susp.write()),
+                  susp.urdfPath() + ": joint 'front_left_suspension': limits [-1e+308, 0.15] m are outside the "
+                                    "plausible range [-2, 2] m (suspension travel)");
+  ScratchConfig steer("fed_alpha");
+  steer.editUrdf(R"(<limit lower="-0.6" upper="0.6")", R"(<limit lower="-0.6" upper="100")");
+  EXPECT_CONTAINS(loadError(steer.write()), "joint 'front_left_steering': limits [-0.6, 100] rad are outside the "
+                                            "plausible range [-3.14159, 3.14159] rad");
+  ScratchConfig arm("m113");
+  arm.editUrdf(R"(<limit lower="-0.45" upper="0.45")", R"(<limit lower="-0.45" upper="3")");
+  EXPECT_CONTAINS(loadError(arm.write()), "joint 'left_road_arm_1_swing': limits [-0.45, 3] rad are outside the "
+                                          "plausible range [-1.5708, 1.5708] rad");
+}
+
+// Every physical YAML key outside its range: the refusal names the file, the key and the range.
+TEST(VehicleModelPlausible, YamlValuesOutsideRangeNameFileKeyAndRange)
+{
+  struct Case
+  {
+    const char* model;
+    const char* from;
+    const char* to;
+    const char* key;
+    const char* text;
+  };
+  const Case cases[] = {
+    { "fed_alpha", "stiffness: 95000.0", "stiffness: 1e12", "suspension.stiffness",
+      "1e+12 N/m is outside the plausible range [10, 1e+09] N/m (per wheel)" },
+    { "fed_alpha", "damping: 8150.0", "damping: 1e10", "suspension.damping",
+      "1e+10 N s/m is outside the plausible range [0, 1e+08] N s/m" },
+    { "fed_alpha", "max_angle: 0.55", "max_angle: 0.01", "steering.max_angle",
+      "0.01 rad is outside the plausible range [0.05, 1.4] rad" },
+    { "fed_alpha", "max_rate: 0.8", "max_rate: 1000", "steering.max_rate",
+      "1000 rad/s is outside the plausible range [0.01, 20] rad/s" },
+    { "fed_alpha", "engine_max_torque: 700.0", "engine_max_torque: 1e9", "drivetrain.engine_max_torque",
+      "1e+09 N m is outside the plausible range [0.0001, 1e+06] N m" },
+    { "fed_alpha", "engine_max_power: 150000.0", "engine_max_power: 1e12", "drivetrain.engine_max_power",
+      "1e+12 W is outside the plausible range [0.1, 1e+08] W" },
+    { "fed_alpha", "gear_ratio: 20.0", "gear_ratio: 1e6", "drivetrain.gear_ratio",
+      "1e+06 is outside the plausible range [0.1, 5000]" },
+    { "fed_alpha", "efficiency: 0.85", "efficiency: 1e-9", "drivetrain.efficiency",
+      "1e-09 is outside the plausible range [0.05, 1]" },
+    { "fed_alpha", "max_speed: 30.0", "max_speed: 1e5", "drivetrain.max_speed",
+      "100000 m/s is outside the plausible range [0.01, 150] m/s" },
+    { "fed_alpha", "reverse_max_speed: 5.0", "reverse_max_speed: 0.001", "drivetrain.reverse_max_speed",
+      "0.001 m/s is outside the plausible range [0.01, 150] m/s" },
+    { "fed_alpha", "max_torque: 8000.0", "max_torque: 1e12", "brakes.max_torque",
+      "1e+12 N m is outside the plausible range [0.001, 1e+07] N m" },
+    { "fed_alpha", "longitudinal_stiffness: 8.0", "longitudinal_stiffness: 0.001", "firm_ground.longitudinal_stiffness",
+      "0.001 is outside the plausible range [0.1, 100] (C_x / F_z per unit slip)" },
+    { "fed_alpha", "cornering_stiffness: 9.5", "cornering_stiffness: 1000", "firm_ground.cornering_stiffness",
+      "1000 is outside the plausible range [0.1, 100]" },
+    { "fed_alpha", "relaxation_length: 0.55", "relaxation_length: 1e-6", "firm_ground.relaxation_length",
+      "1e-06 m is outside the plausible range [0.001, 10] m" },
+    { "fed_alpha", "vertical_stiffness: 565000.0", "vertical_stiffness: 1e12", "firm_ground.vertical_stiffness",
+      "1e+12 N/m must be between" },
+    { "m113", "torsion_stiffness: 10800.0", "torsion_stiffness: 1e12", "suspension.torsion_stiffness",
+      "1e+12 N m/rad is outside the plausible range [0.01, 1e+08] N m/rad" },
+    { "m113", "torsion_damping: 650.0", "torsion_damping: 1e9", "suspension.torsion_damping",
+      "1e+09 N m s/rad is outside the plausible range [0, 1e+07] N m s/rad" },
+    { "m113", "preload_angle: 0.276", "preload_angle: 3", "suspension.preload_angle",
+      "3 rad is outside the plausible range [0, 1.5708] rad" },
+    { "m113", "pitch: 0.152", "pitch: 1e-6", "track.pitch", "1e-06 m is outside the plausible range [0.002, 1] m" },
+    { "m113", "sprocket_teeth: 10", "sprocket_teeth: 1000", "track.sprocket_teeth",
+      "1000 is outside the plausible range [3, 100]" },
+    { "m113", "shoe_width: 0.38", "shoe_width: 1e-6", "track.shoe_width",
+      "1e-06 m is outside the plausible range [0.005, 5] m" },
+    { "m113", "coefficient: 0.022", "coefficient: 0.5", "track.internal_resistance.coefficient",
+      "0.5 is outside the plausible range [0, 0.3] (a fraction of the weight)" },
+    { "m113", "per_speed: 0.0011", "per_speed: 0.1", "track.internal_resistance.per_speed",
+      "0.1 per m/s is outside the plausible range [0, 0.05] per m/s" },
+  };
+  for (const Case& c : cases)
+  {
+    ScratchConfig v(c.model);
+    v.editYaml(c.from, c.to);
+    const std::string path = v.write();
+    const std::string err = loadError(path);
+    EXPECT_CONTAINS(err, path + ": key '" + c.key + "'");
+    EXPECT_CONTAINS(err, c.text);
+  }
+}
+
+/**
+ * The vehicle's URDF and YAML scaled by `s` with Froude similarity: lengths s, masses s^3,
+ * inertias s^5, times and speeds s^0.5 (so forces s^3, torques s^4, power s^3.5). The result is
+ * the same machine as a toy or a giant, as consistent as the original (ride frequencies, Froude
+ * number, T10, preloads and steering angles all carry over).
+ */
+void scaleVehicle(ScratchConfig& c, double s)
+{
+  auto number = [](double v) {
+    std::ostringstream out;
+    out.precision(12);
+    out << v;
+    return out.str();
+  };
+  // Scales every number of the named attributes on one line.
+  auto scaleAttributes = [&](const std::string& line, const std::map<std::string, double>& factors) {
+    static const std::regex attribute(R"re(([a-z]+)="([^"]*)")re");
+    std::string out;
+    auto last = line.cbegin();
+    for (std::sregex_iterator it(line.begin(), line.end(), attribute), end; it != end; ++it)
+    {
+      const auto& match = *it;
+      out.append(last, match[0].first);
+      const auto factor = factors.find(match[1].str());
+      if (factor == factors.end())
+      {
+        out += match[0].str();
+      }
+      else
+      {
+        std::istringstream in(match[2].str());
+        std::string scaled;
+        double v;
+        while (in >> v)
+          scaled += (scaled.empty() ? "" : " ") + number(v * factor->second);
+        out += match[1].str() + "=\"" + scaled + "\"";
+      }
+      last = match[0].second;
+    }
+    out.append(last, line.cend());
+    return out;
+  };
+  std::istringstream urdf(c.urdf());
+  std::string line, scaled, joint_type;
+  static const std::regex joint(R"re(<joint name="[^"]*" type="([a-z]+)")re");
+  while (std::getline(urdf, line))
+  {
+    std::smatch m;
+    if (std::regex_search(line, m, joint))
+      joint_type = m[1];
+    if (line.find("<origin") != std::string::npos)
+      line = scaleAttributes(line, { { "xyz", s } });
+    else if (line.find("<box") != std::string::npos)
+      line = scaleAttributes(line, { { "size", s } });
+    else if (line.find("<cylinder") != std::string::npos)
+      line = scaleAttributes(line, { { "radius", s }, { "length", s } });
+    else if (line.find("<mass") != std::string::npos)
+      line = scaleAttributes(line, { { "value", s * s * s } });
+    else if (line.find("<inertia") != std::string::npos)
+    {
+      const double i = std::pow(s, 5);
+      line = scaleAttributes(line, { { "ixx", i }, { "ixy", i }, { "ixz", i }, { "iyy", i }, { "iyz", i }, { "izz", i } });
+    }
+    else if (line.find("<limit") != std::string::npos && joint_type == "prismatic")
+      line = scaleAttributes(line, { { "lower", s }, { "upper", s } });
+    scaled += line + "\n";
+  }
+  c.setUrdf(scaled);
+
+  // The power of s of each YAML number's unit.
+  static const std::map<std::string, double> exponent{
+    { "stiffness", 2.0 },          { "damping", 2.5 },           { "preload_deflection", 1.0 },
+    { "torsion_stiffness", 4.0 },  { "torsion_damping", 4.5 },   { "preload_angle", 0.0 },
+    { "max_angle", 0.0 },          { "max_rate", -0.5 },         { "pitch", 1.0 },
+    { "sprocket_teeth", 0.0 },     { "shoe_width", 1.0 },        { "coefficient", 0.0 },
+    { "per_speed", -0.5 },         { "engine_max_torque", 4.0 }, { "engine_max_power", 3.5 },
+    { "gear_ratio", 0.0 },         { "efficiency", 0.0 },        { "max_speed", 0.5 },
+    { "reverse_max_speed", 0.5 },  { "max_torque", 4.0 },        { "vertical_stiffness", 2.0 },
+    { "longitudinal_stiffness", 0.0 }, { "cornering_stiffness", 0.0 }, { "relaxation_length", 1.0 },
+  };
+  static const std::regex key_number(R"re(^(\s*)([a-z_]+): ([-+0-9.eE]+)(\s.*)?$)re");
+  std::istringstream yaml(c.yaml());
+  scaled.clear();
+  while (std::getline(yaml, line))
+  {
+    std::smatch m;
+    if (std::regex_match(line, m, key_number))
+    {
+      const auto e = exponent.find(m[2]);
+      if (e == exponent.end())
+        ADD_FAILURE() << "scaleVehicle: no unit for key '" << m[2] << "'";
+      else if (e->second != 0.0)
+        line = m[1].str() + m[2].str() + ": " + number(std::stod(m[3]) * std::pow(s, e->second)) + m[4].str();
+    }
+    scaled += line + "\n";
+  }
+  c.setYaml(scaled);
+}
+
+// The ranges admit any real ground vehicle from a 1 kg toy robot to a 200 t machine: each
+// reference vehicle, scaled to either mass, still loads.
+TEST(VehicleModelPlausible, ReferenceVehiclesScaledTo1KgAnd200TLoad)
+{
+  for (const char* model : { "fed_alpha", "mrzr", "tracer_x", "m113" })
+  {
+    const double mass = loadVehicleModel(kConfigDir + "/" + model + ".yaml").total_mass;
+    for (const double target : { 1.0, 200000.0 })
+    {
+      ScratchConfig c(model);
+      const double s = std::cbrt(target / mass);
+      scaleVehicle(c, s);
+      try
+      {
+        const VehicleModel m = loadVehicleModel(c.write());
+        EXPECT_NEAR(m.total_mass, target, 1e-6 * target) << model;
+        EXPECT_NEAR(m.wheelbase(), s * loadVehicleModel(kConfigDir + "/" + model + ".yaml").wheelbase(), 1e-6) << model;
+      }
+      catch (const ConfigError& e)
+      {
+        ADD_FAILURE() << model << " scaled to " << target << " kg (lengths x " << s << "): " << e.what();
+      }
+    }
+  }
+}
+
+// --- vehicle files: regular files of at most 16 MiB, refused before reading otherwise ---
+
+TEST(VehicleFiles, UrdfThatIsNotARegularFileIsRefusedUnread)
+{
+  ScratchConfig c("fed_alpha");
+  const std::string fifo = c.urdfPath() + ".fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const std::string folder = c.urdfPath() + ".d";
+  ASSERT_EQ(mkdir(folder.c_str(), 0700), 0);
+  const std::pair<std::string, std::string> cases[] = {
+    { "/dev/zero", "is a character device, not a regular file" },
+    { fifo, "is a FIFO (named pipe), not a regular file" },
+    { folder, "is a directory, not a regular file" },
+  };
+  for (const auto& [path, why] : cases)
+  {
+    ScratchConfig v("fed_alpha");
+    v.editYaml("urdf: fed_alpha.urdf", "urdf: " + path);
+    const std::string yaml = v.write();
+    const std::string err = loadErrorBounded(yaml);
+    EXPECT_CONTAINS(err, yaml);
+    EXPECT_CONTAINS(err, "key 'urdf'");
+    EXPECT_CONTAINS(err, "'" + path + "' " + why);
+  }
+  std::remove(fifo.c_str());
+  rmdir(folder.c_str());
+}
+
+TEST(VehicleFiles, YamlThatIsNotARegularFileIsRefusedUnread)
+{
+  EXPECT_CONTAINS(loadErrorBounded("/dev/zero"), "/dev/zero: is a character device, not a regular file");
+  char tmpl[] = "/tmp/avsp_vehicle_test_XXXXXX";
+  const std::string dir = mkdtemp(tmpl);
+  const std::string fifo = dir + "/fed_alpha.yaml";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_CONTAINS(loadErrorBounded(fifo), fifo + ": is a FIFO (named pipe), not a regular file");
+  std::remove(fifo.c_str());
+  const std::string folder = dir + "/fed_alpha.yaml";
+  ASSERT_EQ(mkdir(folder.c_str(), 0700), 0);
+  EXPECT_CONTAINS(loadErrorBounded(folder), folder + ": is a directory, not a regular file");
+  rmdir(folder.c_str());
+  rmdir(dir.c_str());
+}
+
+TEST(VehicleFiles, FilesOver16MiBAreRefused)
+{
+  // 17 MiB of comment in an otherwise valid file.
+  const std::string padding(17u << 20, 'x');
+  ScratchConfig urdf("fed_alpha");
+  urdf.editUrdf("</robot>", "</robot>\n<!-- " + padding + " -->");
+  std::string err = loadErrorBounded(urdf.write());
+  EXPECT_CONTAINS(err, urdf.urdfPath() + "' is " + std::to_string(fileSize(urdf.urdfPath())) + " bytes");
+  EXPECT_CONTAINS(err, "bytes, more than the 16777216 (16 MiB)");
+
+  ScratchConfig yaml("fed_alpha");
+  yaml.setYaml(yaml.yaml() + "\n# " + padding + "\n");
+  const std::string path = yaml.write();
+  err = loadErrorBounded(path);
+  EXPECT_CONTAINS(err, path + ": is " + std::to_string(fileSize(path)) + " bytes");
+  EXPECT_CONTAINS(err, "(16 MiB)");
+
+  // The limit is not near real files: 15 MiB of comment still loads.
+  ScratchConfig big("fed_alpha");
+  big.editUrdf("</robot>", "</robot>\n<!-- " + std::string(15u << 20, 'x') + " -->");
+  EXPECT_EQ(loadVehicleModel(big.write()).model, "fed_alpha");
 }
 
 // --- fuzz: random edits of a valid file either load or throw ConfigError, never crash ---
