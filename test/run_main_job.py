@@ -34,9 +34,11 @@ import subprocess
 import sys
 import tempfile
 import time
-from xml.sax.saxutils import escape
 
 import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from junit_cases import write_junit  # noqa: E402
 
 
 def find_node(name):
@@ -317,21 +319,7 @@ def main(argv):
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
-    failures = sum(1 for _n, m in cases if m)
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             '<testsuite name="main_job" tests="%d" failures="%d" errors="0">' % (len(cases), failures)]
-    for n, msgs in cases:
-        lines.append('  <testcase classname="main_job" name="%s">' % n)
-        if msgs:
-            lines.append('    <failure message="%s">%s</failure>' % (escape(msgs[0][:200], {'"': "&quot;"}),
-                                                                    escape("\n".join(msgs))))
-        lines.append("  </testcase>")
-    lines.append("</testsuite>")
-    os.makedirs(os.path.dirname(os.path.abspath(result)), exist_ok=True)
-    with open(result, "w") as f:
-        f.write("\n".join(lines) + "\n")
-    for n, msgs in cases:
-        print("%s: %s" % (n, "FAILED: " + "; ".join(msgs) if msgs else "ok"))
+    write_junit(result, "main_job", cases)
     return 0
 
 

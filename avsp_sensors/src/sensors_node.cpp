@@ -42,7 +42,7 @@
 
 #include <avsp_msgs/node_params.hpp>
 #include <avsp_terrain/agent_params.hpp>
-#include <avsp_terrain/output_file.hpp>
+#include <avsp_terrain/output_folder_params.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source_params.hpp>
 
@@ -190,16 +190,7 @@ public:
     // Lockstep with a partitioned run: report each clock interval sensed, so lockstep_clock
     // waits for the sensors as for the dynamics partitions (the sensors never fall behind by
     // more than one interval, however costly a sweep or frame).
-    try
-    {
-      output_.directory = at::prepareOutputFolder(
-          avsp::msgs::stringParam(pnh_, "output_dir", at::defaultOutputFolder()));
-    }
-    catch (const at::OutputFileError& e)
-    {
-      throw StartupError(std::string("parameter ~output_dir: ") + e.what());
-    }
-    output_.allow_absolute_paths = avsp::msgs::boolParam(pnh_, "allow_absolute_paths", false);
+    output_ = at::outputFolderFromParams(pnh_);
     lockstep_partition_ = avsp::msgs::stringParam(pnh_, "lockstep_partition", "");
     if (!lockstep_partition_.empty())
     {

@@ -28,7 +28,7 @@
 #include "avsp_terrain/dem_io.hpp"
 #include "avsp_terrain/dynamic_soil.hpp"
 #include "avsp_terrain/height_patch.hpp"
-#include "avsp_terrain/output_file.hpp"
+#include "avsp_terrain/output_folder_params.hpp"
 #include "avsp_terrain/terrain_file.hpp"
 #include "avsp_terrain/terrain_source_params.hpp"
 #include "avsp_terrain/terrain_mesh.hpp"
@@ -116,16 +116,7 @@ public:
     mesh_refresh_period_ = finiteParam(pnh_, "mesh_refresh_period", 10.0, 0.0);
 
     setUpWeather();
-    try
-    {
-      output_.directory = at::prepareOutputFolder(
-          avsp::msgs::stringParam(pnh_, "output_dir", at::defaultOutputFolder()));
-    }
-    catch (const at::OutputFileError& e)
-    {
-      throw StartupError(std::string("parameter ~output_dir: ") + e.what());
-    }
-    output_.allow_absolute_paths = avsp::msgs::boolParam(pnh_, "allow_absolute_paths", false);
+    output_ = at::outputFolderFromParams(pnh_);
 
     // Mesh and rut markers go out as changed chunks; a new subscriber first gets every chunk
     // (a latched topic would only replay the last change).

@@ -173,6 +173,15 @@ private:
   std::string indent_;
 };
 
+/// ["a", "b"]: a YAML flow list of strings.
+std::string flowList(const std::vector<std::string>& items)
+{
+  std::string out = "[";
+  for (std::size_t i = 0; i < items.size(); ++i)
+    out += (i ? ", " : "") + quoted(items[i]);
+  return out + "]";
+}
+
 std::string vehicleListYaml(const Scenario& s)
 {
   std::ostringstream o;
@@ -444,6 +453,19 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   }
   o << "\n";
 
+  // The nodes of the run besides the dynamics, the recorder and the gate: what start_gate waits
+  // for and run_recorder watches.
+  std::vector<std::string> run_nodes = { "/terrain", "/sensors", "/environment", "/v2v_radio" };
+  if (has_agents && options.have_agents_node)
+    run_nodes.push_back("/agents");
+  for (const VehicleSpec& v : s.vehicles)
+  {
+    run_nodes.push_back("/" + v.name + "/v2v_broadcaster");
+    run_nodes.push_back("/" + v.name + "/robot_state_publisher");
+    if (v.controller.type != ControllerType::kExternal)
+      run_nodes.push_back("/" + v.name + "/controller");
+  }
+
   // The recorder ends the run: results/<scenario>/ when /clock reaches the duration.
   if (options.have_run_recorder)
   {
@@ -469,25 +491,17 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     w.params(terrain);
     // Every node that must live for the whole run: if one exits, the recorder stops the run,
     // writes what it has and names the node (README, "Run recorder").
-    std::string watch = "[\"/map_to_odom\", \"/terrain\", \"/sensors\", \"/environment\", \"/v2v_radio\"";
+    std::vector<std::string> watch = { "/map_to_odom" };
     if (s.partitions.empty())
-      watch += ", \"/dynamics\"";
+      watch.push_back("/dynamics");
     else
     {
-      watch += ", \"/clock\"";
+      watch.push_back("/clock");
       for (const PartitionSpec& p : s.partitions)
-        watch += ", " + quoted("/dynamics_" + p.name);
+        watch.push_back("/dynamics_" + p.name);
     }
-    if (has_agents && options.have_agents_node)
-      watch += ", \"/agents\"";
-    for (const VehicleSpec& v : s.vehicles)
-    {
-      watch += ", " + quoted("/" + v.name + "/robot_state_publisher");
-      watch += ", " + quoted("/" + v.name + "/v2v_broadcaster");
-      if (v.controller.type != ControllerType::kExternal)
-        watch += ", " + quoted("/" + v.name + "/controller");
-    }
-    w.rosparam("watch", watch + "]");
+    watch.insert(watch.end(), run_nodes.begin(), run_nodes.end());
+    w.rosparam("watch", flowList(watch));
     w.close();
   }
   else
@@ -497,24 +511,15 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   {
     // Releases the physics once every other node has advertised or subscribed something
     // (they do so after loading their terrain and parameters).
-    std::string nodes = "[\"/terrain\", \"/sensors\", \"/environment\", \"/v2v_radio\"";
+    std::vector<std::string> nodes = run_nodes;
     if (options.have_run_recorder)
-      nodes += ", \"/run_recorder\"";
-    if (has_agents && options.have_agents_node)
-      nodes += ", \"/agents\"";
-    for (const VehicleSpec& v : s.vehicles)
-    {
-      nodes += ", " + quoted("/" + v.name + "/v2v_broadcaster");
-      nodes += ", " + quoted("/" + v.name + "/robot_state_publisher");
-      if (v.controller.type != ControllerType::kExternal)
-        nodes += ", " + quoted("/" + v.name + "/controller");
-    }
+      nodes.push_back("/run_recorder");
     std::string names = "[";
     for (std::size_t i = 0; i < s.vehicles.size(); ++i)
       names += (i ? ", " : "") + quoted(s.vehicles[i].name);
     w.open("avsp", "start_gate", "start_gate");
     w.rosparam("vehicles", names + "]");
-    w.rosparam("nodes", nodes + "]");
+    w.rosparam("nodes", flowList(nodes));
     w.close();
   }
   (void)any_external;
