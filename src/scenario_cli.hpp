@@ -67,7 +67,7 @@ inline int generateFromCommandLine(const std::string& program, const std::vector
   {
     out.scenario = loadScenario(cmd.scenario, load);
     // The sections the nodes parse themselves, through their own parsers (--check and runs alike).
-    checkSensorsAsTheNodeWill(out.scenario);
+    checkSensorsAsTheNodeWill(out.scenario, load.vehicles_dir);
   }
   catch (const std::exception& e)
   {

@@ -46,14 +46,17 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
   s.file = "t.yaml";
   as::VehicleSpec a, b;
   a.name = "alpha";
+  a.model = "fed_alpha";
   b.name = "bravo";
+  b.model = "mrzr";
   s.vehicles = { a, b };
   s.sensors = YAML::Load("{lidar: {preset: VLP-16, columns: 360}, radar: {enabled: false}}");
-  EXPECT_NO_THROW(as::checkSensorsAsTheNodeWill(s));
+  const std::string vehicles = AVSP_CONFIG_DIR "/vehicles";
+  EXPECT_NO_THROW(as::checkSensorsAsTheNodeWill(s, vehicles));
   s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16, colour: red}}");
   try
   {
-    as::checkSensorsAsTheNodeWill(s);
+    as::checkSensorsAsTheNodeWill(s, vehicles);
     FAIL() << "an unknown key passed";
   }
   catch (const as::ScenarioError& e)
@@ -64,5 +67,20 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
   }
   s.vehicles[1].sensors = YAML::Node();
   s.sensors = YAML::Load("{lidar: {channels: sixteen}}");  // a wrong type in the shared section
-  EXPECT_THROW(as::checkSensorsAsTheNodeWill(s), as::ScenarioError);
+  EXPECT_THROW(as::checkSensorsAsTheNodeWill(s, vehicles), as::ScenarioError);
+  // A lidar on a link the URDF lacks: sensors_node refuses it at start-up, so does the check.
+  s.sensors = YAML::Node();
+  s.vehicles[0].sensors = YAML::Load("{lidar: {frame: no_such_link}}");
+  try
+  {
+    as::checkSensorsAsTheNodeWill(s, vehicles);
+    FAIL() << "a missing link passed";
+  }
+  catch (const as::ScenarioError& e)
+  {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("parameter ~vehicle_sensors/alpha/lidar/frame = 'no_such_link' is not a link of"),
+              std::string::npos)
+        << m;
+  }
 }

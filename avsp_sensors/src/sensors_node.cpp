@@ -290,35 +290,18 @@ private:
     }
     v->boxes = frames.boxes;
     v->base_frame = entry.name + "/" + frames.root_link;
-    auto mount = [&](const std::string& link, const std::string& key) {
-      if (!frames.hasLink(link))
-        throw StartupError(where + ": parameter " + key + " = '" + link + "' is not a link of " + frames.urdf_path);
-      return frames.link(link);
-    };
+    asn::mountSensors(spec, frames, where);
     as::SuiteConfig& suite = spec.suite;
     if (suite.lidar)
-    {
-      suite.lidar->mount = mount(spec.lidar_link, spec.keys.at("lidar") + "/frame");
       v->lidar_frame = suite.lidar->registered ? world_frame_ : entry.name + "/" + spec.lidar_link;
-    }
     if (suite.radar)
-    {
-      suite.radar->mount = mount(spec.radar_link, spec.keys.at("radar") + "/frame");
       v->radar_frame = entry.name + "/" + spec.radar_link;
-    }
     if (suite.gps)
-    {
-      suite.gps->mount = mount(spec.gps_link, spec.keys.at("gps") + "/frame");
       v->gps_frame = entry.name + "/" + spec.gps_link;
-    }
     if (suite.imu)
-    {
-      suite.imu->mount = mount(spec.imu_link, spec.keys.at("imu") + "/frame");
       v->imu_frame = entry.name + "/" + spec.imu_link;
-    }
     if (suite.magnetometer)
     {
-      suite.magnetometer->mount = mount(spec.magnetometer_link, spec.keys.at("magnetometer") + "/frame");
       v->mag_frame = entry.name + "/" + spec.magnetometer_link;
       if (!spec.magnetometer_intensity || !spec.magnetometer_inclination_deg)
       {
@@ -329,18 +312,9 @@ private:
     }
     for (std::size_t k = 0; k < suite.ultrasonics.size(); ++k)
     {
-      const std::string& name = suite.ultrasonics[k].name;
-      const std::optional<Eigen::Isometry3d>& pose = spec.ultrasonic_mounts[k].pose;
-      if (pose && frames.hasLink(name))
-        throw StartupError(where + ": ultrasonic '" + name + "' has x/y/z/roll/pitch/yaw but " + frames.urdf_path +
-                           " has a link '" + name + "' already: use one or the other");
-      if (!pose && !frames.hasLink(name))
-        throw StartupError(where + ": ultrasonic '" + name + "': " + frames.urdf_path + " has no link '" + name +
-                           "'; give its x, y, z, roll, pitch, yaw in base_link");
-      suite.ultrasonics[k].mount = pose ? *pose : frames.link(name);
-      v->range_frames.push_back(entry.name + "/" + name);
-      if (pose)
-        staticFrame(v->base_frame, v->range_frames.back(), *pose);
+      v->range_frames.push_back(entry.name + "/" + suite.ultrasonics[k].name);
+      if (spec.ultrasonic_mounts[k].pose)
+        staticFrame(v->base_frame, v->range_frames.back(), *spec.ultrasonic_mounts[k].pose);
     }
     setupCameras(*v, spec.cameras, where, as::streamKey(seed, nameHash(entry.name), 1));
     if (suite.occupancy)

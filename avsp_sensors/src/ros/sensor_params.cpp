@@ -627,6 +627,38 @@ bool needsOrigin(const std::vector<SensorsSpec>& specs)
   return false;
 }
 
+void mountSensors(SensorsSpec& spec, const VehicleFrames& frames, const std::string& where)
+{
+  auto mount = [&](const std::string& link, const std::string& key) {
+    if (!frames.hasLink(link))
+      throw StartupError(where + ": parameter " + key + " = '" + link + "' is not a link of " + frames.urdf_path);
+    return frames.link(link);
+  };
+  SuiteConfig& suite = spec.suite;
+  if (suite.lidar)
+    suite.lidar->mount = mount(spec.lidar_link, spec.keys.at("lidar") + "/frame");
+  if (suite.radar)
+    suite.radar->mount = mount(spec.radar_link, spec.keys.at("radar") + "/frame");
+  if (suite.gps)
+    suite.gps->mount = mount(spec.gps_link, spec.keys.at("gps") + "/frame");
+  if (suite.imu)
+    suite.imu->mount = mount(spec.imu_link, spec.keys.at("imu") + "/frame");
+  if (suite.magnetometer)
+    suite.magnetometer->mount = mount(spec.magnetometer_link, spec.keys.at("magnetometer") + "/frame");
+  for (std::size_t k = 0; k < suite.ultrasonics.size(); ++k)
+  {
+    const std::string& name = suite.ultrasonics[k].name;
+    const std::optional<Eigen::Isometry3d>& pose = spec.ultrasonic_mounts[k].pose;
+    if (pose && frames.hasLink(name))
+      throw StartupError(where + ": ultrasonic '" + name + "' has x/y/z/roll/pitch/yaw but " + frames.urdf_path +
+                         " has a link '" + name + "' already: use one or the other");
+    if (!pose && !frames.hasLink(name))
+      throw StartupError(where + ": ultrasonic '" + name + "': " + frames.urdf_path + " has no link '" + name +
+                         "'; give its x, y, z, roll, pitch, yaw in base_link");
+    suite.ultrasonics[k].mount = pose ? *pose : frames.link(name);
+  }
+}
+
 }  // namespace node
 }  // namespace sensors
 }  // namespace avsp

@@ -81,7 +81,7 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node)
   }
 }
 
-void checkSensorsAsTheNodeWill(const Scenario& s)
+void checkSensorsAsTheNodeWill(const Scenario& s, const std::string& vehicles_dir)
 {
   const bool has_common = s.sensors.IsDefined() && !s.sensors.IsNull();
   XmlRpc::XmlRpcValue common;
@@ -104,8 +104,11 @@ void checkSensorsAsTheNodeWill(const Scenario& s)
       XmlRpc::XmlRpcValue own;
       if (has_own)
         own = toXmlRpc(v.sensors);
-      avsp::sensors::node::parseSensors(has_own ? &own : nullptr, "~vehicle_sensors/" + v.name,
-                                        has_common ? &common : nullptr, "~sensors");
+      avsp::sensors::node::SensorsSpec spec = avsp::sensors::node::parseSensors(
+          has_own ? &own : nullptr, "~vehicle_sensors/" + v.name, has_common ? &common : nullptr, "~sensors");
+      const avsp::sensors::node::VehicleFrames frames =
+          avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml");
+      avsp::sensors::node::mountSensors(spec, frames, "model '" + v.model + "'");
     }
     catch (const std::exception& e)
     {

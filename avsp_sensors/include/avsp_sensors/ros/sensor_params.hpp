@@ -16,6 +16,7 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 
 #include "avsp_sensors/camera.hpp"
+#include "avsp_sensors/ros/vehicle_frames.hpp"
 #include "avsp_sensors/sensor_suite.hpp"
 
 namespace avsp
@@ -75,6 +76,15 @@ struct SensorsSpec
  */
 SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& vehicle_path,
                          const XmlRpc::XmlRpcValue* common, const std::string& common_path);
+
+/**
+ * @brief Puts each configured sensor on its URDF link (suite mounts from `frames`), checking
+ *        that every link exists and each ultrasonic has either a link or a pose, not both.
+ * @param where the vehicle, for messages, e.g. "vehicle 'ego' (model 'mrzr', ...)"
+ * @throw avsp::msgs::StartupError "<where>: parameter <key>/frame = 'x' is not a link of <urdf>" and
+ *        the ultrasonic rules' messages
+ */
+void mountSensors(SensorsSpec& spec, const VehicleFrames& frames, const std::string& where);
 
 /// True when any vehicle of `specs` has a GPS or a magnetometer without an explicit field (they
 /// need the geodetic reference ~latitude, ~longitude).

@@ -28,10 +28,11 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
 
 /**
  * @brief Runs sensors_node's parser on every vehicle's sensors (the scenario's `sensors` and the
- *        vehicle's own), as the generated launch file passes them.
- * @throw ScenarioError "<file>: vehicles[i].sensors (as sensors_node reads it): <its message>"
+ *        vehicle's own), as the generated launch file passes them, and mounts them on the
+ *        vehicle's URDF links from `vehicles_dir` as the node does (a link the URDF lacks).
+ * @throw ScenarioError "<file>: vehicles[i].sensors (as sensors_node reads it for '<v>'): <its message>"
  */
-void checkSensorsAsTheNodeWill(const Scenario& s);
+void checkSensorsAsTheNodeWill(const Scenario& s, const std::string& vehicles_dir);
 
 }  // namespace scenario
 }  // namespace avsp
