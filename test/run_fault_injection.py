@@ -29,7 +29,7 @@ import time
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from junit_cases import write_junit  # noqa: E402
+from scripted_tests import clock_reaches, write_junit  # noqa: E402
 
 # (case, the node's name as roslaunch passes it (__name:=...), its resolved name)
 KILLS = [
@@ -50,31 +50,6 @@ def find_node(name):
     import roslib.packages
     found = roslib.packages.find_node("avsp", name)
     return found[0] if found else None
-
-
-def clock_reaches(t, env, limit, run=None):
-    """Waits (wall limit) until /clock reaches `t` s; True if it did. False at once if `run`
-    ends first."""
-    code = ("import rospy, sys\n"
-            "from rosgraph_msgs.msg import Clock\n"
-            "rospy.init_node('fault_clock_probe', anonymous=True, disable_signals=True)\n"
-            "while rospy.wait_for_message('/clock', Clock, timeout=60).clock.to_sec() < float(sys.argv[1]):\n"
-            "    pass\n")
-    probe = subprocess.Popen([sys.executable, "-c", code, str(t)], env=env, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL)
-    deadline = time.time() + limit
-    try:
-        while time.time() < deadline:
-            if probe.poll() is not None:
-                return probe.returncode == 0
-            if run is not None and run.p.poll() is not None:
-                return False
-            time.sleep(0.1)
-        return False
-    finally:
-        if probe.poll() is None:
-            probe.kill()
-            probe.wait()
 
 
 def pid_of(name, ns, env):
@@ -155,7 +130,7 @@ def main(argv):
         time.sleep(0.2)
 
     def started(run, case):
-        if clock_reaches(3.0, env, 120, run):
+        if clock_reaches(3.0, env, 120, run.p):
             return True
         run.wait(1)
         cases.append((case, ["the run did not reach 3 s of sim time: " + run.tail()]))

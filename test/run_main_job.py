@@ -38,7 +38,7 @@ import time
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from junit_cases import write_junit  # noqa: E402
+from scripted_tests import clock_reaches, write_junit  # noqa: E402
 
 
 def find_node(name):
@@ -113,22 +113,6 @@ def bad_scenario_cases(scenario, env, tmp):
             msg.append("stderr does not name '%s: %s': %s" % (path, key, err.strip()))
         results.append(("bad_scenario_" + name, msg))
     return results
-
-
-def clock_reaches(duration, env, limit):
-    """Waits (wall limit) until /clock reaches `duration` s; True if it did."""
-    code = ("import rospy, sys\n"
-            "from rosgraph_msgs.msg import Clock\n"
-            "rospy.init_node('main_job_clock_probe', anonymous=True, disable_signals=True)\n"
-            "d = float(sys.argv[1])\n"
-            "while True:\n"
-            "    m = rospy.wait_for_message('/clock', Clock, timeout=60)\n"
-            "    if m.clock.to_sec() >= d: break\n")
-    try:
-        rc, _o, _e = run([sys.executable, "-c", code, str(duration)], env, limit)
-        return rc == 0
-    except subprocess.TimeoutExpired:
-        return False
 
 
 def stop_launch(launch):

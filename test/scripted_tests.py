@@ -1,0 +1,52 @@
+"""What the scripted tests (run_main_job.py, run_fault_injection.py) share: the JUnit XML result,
+one test case per (name, failure messages) pair, passed when the list is empty; waiting for
+/clock."""
+import os
+import subprocess
+import sys
+import time
+from xml.sax.saxutils import escape
+
+
+def clock_reaches(t, env, limit, process=None):
+    """Waits (wall limit) until /clock on the master of `env` reaches `t` s; True if it did.
+    False at once if `process` (a Popen) ends first."""
+    code = ("import rospy, sys\n"
+            "from rosgraph_msgs.msg import Clock\n"
+            "rospy.init_node('scripted_test_clock_probe', anonymous=True, disable_signals=True)\n"
+            "while rospy.wait_for_message('/clock', Clock, timeout=60).clock.to_sec() < float(sys.argv[1]):\n"
+            "    pass\n")
+    probe = subprocess.Popen([sys.executable, "-c", code, str(t)], env=env, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+    deadline = time.time() + limit
+    try:
+        while time.time() < deadline:
+            if probe.poll() is not None:
+                return probe.returncode == 0
+            if process is not None and process.poll() is not None:
+                return False
+            time.sleep(0.1)
+        return False
+    finally:
+        if probe.poll() is None:
+            probe.kill()
+            probe.wait()
+
+
+def write_junit(result, suite, cases):
+    """Writes `cases` [(name, [messages])] as test suite `suite` to `result` and prints a line per case."""
+    failures = sum(1 for _n, m in cases if m)
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             '<testsuite name="%s" tests="%d" failures="%d" errors="0">' % (suite, len(cases), failures)]
+    for n, msgs in cases:
+        lines.append('  <testcase classname="%s" name="%s">' % (suite, n))
+        if msgs:
+            lines.append('    <failure message="%s">%s</failure>' % (escape(msgs[0][:200], {'"': "&quot;"}),
+                                                                    escape("\n".join(msgs))))
+        lines.append("  </testcase>")
+    lines.append("</testsuite>")
+    os.makedirs(os.path.dirname(os.path.abspath(result)), exist_ok=True)
+    with open(result, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    for n, msgs in cases:
+        print("%s: %s" % (n, "FAILED: " + "; ".join(msgs) if msgs else "ok"))
