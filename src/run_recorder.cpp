@@ -389,11 +389,8 @@ private:
       ros::spinOnce();
       ros::WallDuration(0.005).sleep();
     }
-    ar::Abort a = *supervisor_->abort();
-    const std::string last = supervisor_->watch().lastError(a.node);
-    if (a.reason.find("(it logged no error)") != std::string::npos && !last.empty())
-      a.reason.replace(a.reason.find("(it logged no error)"), 20, "; its last error: " + last);
-    aborted_ = a;
+    aborted_ = supervisor_->abort();
+    const ar::Abort& a = *aborted_;
     ROS_ERROR("run_recorder: run aborted at sim time %.2f s: %s: %s; writing the results so far to %s", a.sim_time,
               a.node.c_str(), a.reason.c_str(), output_dir_.c_str());
     const double now = ros::Time::now().toSec();

@@ -44,8 +44,9 @@ std::string AnomalyMonitor::sample(const std::string& vehicle, double t, double 
   {
     const double above = z - *ground - e.limits.rest_height;
     if (above > e.limits.wheel_radius && e.counts.airborne++ == 0)
-      first += (first.empty() ? "" : "; ") + vehicle + format(": base_link %.2f m above its rest height at %.3f s (wheel radius %.2f m)", above, t,
-                               e.limits.wheel_radius);
+      first += (first.empty() ? "" : "; ") + vehicle +
+               format(": base_link %.2f m above its rest height at %.3f s (wheel radius %.2f m)", above, t,
+                      e.limits.wheel_radius);
   }
   return first;
 }

@@ -36,16 +36,29 @@ std::string RunWatch::lastError(const std::string& node) const
   return it == last_error_.end() ? std::string() : it->second;
 }
 
-std::string RunWatch::withLastError(const std::string& node, const std::string& what) const
+std::optional<Abort> RunWatch::abort() const
 {
-  const std::string last = lastError(node);
-  return last.empty() ? what + " (it logged no error)" : what + "; its last error: " + last;
+  if (!failure_)
+    return std::nullopt;
+  Abort a = failure_->abort;
+  if (failure_->with_last_error)
+  {
+    const std::string last = lastError(a.node);
+    a.reason += last.empty() ? " (it logged no error)" : "; its last error: " + last;
+  }
+  return a;
 }
 
 void RunWatch::fail(const std::string& node, const std::string& reason, double sim_time)
 {
-  if (!abort_)
-    abort_ = Abort{ node, reason, sim_time };
+  if (!failure_)
+    failure_ = Failure{ Abort{ node, reason, sim_time }, false };
+}
+
+void RunWatch::failDied(const std::string& node, const std::string& what, double sim_time)
+{
+  if (!failure_)
+    failure_ = Failure{ Abort{ node, what, sim_time }, true };
 }
 
 void RunWatch::noteError(const std::string& node, const std::string& text, bool fatal, double sim_time)
@@ -80,7 +93,7 @@ void RunWatch::noteProcessDied(const std::string& process, std::optional<int> ex
   }
   else
     what = "exited with code " + std::to_string(*exit_code) + " before the run ended";
-  fail(node, withLastError(node, what), sim_time);
+  failDied(node, what, sim_time);
 }
 
 void RunWatch::noteTime(double sim_time, double wall_time)
@@ -93,7 +106,7 @@ void RunWatch::noteTime(double sim_time, double wall_time)
   for (const auto& [node, seen] : exited_before_start_)
     if (wall_time - seen >= kStartGrace)
     {
-      fail(node, withLastError(node, "exited before the run started"), sim_time);
+      failDied(node, "exited before the run started", sim_time);
       return;
     }
 }
@@ -108,7 +121,7 @@ void RunWatch::notePing(const std::string& node, bool answered, const std::strin
   }
   // Twice in a row: one XML-RPC call can time out on a loaded machine without the node being gone.
   if (isWatched(node) && seen_alive_.count(node) && ++failed_pings_[node] >= kFailedPings)
-    fail(node, withLastError(node, "stopped answering (" + why + ")"), sim_time);
+    failDied(node, "stopped answering (" + why + ")", sim_time);
 }
 
 }  // namespace results

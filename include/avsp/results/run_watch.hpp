@@ -61,8 +61,9 @@ public:
   /// fails the run after kFailedPings failures in a row, once it has answered once.
   void notePing(const std::string& node, bool answered, const std::string& why, double sim_time);
 
-  /// The first failure, if any.
-  const std::optional<Abort>& abort() const { return abort_; }
+  /// The first failure, if any. For a node that died, the reason ends with the last error it
+  /// logged as known now (its last /rosout lines may arrive after its death is seen).
+  std::optional<Abort> abort() const;
   /// Fails the run for a reason outside the processes (e.g. run_recorder interrupted).
   void fail(const std::string& node, const std::string& reason, double sim_time);
 
@@ -72,7 +73,13 @@ public:
   std::string lastError(const std::string& node) const;
 
 private:
-  std::string withLastError(const std::string& node, const std::string& what) const;
+  /// The first failure as seen; `with_last_error`: append the node's last error when read.
+  struct Failure
+  {
+    Abort abort;
+    bool with_last_error = false;
+  };
+  void failDied(const std::string& node, const std::string& what, double sim_time);
 
   std::vector<std::string> watched_;
   std::set<std::string> watched_set_;
@@ -80,7 +87,7 @@ private:
   std::set<std::string> seen_alive_;
   std::map<std::string, int> failed_pings_;
   std::map<std::string, double> exited_before_start_;  // helper -> wall time it was seen dead
-  std::optional<Abort> abort_;
+  std::optional<Failure> failure_;
 };
 
 }  // namespace results

@@ -123,14 +123,8 @@ void RunSupervisor::pollLaunchServers(double sim_time)
       const std::string process = entry[0];
       if (!dead_seen_.insert(uri + " " + process).second)
         continue;
-      // roslaunch answers process_info for live processes only: a dead one's code is unknown.
-      XmlRpc::XmlRpcValue params, info;
-      params[0] = process;
-      std::optional<int> exit_code;
-      if (callServer(uri, "process_info", params, info) && info.getType() == XmlRpc::XmlRpcValue::TypeStruct &&
-          info.hasMember("exit_code") && info["exit_code"].getType() == XmlRpc::XmlRpcValue::TypeInt)
-        exit_code = static_cast<int>(info["exit_code"]);
-      watch_.noteProcessDied(process, exit_code, sim_time, ros::WallTime::now().toSec());
+      // roslaunch answers process_info for live processes only: a dead one's exit code is unknown.
+      watch_.noteProcessDied(process, std::nullopt, sim_time, ros::WallTime::now().toSec());
     }
   }
 }
@@ -139,23 +133,30 @@ void RunSupervisor::pingWatched(double sim_time)
 {
   for (const std::string& node : watch_.watched())
   {
-    XmlRpc::XmlRpcValue request, response, payload;
-    request[0] = ros::this_node::getName();
-    request[1] = node;
-    if (!ros::master::execute("lookupNode", request, response, payload, false))
+    // The master is asked once per node, not every poll; again only after a failed connect
+    // (a node that restarted registers a new URI).
+    auto known = uris_.find(node);
+    if (known == uris_.end())
     {
-      watch_.notePing(node, false, "not registered with the master", sim_time);
-      continue;
+      XmlRpc::XmlRpcValue request, response, payload;
+      request[0] = ros::this_node::getName();
+      request[1] = node;
+      if (!ros::master::execute("lookupNode", request, response, payload, false))
+      {
+        watch_.notePing(node, false, "not registered with the master", sim_time);
+        continue;
+      }
+      known = uris_.emplace(node, static_cast<std::string>(payload)).first;
     }
-    const std::string uri = payload;
     std::string host;
     std::uint32_t port = 0;
-    if (!ros::network::splitURI(uri, host, port))
-    {
-      watch_.notePing(node, false, "the master lists a bad URI '" + uri + "'", sim_time);
-      continue;
-    }
-    const std::string why = tryConnect(host, port, 500);
+    std::string why;
+    if (!ros::network::splitURI(known->second, host, port))
+      why = "the master lists a bad URI '" + known->second + "'";
+    else
+      why = tryConnect(host, port, 500);
+    if (!why.empty())
+      uris_.erase(known);
     watch_.notePing(node, why.empty(), why, sim_time);
   }
 }

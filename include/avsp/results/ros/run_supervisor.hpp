@@ -31,7 +31,7 @@ public:
   /// Polls roslaunch and the watched nodes; call from the recorder's loop (cheap, a few ms).
   void poll(double sim_time);
   /// The first failure seen, if any.
-  const std::optional<Abort>& abort() const { return watch_.abort(); }
+  std::optional<Abort> abort() const { return watch_.abort(); }
   /// Fails the run for a reason of the recorder's own (e.g. an interrupt).
   void fail(const std::string& node, const std::string& reason, double sim_time) { watch_.fail(node, reason, sim_time); }
   const RunWatch& watch() const { return watch_; }
