@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <regex>
 #include <stdexcept>
 
@@ -94,6 +95,7 @@ void checkSensorsAsTheNodeWill(const Scenario& s, const std::string& vehicles_di
   {
     throw ScenarioError(s.file + ": sensors: " + e.what());
   }
+  std::map<std::string, avsp::sensors::node::VehicleFrames> frames_of;
   for (std::size_t i = 0; i < s.vehicles.size(); ++i)
   {
     const VehicleSpec& v = s.vehicles[i];
@@ -106,9 +108,11 @@ void checkSensorsAsTheNodeWill(const Scenario& s, const std::string& vehicles_di
         own = toXmlRpc(v.sensors);
       avsp::sensors::node::SensorsSpec spec = avsp::sensors::node::parseSensors(
           has_own ? &own : nullptr, "~vehicle_sensors/" + v.name, has_common ? &common : nullptr, "~sensors");
-      const avsp::sensors::node::VehicleFrames frames =
-          avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml");
-      avsp::sensors::node::mountSensors(spec, frames, "model '" + v.model + "'");
+      auto frames = frames_of.find(v.model);  // a model's files are read once, not per vehicle
+      if (frames == frames_of.end())
+        frames = frames_of.emplace(v.model, avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml"))
+                     .first;
+      avsp::sensors::node::mountSensors(spec, frames->second, "model '" + v.model + "'");
     }
     catch (const std::exception& e)
     {
