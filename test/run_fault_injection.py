@@ -19,17 +19,17 @@ usage: run_fault_injection.py SCENARIO RESULT_XML [WALL_LIMIT_S [CASE,CASE...]]
 """
 import json
 import os
-import random
 import shutil
 import signal
 import subprocess
 import sys
 import tempfile
 import time
+import traceback
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scripted_tests import clock_reaches, write_junit  # noqa: E402
+from scripted_tests import clock_reaches, free_port, write_junit  # noqa: E402
 
 # (case, the node's name as roslaunch passes it (__name:=...), its resolved name)
 KILLS = [
@@ -55,10 +55,13 @@ def find_node(name):
 def pid_of(name, ns, env):
     """The pid of the process roslaunch started for node `name` in namespace `ns` ("" = global)
     on this master (roslaunch passes __name:= and the group's namespace as ROS_NAMESPACE)."""
-    pids = subprocess.run(["pgrep", "-f", "__name:=%s( |$)" % name], stdout=subprocess.PIPE,
-                          universal_newlines=True).stdout.split()
-    for pid in pids:
+    # /proc, not pgrep: a minimal Debian (CI's clean machine) has no procps.
+    wanted = ("__name:=" + name).encode()
+    for pid in (d for d in os.listdir("/proc") if d.isdigit()):
         try:
+            with open("/proc/%s/cmdline" % pid, "rb") as f:
+                if wanted not in f.read().split(b"\0"):
+                    continue
             with open("/proc/%s/environ" % pid, "rb") as f:
                 environ = dict(e.split(b"=", 1) for e in f.read().split(b"\0") if b"=" in e)
         except OSError:
@@ -114,20 +117,13 @@ def main(argv):
 
     def wanted(case):
         return only is None or case in only
-    port = random.randint(20000, 40000)
+    port = free_port()
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1")
     env.pop("ROS_HOSTNAME", None)
     tmp = tempfile.mkdtemp(prefix="avsp_fault_")
     core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, preexec_fn=os.setsid)
     cases = []
-    # roslaunch refuses a master whose /run_id it cannot read yet: wait until the master answers.
-    deadline = time.time() + 60
-    while subprocess.run(["rosparam", "get", "/run_id"], env=env, stdout=subprocess.DEVNULL,
-                         stderr=subprocess.DEVNULL).returncode != 0:
-        if time.time() > deadline:
-            raise RuntimeError("roscore on port %d did not start" % port)
-        time.sleep(0.2)
 
     def started(run, case):
         if clock_reaches(3.0, env, 120, run.p):
@@ -137,6 +133,13 @@ def main(argv):
         return False
 
     try:
+        # roslaunch refuses a master whose /run_id it cannot read yet: wait until it answers.
+        deadline = time.time() + 60
+        while subprocess.run(["rosparam", "get", "/run_id"], env=env, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL).returncode != 0:
+            if time.time() > deadline:
+                raise RuntimeError("roscore on port %d did not start" % port)
+            time.sleep(0.2)
         for case, name, resolved in KILLS + [("run_recorder", "run_recorder", "/run_recorder")]:
             if not wanted("kill_" + case):
                 continue
@@ -246,8 +249,13 @@ def main(argv):
                 elif aborted.get("sim_time") != 0:
                     msgs.append("the run had started (sim time %s): not a start-up failure" % aborted.get("sim_time"))
             cases.append(("startup_failure", msgs))
+    except Exception:  # noqa: BLE001 - a harness failure is a failed case, with its traceback
+        cases.append(("harness", ["the fault-injection harness failed:\n" + traceback.format_exc()]))
     finally:
-        os.killpg(core.pid, signal.SIGINT)
+        try:
+            os.killpg(core.pid, signal.SIGINT)
+        except ProcessLookupError:
+            pass
         core.wait()
         shutil.rmtree(tmp, ignore_errors=True)
 

@@ -27,7 +27,6 @@ usage: run_main_job.py SCENARIO RESULT_XML [DURATION_S] [WALL_LIMIT_S]
 """
 import json
 import os
-import random
 import shutil
 import signal
 import subprocess
@@ -38,7 +37,7 @@ import time
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scripted_tests import clock_reaches, write_junit  # noqa: E402
+from scripted_tests import clock_reaches, free_port, write_junit  # noqa: E402
 
 
 def find_node(name):
@@ -228,7 +227,7 @@ def main(argv):
     models = {v["name"]: v["model"] for v in scenario_vehicles}
     config_dir = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "config")
     name = os.path.splitext(os.path.basename(scenario))[0]
-    port = random.randint(20000, 40000)
+    port = free_port()
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1")
     env.pop("ROS_HOSTNAME", None)
     cases = []

@@ -1,7 +1,8 @@
 """What the scripted tests (run_main_job.py, run_fault_injection.py) share: the JUnit XML result,
 one test case per (name, failure messages) pair, passed when the list is empty; waiting for
-/clock."""
+/clock; a free port for a private master."""
 import os
+import socket
 import subprocess
 import sys
 import time
@@ -31,6 +32,13 @@ def clock_reaches(t, env, limit, process=None):
         if probe.poll() is None:
             probe.kill()
             probe.wait()
+
+
+def free_port():
+    """A TCP port nothing listens on now (the kernel's choice), for a test's private master."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def write_junit(result, suite, cases):
