@@ -1,5 +1,6 @@
 // run_recorder: the main job's results writer. Records every listed vehicle's odometry and
-// telemetry and the ruts on /terrain/ruts on sim time, prints a progress line at most once per
+// telemetry and the ruts on /terrain/ruts on sim time (the tables stream to the results folder as
+// the run goes, in memory that does not grow with its length), prints a progress line at most once per
 // ~progress_period wall seconds, and when /clock reaches ~duration writes ~output_dir/
 // (summary.json, CSVs, .npy grids), runs scripts/plot_results.py for the PNGs and exits 0
 // (non-zero naming the file or topic on failure). Launched required="true", it ends the run.
@@ -214,7 +215,11 @@ void prepareOutputDir(const std::string& dir)
 struct Vehicle
 {
   ar::VehicleSpec spec;
+  std::size_t index = 0;  ///< in ~vehicles (its group in trajectories.csv)
   ar::VehicleRecord record;
+  /// The gap trackers this vehicle leads, and the one it follows in (nullptr = none).
+  std::vector<ar::GapTracker*> leads;
+  ar::GapTracker* follows = nullptr;
   std::string odom_topic, telemetry_topic;
   ros::Subscriber odom_sub, telemetry_sub;
   /// A message stamped after the duration arrived: everything up to it has (FIFO per topic).
@@ -259,6 +264,22 @@ public:
       throw StartupError("parameter ~soils_file: " + std::string(e.what()));
     }
     prepareOutputDir(output_dir_);
+    // The tables stream to the results folder as the run goes: memory stays flat however long it is.
+    std::vector<std::string> names;
+    for (const ar::VehicleSpec& s : specs)
+      names.push_back(s.name);
+    try
+    {
+      trajectories_ = std::make_unique<ar::TrajectoryTable>(output_dir_, names, kTablePeriod);
+      std::size_t followers = 0;
+      for (const ar::VehicleSpec& s : specs)
+        followers += s.leader.empty() ? 0 : 1;
+      gaps_ = std::make_unique<ar::SpooledTable>(output_dir_, "gaps", ar::kGapsHeader, followers);
+    }
+    catch (const std::runtime_error& e)
+    {
+      throw StartupError("parameter ~output_dir: " + std::string(e.what()));
+    }
     // The terrain source's parameters are checked now, loaded after subscribing (below).
     const at::TerrainSource source = at::terrainSourceFromParams(pnh);
 
@@ -266,6 +287,7 @@ public:
     {
       auto v = std::make_unique<Vehicle>();
       v->spec = s;
+      v->index = vehicles_.size();
       Vehicle* raw = v.get();
       // Deep queues (100 s of sim time at 100 Hz): at a high real-time factor that is a few wall
       // seconds, and the messages that arrive while the terrain loads wait in them.
@@ -281,6 +303,18 @@ public:
         anomalies_.addVehicle(s.name, ar::VehicleLimits{ s.max_speed, s.rest_height, s.wheel_radius });
       vehicles_.push_back(std::move(v));
     }
+    for (auto& v : vehicles_)
+      if (!v->spec.leader.empty())
+      {
+        const std::size_t group = trackers_.size();
+        const std::string follower = v->spec.name, leader = v->spec.leader;
+        trackers_.push_back(std::make_unique<ar::GapTracker>(
+            kTablePeriod, [this, group, follower, leader](const ar::GapSample& g) {
+              gaps_->add(group, ar::gapRow(follower, leader, g));
+            }));
+        v->follows = trackers_.back().get();
+        find(leader)->leads.push_back(v->follows);
+      }
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 200, &RunRecorder::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 200, &RunRecorder::onToppled, this);
     // Subscribed first: loading a large course takes seconds, while which the simulation may
@@ -422,7 +456,24 @@ private:
       ROS_WARN("run_recorder: anomaly: %s (counted in summary.json; each kind is reported once per vehicle)",
                anomaly.c_str());
     if (!v.record.addOdometry(t, p.x, p.y, p.z, speed))
+    {
       warnThrottled(v.odom_topic, 5.0, format("odometry at %.3f s ignored (a non-finite value, or out of order)", t));
+      return;
+    }
+    const ar::OdometrySample sample = *v.record.last();
+    try
+    {
+      trajectories_->add(v.index, sample);
+      for (ar::GapTracker* g : v.leads)
+        g->addLeader(sample);
+      if (v.follows)
+        v.follows->addFollower(sample);
+    }
+    catch (const std::exception& e)
+    {
+      // The tables stream to disk: a failed write stops the run, as its results would be incomplete.
+      supervisor_->fail(ros::this_node::getName(), e.what(), t);
+    }
   }
 
   void onTelemetry(Vehicle& v, const avsp_msgs::VehicleTelemetry& m)
@@ -513,7 +564,7 @@ private:
     const double run_rtf = wall_time > 0.0 ? (sim_end_ - sim_start_) / wall_time : std::nan("");
     std::vector<std::string> silent;
     for (const auto& v : vehicles_)
-      if (v->record.samples().empty())
+      if (v->record.sampleCount() == 0)
         silent.push_back(v->odom_topic);
     try
     {
@@ -521,12 +572,12 @@ private:
       // Trajectories and their hillshade: the box they cover, 10 m or 10 % wider on every side.
       double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
       for (const auto& v : vehicles_)
-        for (const ar::OdometrySample& s : v->record.samples())
+        if (const auto b = v->record.bounds())
         {
-          x0 = std::min(x0, s.x);
-          y0 = std::min(y0, s.y);
-          x1 = std::max(x1, s.x);
-          y1 = std::max(y1, s.y);
+          x0 = std::min(x0, (*b)[0]);
+          y0 = std::min(y0, (*b)[1]);
+          x1 = std::max(x1, (*b)[2]);
+          y1 = std::max(y1, (*b)[3]);
         }
       const at::ElevationGrid& base = terrain_->base();
       if (!(x1 >= x0))
@@ -555,20 +606,8 @@ private:
         grids.set("ruts", ar::Json());
       ar::writeText(dir + "grids.json", grids.dump());
 
-      std::vector<std::string> names;
-      std::vector<const ar::VehicleRecord*> records;
-      for (const auto& v : vehicles_)
-      {
-        names.push_back(v->spec.name);
-        records.push_back(&v->record);
-      }
-      ar::writeTrajectories(dir + "trajectories.csv", names, records, kTablePeriod);
-      std::vector<ar::GapTable> gaps;
-      for (const auto& v : vehicles_)
-        if (!v->spec.leader.empty())
-          gaps.push_back({ v->spec.name, v->spec.leader,
-                           ar::gapSeries(find(v->spec.leader)->record.samples(), v->record.samples(), kTablePeriod) });
-      ar::writeGaps(dir + "gaps.csv", gaps);
+      trajectories_->write(dir + "trajectories.csv");
+      gaps_->write(dir + "gaps.csv");
       writeObjects(dir + "objects.csv", x0, y0, x1, y1);
 
       ar::Json summary = ar::Json::object();
@@ -588,14 +627,11 @@ private:
         j.set("leader", v->spec.leader.empty() ? ar::Json() : ar::Json(v->spec.leader));
         j.set("distance", r.distance());
         j.set("mean_speed", r.meanSpeed());
-        j.set("max_speed", r.samples().empty() ? ar::Json() : ar::Json(r.maxSpeed()));
+        j.set("max_speed", r.sampleCount() == 0 ? ar::Json() : ar::Json(r.maxSpeed()));
         j.set("max_slip", r.maxSlip());
         j.set("time_stuck", r.telemetryCount() > 0 ? ar::Json(r.timeStuck()) : ar::Json());
         j.set("collisions", r.collisions());
-        std::optional<ar::GapStats> gap;
-        for (const ar::GapTable& g : gaps)
-          if (g.follower == v->spec.name)
-            gap = ar::gapStats(g.series);
+        const std::optional<ar::GapStats> gap = v->follows ? v->follows->stats() : std::nullopt;
         j.set("gap_min", gap ? ar::Json(gap->min) : ar::Json());
         j.set("gap_mean", gap ? ar::Json(gap->mean) : ar::Json());
         if (v->spec.max_speed > 0.0)
@@ -609,11 +645,11 @@ private:
         }
         else
           j.set("anomalies", ar::Json());
-        j.set("odometry_samples", r.samples().size());
+        j.set("odometry_samples", r.sampleCount());
         j.set("telemetry_messages", r.telemetryCount());
-        if (!r.samples().empty())
+        if (r.sampleCount() > 0)
         {
-          const ar::OdometrySample &a = r.samples().front(), &b = r.samples().back();
+          const ar::OdometrySample a = *r.first(), b = *r.last();
           j.set("t_first", a.t);
           j.set("t_last", b.t);
           j.set("start", ar::Json::array().push(a.x).push(a.y));
@@ -648,6 +684,10 @@ private:
       ROS_ERROR("run_recorder: %s", e.what());
       return 1;
     }
+    for (const auto& v : vehicles_)
+      if (v->follows && v->follows->dropped() > 0)
+        ROS_WARN("run_recorder: %s: %zu gap samples dropped: its leader %s sent no odometry for them",
+                 v->spec.name.c_str(), v->follows->dropped(), v->spec.leader.c_str());
     if (!plot())
       return 1;
     for (const auto& v : vehicles_)
@@ -758,6 +798,9 @@ private:
   std::unique_ptr<at::DeformableTerrain> terrain_;
   at::ObjectSet objects_;
   std::unique_ptr<ar::RutMap> ruts_;
+  std::unique_ptr<ar::TrajectoryTable> trajectories_;
+  std::unique_ptr<ar::SpooledTable> gaps_;
+  std::vector<std::unique_ptr<ar::GapTracker>> trackers_;  ///< one per follower, in ~vehicles order
   std::vector<std::unique_ptr<Vehicle>> vehicles_;
   ros::Subscriber ruts_sub_, toppled_sub_;
   std::set<std::uint32_t> toppled_;

@@ -9,7 +9,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <cstring>
+#include <filesystem>
 #include <limits>
+#include <random>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -28,6 +30,7 @@
 
 using namespace avsp::results;
 namespace terrain = avsp::terrain;
+namespace fs = std::filesystem;
 
 namespace
 {
@@ -100,7 +103,12 @@ TEST(VehicleRecord, DistanceOfAKnownPolylineAndSpeeds)
   EXPECT_FALSE(r.addOdometry(4.0, 0.0, 0.0, 0.0, std::numeric_limits<double>::infinity()));
   EXPECT_FALSE(r.addOdometry(2.5, 0.0, 0.0, 0.0, 1.0));  // out of order
   EXPECT_DOUBLE_EQ(r.distance(), 12.0);
-  EXPECT_EQ(r.samples().size(), 4u);
+  EXPECT_EQ(r.sampleCount(), 4u);
+  EXPECT_DOUBLE_EQ(r.first()->t, 0.0);
+  EXPECT_DOUBLE_EQ(r.last()->t, 3.0);
+  EXPECT_DOUBLE_EQ(r.last()->distance, 12.0);
+  const std::array<double, 4> box{ 0.0, 0.0, 6.0, 4.0 };
+  EXPECT_EQ(*r.bounds(), box);
 
   // A circle of radius 10 m sampled at 1000 points: the chords sum to 2000 R sin(pi / 1000).
   VehicleRecord c;
@@ -113,6 +121,8 @@ TEST(VehicleRecord, DistanceOfAKnownPolylineAndSpeeds)
   EXPECT_NEAR(c.distance(), 2.0 * M_PI * 10.0, 1e-3);
   VehicleRecord empty;
   EXPECT_FALSE(empty.meanSpeed());
+  EXPECT_FALSE(empty.first());
+  EXPECT_FALSE(empty.bounds());
   EXPECT_EQ(empty.distance(), 0.0);
 }
 
@@ -149,9 +159,11 @@ TEST(VehicleRecord, TimeStuckCollisionsAndMaxSlip)
 std::vector<OdometrySample> samples(const std::vector<std::array<double, 3>>& txy)
 {
   VehicleRecord r;
+  std::vector<OdometrySample> out;
   for (const auto& p : txy)
-    r.addOdometry(p[0], p[1], p[2], 0.0, 0.0);
-  return r.samples();
+    if (r.addOdometry(p[0], p[1], p[2], 0.0, 0.0))
+      out.push_back(*r.last());
+  return out;
 }
 
 // Straight line: leader at 5 m/s from x = 0, follower 12 m behind at the same speed; the
@@ -215,6 +227,93 @@ TEST(Gap, CircularArcIsRTimesTheAngle)
     }
     EXPECT_GT(checked, 70);
   }
+}
+
+// A leader on a winding path (x = 5 t, y = 8 sin(0.05 x)), the follower 15 m of x behind on the
+// same path, 100 Hz each.
+std::pair<std::vector<OdometrySample>, std::vector<OdometrySample>> windingConvoy(int steps)
+{
+  std::vector<std::array<double, 3>> l, f;
+  for (int k = 0; k <= steps; ++k)
+  {
+    const double t = 0.01 * k, xl = 5.0 * t, xf = xl - 15.0;
+    l.push_back({ t, xl, 8.0 * std::sin(0.05 * xl) });
+    f.push_back({ t, xf, 8.0 * std::sin(0.05 * xf) });
+  }
+  return { samples(l), samples(f) };
+}
+
+// The streaming tracker gives the same series bit for bit however the two topics' messages
+// interleave: all the leader's first, all the follower's first, or shuffled with a random lag of
+// up to 1 s either way (seeded); min and mean as gapStats of the series.
+TEST(Gap, SeriesDoesNotDependOnHowTheTopicsInterleave)
+{
+  const auto [leader, follower] = windingConvoy(6000);
+  const std::vector<GapSample> reference = gapSeries(leader, follower, 0.1);
+  ASSERT_EQ(reference.size(), 601u);
+  EXPECT_GT(reference[300].gap, 15.0);  // along the winding path: longer than the 15 m of x
+  for (int order = 0; order < 4; ++order)
+  {
+    std::vector<GapSample> got;
+    GapTracker tracker(0.1, [&got](const GapSample& g) { got.push_back(g); });
+    std::mt19937 rng(static_cast<unsigned>(order));
+    std::uniform_int_distribution<int> lag(-100, 100);
+    std::size_t i = 0, j = 0;
+    int ahead = lag(rng);  // + = the leader's messages ahead
+    while (i < leader.size() || j < follower.size())
+    {
+      const bool leader_next = j == follower.size() ||
+                               (i < leader.size() && (order == 0 || (order != 1 && static_cast<int>(i) <
+                                                                                       static_cast<int>(j) + ahead)));
+      if (leader_next)
+        tracker.addLeader(leader[i++]);
+      else
+        tracker.addFollower(follower[j++]);
+      if ((i + j) % 250 == 0)
+        ahead = lag(rng);
+    }
+    ASSERT_EQ(got.size(), reference.size()) << "order " << order;
+    for (std::size_t k = 0; k < got.size(); ++k)
+    {
+      EXPECT_EQ(got[k].t, reference[k].t) << "order " << order << ", sample " << k;
+      EXPECT_EQ(got[k].gap, reference[k].gap) << "order " << order << ", sample " << k;
+      EXPECT_EQ(got[k].lateral, reference[k].lateral) << "order " << order << ", sample " << k;
+    }
+    const auto st = tracker.stats(), expected = gapStats(reference);
+    ASSERT_TRUE(st && expected);
+    EXPECT_EQ(st->min, expected->min);
+    EXPECT_NEAR(st->mean, expected->mean, 1e-12);
+  }
+}
+
+// Memory: a 3 h convoy at 5 m/s, messages interleaved as they come: what the tracker holds after
+// 3 h is what it held after 1 h (the leader's samples back to the follower's, the path back to
+// kKeepBehind), and a parked leader with the follower still sending holds no more either.
+TEST(Gap, TrackerHoldsTheSameAfterOneHourAndThree)
+{
+  GapTracker tracker(0.1, [](const GapSample&) {});
+  std::size_t held_1h = 0;
+  for (int k = 0; k <= 3 * 360000; ++k)
+  {
+    const double t = 0.01 * k, xl = 5.0 * t, xf = xl - 15.0;
+    tracker.addLeader({ t, xl, 8.0 * std::sin(0.05 * xl), 0.0, 5.0, 0.0 });
+    tracker.addFollower({ t, xf, 8.0 * std::sin(0.05 * xf), 0.0, 5.0, 0.0 });
+    if (k == 360000)
+      held_1h = tracker.held();
+  }
+  // 500 m kept behind + the 15 m gap at 5 cm per point, plus a sample or two of each stream.
+  EXPECT_LT(held_1h, 12000u);
+  EXPECT_GT(held_1h, 9000u);
+  EXPECT_LE(tracker.held(), held_1h + 2);
+  const std::size_t moving = tracker.held();
+  for (int k = 1; k <= 360000; ++k)  // an hour parked
+  {
+    const double t = 10800.0 + 0.01 * k;
+    tracker.addLeader({ t, 54000.0, 8.0 * std::sin(0.05 * 54000.0), 0.0, 0.0, 0.0 });
+    tracker.addFollower({ t, 54000.0 - 15.0, 8.0 * std::sin(0.05 * 53985.0), 0.0, 0.0, 0.0 });
+  }
+  EXPECT_LE(tracker.held(), moving + 2);
+  EXPECT_EQ(tracker.dropped(), 0u);
 }
 
 // Rut depths: base z = 0.05 x; patches set deformed heights; the latest patch wins; depth =
@@ -407,22 +506,45 @@ TEST(Output, NpyGridAndCsvTables)
   EXPECT_THROW(writeNpy(dir + "/bad.npy", g), std::invalid_argument);
 
   // Trajectories at 10 Hz from 100 Hz samples, plus the last sample; gaps as given.
-  VehicleRecord r;
-  for (int k = 0; k <= 205; ++k)
-    r.addOdometry(0.01 * k, 0.01 * k, 0.0, 0.0, 1.0);
-  writeTrajectories(dir + "/trajectories.csv", { "alpha" }, { &r }, 0.1);
+  {
+    VehicleRecord r, b;
+    TrajectoryTable table(dir, { "alpha", "bravo" }, 0.1);
+    for (int k = 0; k <= 205; ++k)
+    {
+      r.addOdometry(0.01 * k, 0.01 * k, 0.0, 0.0, 1.0);
+      table.add(0, *r.last());
+      if (k < 3)  // bravo: three samples, one table row for t = 0 and its last (0.02 s)
+      {
+        b.addOdometry(0.01 * k, 5.0, 0.0, 0.0, 0.0);
+        table.add(1, *b.last());
+      }
+    }
+    EXPECT_TRUE(fs::exists(dir + "/.trajectories.0.part"));
+    table.write(dir + "/trajectories.csv");
+  }
+  EXPECT_FALSE(fs::exists(dir + "/.trajectories.0.part")) << "the spool files go with the table";
   std::ifstream in(dir + "/trajectories.csv");
   std::string line;
   std::vector<std::string> lines;
   while (std::getline(in, line))
     lines.push_back(line);
-  ASSERT_EQ(lines.size(), 1u + 21u + 1u);  // header, t = 0.0 .. 2.0, and 2.05
+  ASSERT_EQ(lines.size(), 1u + 21u + 1u + 2u);  // header, alpha t = 0.0 .. 2.0 and 2.05, bravo 0 and 0.02
   EXPECT_EQ(lines[0], "vehicle,t,x,y,z,speed,distance");
   EXPECT_EQ(lines[1], "alpha,0.000,0.000,0.000,0.000,1.000,0.000");
   EXPECT_EQ(lines[4].substr(0, 12), "alpha,0.300,");
-  EXPECT_EQ(lines.back(), "alpha,2.050,2.050,0.000,0.000,1.000,2.050");
-  writeGaps(dir + "/gaps.csv", { { "bravo", "alpha", { { 1.0, 12.5, 0.25 } } } });
-  EXPECT_EQ(readFile(dir + "/gaps.csv"), "follower,leader,t,gap,lateral\nbravo,alpha,1.000,12.500,0.250\n");
+  EXPECT_EQ(lines[22], "alpha,2.050,2.050,0.000,0.000,1.000,2.050");
+  EXPECT_EQ(lines[23], "bravo,0.000,5.000,0.000,0.000,0.000,0.000");
+  EXPECT_EQ(lines[24], "bravo,0.020,5.000,0.000,0.000,0.000,0.000");
+  {
+    SpooledTable gaps(dir, "gaps", kGapsHeader, 2);
+    gaps.add(1, gapRow("charlie", "bravo", { 2.0, 3.25, 0.0 }));
+    gaps.add(0, gapRow("bravo", "alpha", { 1.0, 12.5, 0.25 }));
+    EXPECT_EQ(gaps.rows(0), 1u);
+    gaps.write(dir + "/gaps.csv");
+  }
+  EXPECT_EQ(readFile(dir + "/gaps.csv"),
+            "follower,leader,t,gap,lateral\nbravo,alpha,1.000,12.500,0.250\ncharlie,bravo,2.000,3.250,0.000\n");
+  EXPECT_THROW(SpooledTable(dir + "/no/such/folder", "gaps", kGapsHeader, 1), std::runtime_error);
   std::system(("rm -rf " + dir).c_str());
 }
 

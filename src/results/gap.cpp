@@ -4,141 +4,180 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 namespace avsp
 {
 namespace results
 {
-namespace
+GapTracker::GapTracker(double period, std::function<void(const GapSample&)> out) : period_(period), out_(std::move(out))
 {
-/// The leader's path in the map plane with arc length, and its arc length at each sample.
-struct LeaderPath
-{
-  std::vector<double> x, y, s;        ///< path points (deduplicated) and their arc length
-  std::vector<double> sample_t, sample_s;  ///< per leader sample: time and arc length
+  if (!(period > 0.0) || !std::isfinite(period))
+    throw std::invalid_argument("GapTracker: period must be > 0 s");
+}
 
-  explicit LeaderPath(const std::vector<OdometrySample>& samples)
+void GapTracker::addLeader(const OdometrySample& p)
+{
+  if (!has_leader_)
   {
-    for (const OdometrySample& p : samples)
+    has_leader_ = true;
+    leader_t_begin_ = p.t;
+    first_x_ = p.x;
+    first_y_ = p.y;
+    path_.push_back({ p.x, p.y, 0.0 });
+  }
+  else
+  {
+    const PathPoint& b = path_.back();
+    const double d = std::hypot(p.x - b.x, p.y - b.y);
+    if (d >= 1e-3)
+      path_.push_back({ p.x, p.y, b.s + d });
+  }
+  leader_.emplace_back(p.t, path_.back().s);
+  release();
+}
+
+void GapTracker::addFollower(const OdometrySample& f)
+{
+  has_follower_ = true;
+  follower_t_ = f.t;
+  // The first sample, then the first at or after each multiple of the period.
+  if (f.t >= next_ - 1e-9)
+  {
+    next_ = (std::floor(f.t / period_ + 1e-9) + 1.0) * period_;
+    if (pending_.size() == kMaxPendingGapSamples)
     {
-      if (x.empty())
+      pending_.pop_front();
+      ++dropped_;
+    }
+    pending_.push_back(f);
+  }
+  release();
+}
+
+void GapTracker::release()
+{
+  if (has_leader_)
+  {
+    while (!pending_.empty())
+    {
+      const OdometrySample& f = pending_.front();
+      if (f.t < leader_t_begin_)
       {
-        x.push_back(p.x);
-        y.push_back(p.y);
-        s.push_back(0.0);
+        pending_.pop_front();  // before the leader's first sample: no gap
+        continue;
+      }
+      if (leader_.back().first < f.t)
+        break;  // the leader's samples around f.t have not all arrived
+      const double s_leader = sAtTime(f.t);
+      const double lo = has_previous_ ? s_previous_ - kBacktrack : 0.0;
+      const Projection p = project(f.x, f.y, lo, s_leader);
+      GapSample g;
+      g.t = f.t;
+      if (p.before_start)
+      {
+        // Behind the leader's start: the controller's first breadcrumb is the follower itself.
+        g.gap = s_leader + std::hypot(f.x - first_x_, f.y - first_y_);
+        g.lateral = 0.0;
+        s_previous_ = 0.0;
       }
       else
       {
-        const double d = std::hypot(p.x - x.back(), p.y - y.back());
-        if (d >= 1e-3)
-        {
-          x.push_back(p.x);
-          y.push_back(p.y);
-          s.push_back(s.back() + d);
-        }
+        g.gap = s_leader - p.s;
+        g.lateral = p.distance;
+        s_previous_ = p.s;
       }
-      sample_t.push_back(p.t);
-      sample_s.push_back(s.back());
+      has_previous_ = true;
+      min_ = count_ ? std::min(min_, g.gap) : g.gap;
+      sum_ += g.gap;
+      ++count_;
+      pending_.pop_front();
+      out_(g);
     }
-  }
-
-  /// Arc length of the leader at time t (interpolated between the samples around it).
-  double sAtTime(double t) const
-  {
-    const auto it = std::upper_bound(sample_t.begin(), sample_t.end(), t);
-    if (it == sample_t.begin())
-      return sample_s.front();
-    const std::size_t k = static_cast<std::size_t>(it - sample_t.begin());
-    if (k == sample_t.size())
-      return sample_s.back();
-    const double t0 = sample_t[k - 1], t1 = sample_t[k];
-    const double f = t1 > t0 ? (t - t0) / (t1 - t0) : 1.0;
-    return sample_s[k - 1] + f * (sample_s[k] - sample_s[k - 1]);
-  }
-
-  struct Projection
-  {
-    double s = 0.0, distance = std::numeric_limits<double>::infinity();
-    bool before_start = false;
-  };
-
-  /// Nearest point to (px, py) on the segments with arc length in [lo, hi].
-  Projection project(double px, double py, double lo, double hi) const
-  {
-    Projection best;
-    lo = std::max(lo, 0.0);
-    hi = std::max(hi, lo);
-    // Segment i joins points i and i+1; the first one that can reach lo and the last that starts before hi.
-    const std::size_t first =
-        static_cast<std::size_t>(std::max<std::ptrdiff_t>(std::upper_bound(s.begin(), s.end(), lo) - s.begin() - 1, 0));
-    const std::size_t last = static_cast<std::size_t>(std::upper_bound(s.begin(), s.end(), hi) - s.begin());
-    if (x.size() == 1)
+    // The path far behind the follower's place on it is not looked at again.
+    while (path_.size() >= 2 && path_[1].s < s_previous_ - kKeepBehind)
     {
-      best.s = 0.0;
-      best.distance = std::hypot(px - x[0], py - y[0]);
-      best.before_start = true;
-      return best;
+      path_.pop_front();
+      ++path_begin_;
     }
-    for (std::size_t i = first; i + 1 < x.size() && i < last; ++i)
-    {
-      const double len = s[i + 1] - s[i];
-      const double ux = (x[i + 1] - x[i]) / len, uy = (y[i + 1] - y[i]) / len;
-      const double along = (px - x[i]) * ux + (py - y[i]) * uy;
-      const double a = std::clamp(along, std::max(0.0, lo - s[i]), std::min(len, hi - s[i]));
-      const double d = std::hypot(px - (x[i] + a * ux), py - (y[i] + a * uy));
-      if (d < best.distance)
-      {
-        best.distance = d;
-        best.s = s[i] + a;
-        best.before_start = i == 0 && along < 0.0 && a == 0.0;
-      }
-    }
-    return best;
   }
-};
-}  // namespace
+  // Leader samples before the last one at or before every time still to be asked.
+  if (has_follower_)
+  {
+    const double t = pending_.empty() ? follower_t_ : pending_.front().t;
+    while (leader_.size() >= 2 && leader_[1].first <= t)
+      leader_.pop_front();
+  }
+}
+
+double GapTracker::sAtTime(double t) const
+{
+  const auto it = std::upper_bound(leader_.begin(), leader_.end(), t,
+                                   [](double v, const std::pair<double, double>& e) { return v < e.first; });
+  if (it == leader_.begin())
+    return leader_.front().second;
+  if (it == leader_.end())
+    return leader_.back().second;
+  const auto& a = *(it - 1);
+  const auto& b = *it;
+  const double f = b.first > a.first ? (t - a.first) / (b.first - a.first) : 1.0;
+  return a.second + f * (b.second - a.second);
+}
+
+GapTracker::Projection GapTracker::project(double px, double py, double lo, double hi) const
+{
+  Projection best;
+  best.distance = std::numeric_limits<double>::infinity();
+  lo = std::max(lo, 0.0);
+  hi = std::max(hi, lo);
+  // The segment that can reach lo, and every later one starting before hi: those exist whatever
+  // the leader did after this time, so the result does not depend on how far ahead its samples are.
+  const auto after_lo = std::upper_bound(path_.begin(), path_.end(), lo,
+                                         [](double v, const PathPoint& q) { return v < q.s; });
+  const std::size_t first = static_cast<std::size_t>(std::max<std::ptrdiff_t>(after_lo - path_.begin() - 1, 0));
+  for (std::size_t i = first; i + 1 < path_.size() && path_[i].s < hi; ++i)
+  {
+    const PathPoint &a = path_[i], &b = path_[i + 1];
+    const double len = b.s - a.s;
+    const double ux = (b.x - a.x) / len, uy = (b.y - a.y) / len;
+    const double along = (px - a.x) * ux + (py - a.y) * uy;
+    const double c = std::clamp(along, std::max(0.0, lo - a.s), std::min(len, hi - a.s));
+    const double d = std::hypot(px - (a.x + c * ux), py - (a.y + c * uy));
+    if (d < best.distance)
+    {
+      best.distance = d;
+      best.s = a.s + c;
+      best.before_start = path_begin_ + i == 0 && along < 0.0 && c == 0.0;
+    }
+  }
+  if (std::isinf(best.distance))
+  {
+    // No segment starts before hi (the leader has not left this point by then): the point itself,
+    // and at the path's first point the follower counts as behind the start.
+    const PathPoint& a = path_[first];
+    best.distance = std::hypot(px - a.x, py - a.y);
+    best.s = a.s;
+    best.before_start = path_begin_ + first == 0;
+  }
+  return best;
+}
+
+std::optional<GapStats> GapTracker::stats() const
+{
+  if (count_ == 0)
+    return std::nullopt;
+  return GapStats{ min_, sum_ / static_cast<double>(count_) };
+}
 
 std::vector<GapSample> gapSeries(const std::vector<OdometrySample>& leader, const std::vector<OdometrySample>& follower,
                                  double period)
 {
-  if (!(period > 0.0) || !std::isfinite(period))
-    throw std::invalid_argument("gapSeries: period must be > 0 s");
   std::vector<GapSample> out;
-  if (leader.empty() || follower.empty())
-    return out;
-  const LeaderPath path(leader);
-  const double t_begin = leader.front().t, t_end = leader.back().t;
-  double next = std::ceil(std::max(t_begin, follower.front().t) / period - 1e-9) * period;
-  double s_previous = 0.0;
-  bool has_previous = false;
+  GapTracker tracker(period, [&out](const GapSample& g) { out.push_back(g); });
+  for (const OdometrySample& p : leader)
+    tracker.addLeader(p);
   for (const OdometrySample& f : follower)
-  {
-    if (f.t < next - 1e-9 || f.t < t_begin)
-      continue;
-    if (f.t > t_end)
-      break;
-    next = (std::floor(f.t / period + 1e-9) + 1.0) * period;
-    const double s_leader = path.sAtTime(f.t);
-    const double lo = has_previous ? s_previous - kBacktrack : 0.0;
-    const LeaderPath::Projection p = path.project(f.x, f.y, lo, s_leader);
-    GapSample g;
-    g.t = f.t;
-    if (p.before_start)
-    {
-      // Behind the leader's start: the controller's first breadcrumb is the follower itself.
-      g.gap = s_leader + std::hypot(f.x - path.x[0], f.y - path.y[0]);
-      g.lateral = 0.0;
-      s_previous = 0.0;
-    }
-    else
-    {
-      g.gap = s_leader - p.s;
-      g.lateral = p.distance;
-      s_previous = p.s;
-    }
-    has_previous = true;
-    out.push_back(g);
-  }
+    tracker.addFollower(f);
   return out;
 }
 

@@ -239,45 +239,117 @@ Json gridJson(const std::string& file, const Grid& grid)
   return j;
 }
 
-void writeTrajectories(const std::string& path, const std::vector<std::string>& names,
-                       const std::vector<const VehicleRecord*>& records, double period)
+struct SpooledTable::Group
 {
-  if (names.size() != records.size() || !(period > 0.0))
-    throw std::invalid_argument("writeTrajectories " + path + ": bad arguments");
+  std::string path;
+  std::ofstream out;
+  std::size_t rows = 0;
+};
+
+SpooledTable::SpooledTable(const std::string& spool_dir, const std::string& stem, const std::string& header,
+                           std::size_t groups)
+  : header_(header)
+{
+  for (std::size_t k = 0; k < groups; ++k)
+  {
+    auto g = std::make_unique<Group>();
+    g->path = spool_dir + "/." + stem + "." + std::to_string(k) + ".part";
+    g->out.open(g->path, std::ios::binary | std::ios::trunc);
+    if (!g->out)
+      throw std::runtime_error("cannot write " + g->path + ": " + std::strerror(errno));
+    groups_.push_back(std::move(g));
+  }
+}
+
+SpooledTable::~SpooledTable()
+{
+  for (const auto& g : groups_)
+  {
+    g->out.close();
+    std::remove(g->path.c_str());
+  }
+}
+
+void SpooledTable::add(std::size_t k, const std::string& row)
+{
+  Group& g = *groups_.at(k);
+  g.out << row;
+  if (!g.out)
+    throw std::runtime_error("cannot write " + g.path + ": write failed (disk full?)");
+  ++g.rows;
+}
+
+std::size_t SpooledTable::rows(std::size_t k) const
+{
+  return groups_.at(k)->rows;
+}
+
+void SpooledTable::write(const std::string& path, const std::vector<std::string>& extra)
+{
   OutFile f(path);
   std::ofstream& out = f.stream();
-  out << "vehicle,t,x,y,z,speed,distance\n";
-  char line[256];
-  for (std::size_t k = 0; k < names.size(); ++k)
+  out << header_ << '\n';
+  for (std::size_t k = 0; k < groups_.size(); ++k)
   {
-    const std::vector<OdometrySample>& s = records[k]->samples();
-    double next = -std::numeric_limits<double>::infinity();
-    for (std::size_t n = 0; n < s.size(); ++n)
-    {
-      if (s[n].t < next - 1e-9 && n + 1 < s.size())
-        continue;
-      next = (std::floor(s[n].t / period + 1e-9) + 1.0) * period;
-      std::snprintf(line, sizeof line, ",%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", s[n].t, s[n].x, s[n].y, s[n].z,
-                    s[n].speed, s[n].distance);
-      out << names[k] << line;
-    }
+    Group& g = *groups_[k];
+    g.out.flush();
+    if (!g.out)
+      throw std::runtime_error("cannot write " + g.path + ": write failed (disk full?)");
+    std::ifstream in(g.path, std::ios::binary);
+    if (!in)
+      throw std::runtime_error("cannot read " + g.path + ": " + std::strerror(errno));
+    if (g.rows > 0)
+      out << in.rdbuf();
+    if (in.bad())
+      throw std::runtime_error("cannot read " + g.path);
+    if (k < extra.size())
+      out << extra[k];
   }
   f.close();
 }
 
-void writeGaps(const std::string& path, const std::vector<GapTable>& gaps)
+TrajectoryTable::TrajectoryTable(const std::string& spool_dir, const std::vector<std::string>& names, double period)
+  : names_(names)
+  , period_(period > 0.0 && std::isfinite(period) ? period
+                                                  : throw std::invalid_argument("TrajectoryTable: period must be > 0 s"))
+  , table_(spool_dir, "trajectories", "vehicle,t,x,y,z,speed,distance", names.size())
+  , last_(names.size())
 {
-  OutFile f(path);
-  std::ofstream& out = f.stream();
-  out << "follower,leader,t,gap,lateral\n";
+}
+
+std::string TrajectoryTable::row(std::size_t k, const OdometrySample& s) const
+{
+  char line[256];
+  std::snprintf(line, sizeof line, ",%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", s.t, s.x, s.y, s.z, s.speed, s.distance);
+  return names_[k] + line;
+}
+
+void TrajectoryTable::add(std::size_t k, const OdometrySample& s)
+{
+  Last& l = last_.at(k);
+  l.sample = s;
+  l.written = false;
+  if (l.any && s.t < l.next - 1e-9)
+    return;
+  l.any = true;
+  l.next = (std::floor(s.t / period_ + 1e-9) + 1.0) * period_;
+  table_.add(k, row(k, s));
+  l.written = true;
+}
+
+void TrajectoryTable::write(const std::string& path)
+{
+  std::vector<std::string> extra;
+  for (std::size_t k = 0; k < last_.size(); ++k)
+    extra.push_back(last_[k].any && !last_[k].written ? row(k, last_[k].sample) : "");
+  table_.write(path, extra);
+}
+
+std::string gapRow(const std::string& follower, const std::string& leader, const GapSample& g)
+{
   char line[128];
-  for (const GapTable& g : gaps)
-    for (const GapSample& s : g.series)
-    {
-      std::snprintf(line, sizeof line, ",%.3f,%.3f,%.3f\n", s.t, s.gap, s.lateral);
-      out << g.follower << ',' << g.leader << line;
-    }
-  f.close();
+  std::snprintf(line, sizeof line, ",%.3f,%.3f,%.3f\n", g.t, g.gap, g.lateral);
+  return follower + "," + leader + line;
 }
 
 }  // namespace results

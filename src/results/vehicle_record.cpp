@@ -54,23 +54,45 @@ bool VehicleRecord::addOdometry(double t, double x, double y, double z, double s
   if (!std::isfinite(t) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(speed))
     return false;
   OdometrySample s{ t, x, y, z, std::abs(speed), 0.0 };
-  if (!samples_.empty())
+  if (count_ > 0)
   {
-    const OdometrySample& p = samples_.back();
+    const OdometrySample& p = last_;
     if (t < p.t)
       return false;
     s.distance = p.distance + std::sqrt((x - p.x) * (x - p.x) + (y - p.y) * (y - p.y) + (z - p.z) * (z - p.z));
+    bounds_ = { std::min(bounds_[0], x), std::min(bounds_[1], y), std::max(bounds_[2], x), std::max(bounds_[3], y) };
+  }
+  else
+  {
+    first_ = s;
+    bounds_ = { x, y, x, y };
   }
   max_speed_ = std::max(max_speed_, s.speed);
-  samples_.push_back(s);
+  last_ = s;
+  ++count_;
   return true;
+}
+
+std::optional<OdometrySample> VehicleRecord::first() const
+{
+  return count_ ? std::optional<OdometrySample>(first_) : std::nullopt;
+}
+
+std::optional<OdometrySample> VehicleRecord::last() const
+{
+  return count_ ? std::optional<OdometrySample>(last_) : std::nullopt;
+}
+
+std::optional<std::array<double, 4>> VehicleRecord::bounds() const
+{
+  return count_ ? std::optional<std::array<double, 4>>(bounds_) : std::nullopt;
 }
 
 std::optional<double> VehicleRecord::meanSpeed() const
 {
-  if (samples_.size() < 2 || !(samples_.back().t > samples_.front().t))
+  if (count_ < 2 || !(last_.t > first_.t))
     return std::nullopt;
-  return distance() / (samples_.back().t - samples_.front().t);
+  return distance() / (last_.t - first_.t);
 }
 
 bool VehicleRecord::addTelemetry(double t, std::optional<double> max_slip, bool stuck, std::uint32_t collisions)

@@ -86,22 +86,68 @@ void writeNpy(const std::string& path, const Grid& grid);
 Json gridJson(const std::string& file, const Grid& grid);
 
 /**
- * @brief trajectories.csv: `vehicle,t,x,y,z,speed,distance` (s, m, m, m, m/s, m), the first
- *        sample at or after each multiple of `period` (s) and each vehicle's last sample.
- * @throw std::runtime_error naming the file
+ * @brief A CSV table written as the run goes, in constant memory: each group's rows (a vehicle's,
+ *        a follower's) are appended to its own spool file in `spool_dir` (`.<stem>.<k>.part`,
+ *        removed with the table); write() puts the header and every group's rows, in group order,
+ *        into the table's file, so the file does not depend on how the groups' messages interleave.
  */
-void writeTrajectories(const std::string& path, const std::vector<std::string>& names,
-                       const std::vector<const VehicleRecord*>& records, double period);
-
-/// One follower's gap series for gaps.csv.
-struct GapTable
+class SpooledTable
 {
-  std::string follower, leader;
-  std::vector<GapSample> series;
+public:
+  /// @throw std::runtime_error naming a spool file that cannot be created
+  SpooledTable(const std::string& spool_dir, const std::string& stem, const std::string& header, std::size_t groups);
+  ~SpooledTable();
+  SpooledTable(const SpooledTable&) = delete;
+  SpooledTable& operator=(const SpooledTable&) = delete;
+
+  /// Appends a row ("...\n") to group `k`. @throw std::runtime_error naming the spool file
+  void add(std::size_t k, const std::string& row);
+  /// Rows added to group `k`.
+  std::size_t rows(std::size_t k) const;
+  /// Writes the header and every group's rows to `path` (the spools stay for a later write).
+  /// @param extra a last row per group ("" = none), written after that group's rows
+  /// @throw std::runtime_error naming the file
+  void write(const std::string& path, const std::vector<std::string>& extra = {});
+
+private:
+  struct Group;
+  std::string header_;
+  std::vector<std::unique_ptr<Group>> groups_;
 };
 
-/// gaps.csv: `follower,leader,t,gap,lateral` (s, m, m). @throw std::runtime_error naming the file
-void writeGaps(const std::string& path, const std::vector<GapTable>& gaps);
+/**
+ * @brief trajectories.csv: `vehicle,t,x,y,z,speed,distance` (s, m, m, m, m/s, m), each vehicle's
+ *        first sample, its first at or after each multiple of `period` (s), and its last sample.
+ */
+class TrajectoryTable
+{
+public:
+  /// @throw std::invalid_argument if period is not > 0; std::runtime_error naming a spool file
+  TrajectoryTable(const std::string& spool_dir, const std::vector<std::string>& names, double period);
+  /// Vehicle `k`'s sample (in time order). @throw std::runtime_error naming the spool file
+  void add(std::size_t k, const OdometrySample& s);
+  /// Writes the table to `path`. @throw std::runtime_error naming the file
+  void write(const std::string& path);
+
+private:
+  struct Last
+  {
+    OdometrySample sample;
+    bool any = false, written = false;
+    double next = 0.0;
+  };
+  std::string row(std::size_t k, const OdometrySample& s) const;
+
+  std::vector<std::string> names_;
+  double period_;
+  SpooledTable table_;
+  std::vector<Last> last_;
+};
+
+/// A gaps.csv row: `follower,leader,t,gap,lateral` (s, m, m).
+std::string gapRow(const std::string& follower, const std::string& leader, const GapSample& g);
+/// The header of gaps.csv.
+constexpr const char* kGapsHeader = "follower,leader,t,gap,lateral";
 
 }  // namespace results
 }  // namespace avsp

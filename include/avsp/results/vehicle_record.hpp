@@ -1,10 +1,13 @@
 #pragma once
 /**
  * @file vehicle_record.hpp
- * @brief What the run recorder keeps of one vehicle (no ROS): its odometry samples with the
- *        distance driven, and from its telemetry the largest driven slip, the time stuck and
- *        the collision count.
+ * @brief What the run recorder keeps of one vehicle (no ROS), in constant memory however long
+ *        the run: from its odometry the first and latest sample, the count, the distance driven,
+ *        the top speed and the box it covered; from its telemetry the largest driven slip, the
+ *        time stuck and the collision count. The samples themselves stream to disk
+ *        (output.hpp, TrajectoryTable) and to the gap trackers (gap.hpp).
  */
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -79,15 +82,21 @@ public:
    */
   bool addTelemetry(double t, std::optional<double> max_slip, bool stuck, std::uint32_t collisions);
 
-  const std::vector<OdometrySample>& samples() const { return samples_; }
+  /// Accepted odometry samples so far.
+  std::size_t sampleCount() const { return count_; }
+  /// The first and the latest accepted sample; nullopt before any.
+  std::optional<OdometrySample> first() const;
+  std::optional<OdometrySample> last() const;
   /// m, driven so far (0 before two samples).
-  double distance() const { return samples_.empty() ? 0.0 : samples_.back().distance; }
+  double distance() const { return count_ ? last_.distance : 0.0; }
   /// m/s, of the latest sample (0 before any).
-  double speed() const { return samples_.empty() ? 0.0 : samples_.back().speed; }
+  double speed() const { return count_ ? last_.speed : 0.0; }
   /// m/s, the largest sample speed (0 before any).
   double maxSpeed() const { return max_speed_; }
   /// m/s, distance / time from the first to the latest sample; nullopt before that time is > 0.
   std::optional<double> meanSpeed() const;
+  /// The map-plane box of every accepted sample: min_x, min_y, max_x, max_y (m); nullopt before any.
+  std::optional<std::array<double, 4>> bounds() const;
 
   std::size_t telemetryCount() const { return telemetry_count_; }
   /// Largest driven slip reported; nullopt if no telemetry had a driven contact on the ground.
@@ -98,7 +107,9 @@ public:
   std::optional<std::uint32_t> collisions() const;
 
 private:
-  std::vector<OdometrySample> samples_;
+  std::size_t count_ = 0;
+  OdometrySample first_, last_;
+  std::array<double, 4> bounds_{};
   double max_speed_ = 0.0;
   std::size_t telemetry_count_ = 0;
   std::optional<double> max_slip_;
