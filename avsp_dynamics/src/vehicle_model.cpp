@@ -1,15 +1,10 @@
 #include "avsp_dynamics/vehicle_model.hpp"
 
-#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <set>
 #include <sstream>
-
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -17,6 +12,7 @@
 #include <urdf_parser/urdf_parser.h>
 #include <yaml-cpp/yaml.h>
 
+#include <avsp_terrain/input_file.hpp>
 #include <avsp_terrain/yaml_section.hpp>
 
 namespace avsp
@@ -155,85 +151,15 @@ std::string tooFar(const std::string& what, double distance)
          rangeText(kDistanceFromBase);
 }
 
-/// Neither the YAML nor the URDF of a vehicle is anywhere near this (the reference URDFs are
-/// 8-21 kB): a bigger file is not a vehicle description, and reading it would only cost memory.
-constexpr std::size_t kMaxVehicleFileBytes = 16u << 20;  // 16 MiB
 
 /// Why a vehicle file is not read; the caller adds which file and what names it.
-class FileRefused : public std::runtime_error
-{
-public:
-  using std::runtime_error::runtime_error;
-};
+using FileRefused = avsp::terrain::InputFileRefused;
 
-std::string fileKind(mode_t mode)
-{
-  if (S_ISDIR(mode))
-    return "a directory";
-  if (S_ISCHR(mode))
-    return "a character device";
-  if (S_ISBLK(mode))
-    return "a block device";
-  if (S_ISFIFO(mode))
-    return "a FIFO (named pipe)";
-  if (S_ISSOCK(mode))
-    return "a socket";
-  return "not a regular file";
-}
-
-/// Refuses, before reading a byte, anything but a regular file of at most kMaxVehicleFileBytes.
-void checkRegularAndSmall(const struct stat& st)
-{
-  if (!S_ISREG(st.st_mode))
-    throw FileRefused("is " + fileKind(st.st_mode) + ", not a regular file: refused without reading it");
-  if (static_cast<unsigned long long>(st.st_size) > kMaxVehicleFileBytes)
-    throw FileRefused("is " + std::to_string(st.st_size) + " bytes, more than the " +
-                      std::to_string(kMaxVehicleFileBytes) + " (16 MiB) a vehicle file may have: refused without reading it");
-}
-
-/**
- * @brief The whole text of a vehicle file (YAML or URDF), which must be a regular file of at
- *        most 16 MiB: /dev/zero, a FIFO, a directory or a huge file are refused before reading
- *        (they would read forever, block, or fill the memory).
- * @throw FileRefused with the reason (without the path)
- */
+/// The whole text of a vehicle file (YAML or URDF): a regular file of at most 16 MiB.
+/// @throw FileRefused with the reason (without the path)
 std::string readVehicleFile(const std::string& path)
 {
-  // stat first: opening a device or a FIFO can itself block or have effects.
-  struct stat st;
-  if (::stat(path.c_str(), &st) != 0)
-    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
-  checkRegularAndSmall(st);
-  // O_NONBLOCK: if the path became a FIFO since the stat, open returns instead of waiting for
-  // a writer; fstat of what was opened then refuses it.
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
-  if (fd < 0)
-    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
-  struct Closer
-  {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{ fd };
-  if (::fstat(fd, &st) != 0)
-    throw FileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
-  checkRegularAndSmall(st);
-  // Read at most one byte more than the limit: a file that grows while it is read is refused too.
-  std::string text;
-  char buffer[65536];
-  while (true)
-  {
-    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
-    if (n < 0 && errno == EINTR)
-      continue;
-    if (n < 0)
-      throw FileRefused(std::string("cannot be read (") + std::strerror(errno) + ")");
-    if (n == 0)
-      break;
-    text.append(buffer, static_cast<std::size_t>(n));
-    if (text.size() > kMaxVehicleFileBytes)
-      throw FileRefused("grew beyond " + std::to_string(kMaxVehicleFileBytes) + " bytes (16 MiB) while it was read");
-  }
-  return text;
+  return avsp::terrain::readInputFile(path, kMaxVehicleFileBytes, "a vehicle file");
 }
 
 /// The vehicle's YAML, read by readVehicleFile, as a Section (the checks of avsp_terrain's

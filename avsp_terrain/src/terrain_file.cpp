@@ -1,5 +1,7 @@
 #include "avsp_terrain/terrain_file.hpp"
 
+#include "avsp_terrain/input_file.hpp"
+
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -56,7 +58,7 @@ private:
 class Reader
 {
 public:
-  Reader(const std::vector<char>& bytes, std::size_t end, std::string path)
+  Reader(const std::string& bytes, std::size_t end, std::string path)
     : bytes_(bytes), end_(end), path_(std::move(path))
   {
   }
@@ -83,7 +85,7 @@ public:
   std::size_t remaining() const { return end_ - pos_; }
 
 private:
-  const std::vector<char>& bytes_;
+  const std::string& bytes_;
   std::size_t end_;
   std::size_t pos_ = sizeof(kMagic) + sizeof(std::uint32_t);
   std::string path_;
@@ -147,12 +149,24 @@ void saveTerrain(const std::string& path, const DeformableTerrain& terrain, cons
     throw TerrainFileError(path + ": write failed (disk full?)");
 }
 
-LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils)
+std::uint64_t maxTerrainFileBytes(std::uint64_t max_points)
 {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw TerrainFileError(path + ": cannot open the file");
-  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // Per point at most: a height (4), a soil index (1), a stateful point (index 8 + 3 floats).
+  return (64u << 20) + 25u * max_points;
+}
+
+LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils, std::uint64_t max_points)
+{
+  std::string bytes;
+  try
+  {
+    bytes = readInputFile(path, maxTerrainFileBytes(max_points),
+                          "a terrain file of at most " + std::to_string(max_points) + " points (max_cells)");
+  }
+  catch (const InputFileRefused& e)
+  {
+    throw TerrainFileError(path + ": " + e.what());
+  }
   const std::size_t header = sizeof(kMagic) + sizeof(std::uint32_t);
   if (bytes.size() < header + sizeof(std::uint64_t) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
     throw TerrainFileError(path + ": not an AVSP terrain file (bad magic or too short)");
@@ -171,6 +185,9 @@ LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils)
   const auto ox = r.get<double>("origin"), oy = r.get<double>("origin");
   const auto dx = r.get<double>("spacing"), dy = r.get<double>("spacing");
   const auto columns = r.get<std::uint64_t>("columns"), rows = r.get<std::uint64_t>("rows");
+  if (columns >= 2 && rows >= 2 && columns <= (1ULL << 31) / rows && columns * rows > max_points)
+    r.fail("grid of " + std::to_string(columns) + " x " + std::to_string(rows) + " points, more than max_cells " +
+           std::to_string(max_points));
   if (columns < 2 || rows < 2 || columns > (1ULL << 31) / rows || r.remaining() / sizeof(float) < columns * rows)
     r.fail("grid size " + std::to_string(columns) + " x " + std::to_string(rows) + " does not fit the file");
   const std::uint32_t palette_size = version == 1 ? 1 : r.get<std::uint32_t>("palette size");

@@ -72,7 +72,7 @@ LoadedSource loadTerrainSource(const TerrainSource& source, const SoilLibrary& s
   LoadedSource out;
   if (!source.terrain_file.empty())
   {
-    LoadedTerrain loaded = loadTerrain(source.terrain_file, soils);
+    LoadedTerrain loaded = loadTerrain(source.terrain_file, soils, source.max_cells);
     out.terrain = std::make_unique<DeformableTerrain>(std::move(loaded.terrain));
     out.objects = std::move(loaded.objects);
     out.description = source.terrain_file;

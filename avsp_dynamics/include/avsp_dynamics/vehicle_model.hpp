@@ -6,6 +6,7 @@
  *        steering, drivetrain, brakes) from config/vehicles/<model>.yaml. Everything is
  *        validated at load; a bad file throws ConfigError naming the file and the key.
  */
+#include <cstdint>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -197,6 +198,10 @@ struct VehicleModel
 
 /// Sensor mount links every vehicle URDF must have, attached by fixed joints.
 const std::vector<std::string>& requiredSensorLinks();
+
+/// Largest vehicle file (YAML or URDF) read: the reference URDFs are 8-21 kB; a bigger file is
+/// not a vehicle description, and reading it would only cost memory.
+constexpr std::uint64_t kMaxVehicleFileBytes = 16u << 20;  // 16 MiB
 
 /**
  * @brief Loads config/vehicles/<model>.yaml and the URDF it names, and validates both.

@@ -6,6 +6,7 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <avsp_dynamics/vehicle_model.hpp>
+#include <avsp_terrain/input_file.hpp>
 
 namespace avsp
 {
@@ -37,7 +38,17 @@ VehicleFrames loadVehicleFrames(const std::string& yaml_path)
   const avsp::dynamics::VehicleModel model = avsp::dynamics::loadVehicleModel(yaml_path);
   VehicleFrames out;
   out.urdf_path = model.urdf_path;
-  const urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDFFile(model.urdf_path);
+  // The same file checks as the model's loader: the URDF may have changed since it read it.
+  std::string text;
+  try
+  {
+    text = avsp::terrain::readInputFile(model.urdf_path, avsp::dynamics::kMaxVehicleFileBytes, "a vehicle file");
+  }
+  catch (const avsp::terrain::InputFileRefused& e)
+  {
+    throw std::runtime_error(model.urdf_path + ": " + e.what());
+  }
+  const urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDF(text);
   if (!urdf || !urdf->getRoot())
     throw std::runtime_error(model.urdf_path + ": cannot be parsed as URDF");
   out.root_link = urdf->getRoot()->name;

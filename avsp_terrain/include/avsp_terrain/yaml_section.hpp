@@ -5,11 +5,14 @@
  *        unknown keys rejected, every error naming the file and the key path.
  */
 #include <cmath>
+#include <cstdint>
 #include <set>
 #include <string>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
+
+#include "avsp_terrain/input_file.hpp"
 
 namespace avsp
 {
@@ -159,9 +162,13 @@ private:
   std::string path_;
 };
 
+/// Largest YAML configuration file read (soils.yaml, a DEM sidecar, a vehicle's YAML: a few kB).
+constexpr std::uint64_t kMaxYamlFileBytes = 16u << 20;
+
 /**
- * @brief Loads a YAML file whose top level must be a map.
- * @throw Error naming the file: cannot open, not valid YAML (with line), not a map
+ * @brief Loads a YAML file whose top level must be a map; only a regular file of at most
+ *        kMaxYamlFileBytes is read (input_file.hpp).
+ * @throw Error naming the file: refused or cannot open, not valid YAML (with line), not a map
  */
 template <class Error>
 YamlSection<Error> loadYamlFile(const std::string& path)
@@ -169,11 +176,11 @@ YamlSection<Error> loadYamlFile(const std::string& path)
   YAML::Node doc;
   try
   {
-    doc = YAML::LoadFile(path);
+    doc = YAML::Load(readInputFile(path, kMaxYamlFileBytes, "a YAML file"));
   }
-  catch (const YAML::BadFile&)
+  catch (const InputFileRefused& e)
   {
-    throw Error(path + ": cannot open the file");
+    throw Error(path + ": " + e.what());
   }
   catch (const YAML::Exception& e)
   {
