@@ -21,7 +21,6 @@ usage (with a workspace sourced, e.g. `. build/avsp/devel/setup.sh`; not install
 import argparse
 import os
 import shutil
-import signal
 import socket
 import subprocess
 import sys
@@ -32,7 +31,7 @@ import yaml
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "test"))
-from scripted_tests import free_port  # noqa: E402
+from scripted_tests import free_port, stop_launch  # noqa: E402
 
 
 def run_nodes(master_uri):
@@ -150,13 +149,7 @@ def main():
                 if r is not None:
                     samples.setdefault(node, []).append((t, r))
     finally:
-        if launch.poll() is None:
-            os.killpg(launch.pid, signal.SIGINT)
-            try:
-                launch.wait(timeout=40)
-            except subprocess.TimeoutExpired:
-                os.killpg(launch.pid, signal.SIGKILL)
-                launch.wait()
+        stop_launch(launch)
         log.close()
     wall = time.time() - start
     last_t = max((s[-1][0] for s in samples.values() if s), default=0.0)

@@ -28,7 +28,6 @@ usage: run_main_job.py SCENARIO RESULT_XML [DURATION_S] [WALL_LIMIT_S]
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -37,7 +36,7 @@ import time
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scripted_tests import clock_reaches, free_port, write_junit  # noqa: E402
+from scripted_tests import clock_reaches, free_port, stop_launch, write_junit  # noqa: E402
 
 
 def find_node(name):
@@ -112,17 +111,6 @@ def bad_scenario_cases(scenario, env, tmp):
             msg.append("stderr does not name '%s: %s': %s" % (path, key, err.strip()))
         results.append(("bad_scenario_" + name, msg))
     return results
-
-
-def stop_launch(launch):
-    """Stops a roslaunch started in its own process group: SIGINT, SIGKILL after 40 s."""
-    if launch.poll() is None:
-        os.killpg(launch.pid, signal.SIGINT)
-        try:
-            launch.wait(timeout=40)
-        except subprocess.TimeoutExpired:
-            os.killpg(launch.pid, signal.SIGKILL)
-            launch.wait()
 
 
 def run_launch(args, env, limit):

@@ -2,6 +2,7 @@
 one test case per (name, failure messages) pair, passed when the list is empty; waiting for
 /clock; a free port for a private master."""
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -39,6 +40,17 @@ def free_port():
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def stop_launch(launch):
+    """Stops a roslaunch started in its own process group: SIGINT, SIGKILL after 40 s."""
+    if launch.poll() is None:
+        os.killpg(launch.pid, signal.SIGINT)
+        try:
+            launch.wait(timeout=40)
+        except subprocess.TimeoutExpired:
+            os.killpg(launch.pid, signal.SIGKILL)
+            launch.wait()
 
 
 def write_junit(result, suite, cases):
