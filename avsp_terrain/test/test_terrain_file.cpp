@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <set>
 #include <vector>
@@ -350,5 +351,35 @@ TEST(TerrainFile, UnknownSoilIsNamed)
   {
     EXPECT_NE(std::string(e.what()).find("soil 'lava'"), std::string::npos) << e.what();
   }
+  std::remove(path.c_str());
+}
+
+// Input files: a grid over the point budget is refused from its header, and only regular files
+// are read (/dev/zero would read forever) — for the terrain file and for every YAML config.
+TEST(TerrainFile, OnlyRegularFilesWithinThePointBudgetAreRead)
+{
+  const std::string path = scratchPath();
+  saveTerrain(path, multiSoil(12), ObjectSet());
+  auto error = [](const std::function<void()>& f) {
+    try
+    {
+      f();
+    }
+    catch (const std::exception& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error([&] { loadTerrain(path, library(), 143); }),
+            path + ": grid of 12 x 12 points, more than max_cells 143");
+  EXPECT_EQ(error([&] { loadTerrain(path, library(), 144); }), "no error");
+  EXPECT_EQ(error([&] { loadTerrain("/dev/zero", library()); }),
+            "/dev/zero: is a character device, not a regular file: refused without reading it");
+  EXPECT_EQ(error([&] { loadTerrain("/tmp", library()); }),
+            "/tmp: is a directory, not a regular file: refused without reading it");
+  EXPECT_EQ(error([] { SoilLibrary::load("/dev/zero"); }),
+            "/dev/zero: is a character device, not a regular file: refused without reading it");
+  EXPECT_EQ(maxTerrainFileBytes(1000), (64u << 20) + 25000u);
   std::remove(path.c_str());
 }
