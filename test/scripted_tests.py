@@ -2,6 +2,7 @@
 one test case per (name, failure messages) pair, passed when the list is empty; waiting for
 /clock; a free port for a private master."""
 import os
+import random
 import signal
 import socket
 import subprocess
@@ -36,10 +37,19 @@ def clock_reaches(t, env, limit, process=None):
 
 
 def free_port():
-    """A TCP port nothing listens on now (the kernel's choice), for a test's private master."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    """A TCP port for a test's private master that nothing holds now, below Linux's ephemeral
+    range (32768-60999): a port from that range may be taken by any outgoing connection, and a
+    test that starts its master twice on the port (the main job) once found it in use."""
+    rng = random.Random()
+    for _ in range(200):
+        port = rng.randint(20000, 32000)
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+            try:
+                s.bind(("0.0.0.0", port))
+            except OSError:
+                continue
+            return port
+    raise RuntimeError("no free TCP port in 20000-32000")
 
 
 def stop_launch(launch):
