@@ -11,6 +11,8 @@ namespace avsp
 {
 namespace terrain
 {
+namespace
+{
 std::string fileKind(unsigned mode)
 {
   if (S_ISDIR(mode))
@@ -33,8 +35,6 @@ std::string byteSize(std::uint64_t bytes)
   return std::to_string(bytes) + " bytes";
 }
 
-namespace
-{
 void checkStat(const struct stat& st, std::uint64_t max_bytes, const std::string& what)
 {
   if (!S_ISREG(st.st_mode))
@@ -43,17 +43,15 @@ void checkStat(const struct stat& st, std::uint64_t max_bytes, const std::string
     throw InputFileRefused("is " + std::to_string(st.st_size) + " bytes, more than the " + std::to_string(max_bytes) +
                            " (" + byteSize(max_bytes) + ") " + what + " may have: refused without reading it");
 }
-}  // namespace
-
-std::uint64_t checkInputFile(const std::string& path, std::uint64_t max_bytes, const std::string& what)
+void checkInputFile(const std::string& path, std::uint64_t max_bytes, const std::string& what)
 {
   // stat, not open: opening a device or a FIFO can itself block or have effects.
   struct stat st;
   if (::stat(path.c_str(), &st) != 0)
     throw InputFileRefused(std::string("cannot open the file (") + std::strerror(errno) + ")");
   checkStat(st, max_bytes, what);
-  return static_cast<std::uint64_t>(st.st_size);
 }
+}  // namespace
 
 std::string readInputFile(const std::string& path, std::uint64_t max_bytes, const std::string& what)
 {

@@ -10,7 +10,7 @@ namespace avsp
 {
 namespace results
 {
-GapTracker::GapTracker(double period, std::function<void(const GapSample&)> out) : period_(period), out_(std::move(out))
+GapTracker::GapTracker(double period, std::function<void(const GapSample&)> out) : pick_(period), out_(std::move(out))
 {
   if (!(period > 0.0) || !std::isfinite(period))
     throw std::invalid_argument("GapTracker: period must be > 0 s");
@@ -41,10 +41,8 @@ void GapTracker::addFollower(const OdometrySample& f)
 {
   has_follower_ = true;
   follower_t_ = f.t;
-  // The first sample, then the first at or after each multiple of the period.
-  if (f.t >= next_ - 1e-9)
+  if (pick_.take(f.t))
   {
-    next_ = (std::floor(f.t / period_ + 1e-9) + 1.0) * period_;
     if (pending_.size() == kMaxPendingGapSamples)
     {
       pending_.pop_front();

@@ -309,12 +309,11 @@ void SpooledTable::write(const std::string& path, const std::vector<std::string>
 }
 
 TrajectoryTable::TrajectoryTable(const std::string& spool_dir, const std::vector<std::string>& names, double period)
-  : names_(names)
-  , period_(period > 0.0 && std::isfinite(period) ? period
-                                                  : throw std::invalid_argument("TrajectoryTable: period must be > 0 s"))
-  , table_(spool_dir, "trajectories", "vehicle,t,x,y,z,speed,distance", names.size())
-  , last_(names.size())
+  : names_(names), table_(spool_dir, "trajectories", "vehicle,t,x,y,z,speed,distance", names.size())
 {
+  if (!(period > 0.0) || !std::isfinite(period))
+    throw std::invalid_argument("TrajectoryTable: period must be > 0 s");
+  last_.assign(names.size(), Last(period));
 }
 
 std::string TrajectoryTable::row(std::size_t k, const OdometrySample& s) const
@@ -328,13 +327,10 @@ void TrajectoryTable::add(std::size_t k, const OdometrySample& s)
 {
   Last& l = last_.at(k);
   l.sample = s;
-  l.written = false;
-  if (l.any && s.t < l.next - 1e-9)
-    return;
   l.any = true;
-  l.next = (std::floor(s.t / period_ + 1e-9) + 1.0) * period_;
-  table_.add(k, row(k, s));
-  l.written = true;
+  l.written = l.pick.take(s.t);
+  if (l.written)
+    table_.add(k, row(k, s));
 }
 
 void TrajectoryTable::write(const std::string& path)

@@ -21,25 +21,14 @@ public:
   using std::runtime_error::runtime_error;
 };
 
-/// "a directory", "a character device", "a FIFO (named pipe)", ... for a stat mode.
-std::string fileKind(unsigned mode);
-
 /**
- * @brief Size in bytes of `path`, which must be a regular file of at most `max_bytes`.
+ * @brief The whole content of `path`, which must be a regular file of at most `max_bytes`
+ *        (checked before it is opened); a file that becomes a FIFO after the check is not waited
+ *        on, and one that grows beyond `max_bytes` while read is refused.
  * @param what what the file is, for the message ("a vehicle file")
  * @throw InputFileRefused e.g. "is a FIFO (named pipe), not a regular file: refused without reading it"
  */
-std::uint64_t checkInputFile(const std::string& path, std::uint64_t max_bytes, const std::string& what);
-
-/**
- * @brief The whole content of `path` after checkInputFile; a file that becomes a FIFO after the
- *        check is not waited on, and one that grows beyond `max_bytes` while read is refused.
- * @throw InputFileRefused with the reason
- */
 std::string readInputFile(const std::string& path, std::uint64_t max_bytes, const std::string& what);
-
-/// "16 MiB" for 16 << 20; bytes otherwise.
-std::string byteSize(std::uint64_t bytes);
 
 }  // namespace terrain
 }  // namespace avsp

@@ -27,7 +27,6 @@
 #include <cstddef>
 #include <deque>
 #include <functional>
-#include <limits>
 #include <optional>
 #include <vector>
 
@@ -96,7 +95,7 @@ private:
   double sAtTime(double t) const;
   Projection project(double px, double py, double lo, double hi) const;
 
-  double period_;
+  PeriodicPick pick_;  ///< which follower samples are due
   std::function<void(const GapSample&)> out_;
   std::deque<std::pair<double, double>> leader_;  ///< (t, s) of the leader's samples still needed
   std::deque<PathPoint> path_;                    ///< the kept part of the leader's path
@@ -105,7 +104,6 @@ private:
   bool has_leader_ = false;
   double leader_t_begin_ = 0.0;
   std::deque<OdometrySample> pending_;  ///< follower samples due, waiting for the leader's
-  double next_ = -std::numeric_limits<double>::infinity();  ///< s, the next multiple of the period due
   bool has_follower_ = false;
   double follower_t_ = 0.0;  ///< the latest follower sample's time
   double s_previous_ = 0.0;

@@ -132,14 +132,14 @@ public:
 private:
   struct Last
   {
+    explicit Last(double period) : pick(period) {}
+    PeriodicPick pick;
     OdometrySample sample;
     bool any = false, written = false;
-    double next = 0.0;
   };
   std::string row(std::size_t k, const OdometrySample& s) const;
 
   std::vector<std::string> names_;
-  double period_;
   SpooledTable table_;
   std::vector<Last> last_;
 };

@@ -8,8 +8,10 @@
  *        (output.hpp, TrajectoryTable) and to the gap trackers (gap.hpp).
  */
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,6 +45,26 @@ struct OdometrySample
   double z = 0.0;         ///< m, map
   double speed = 0.0;     ///< m/s, magnitude of the base_link linear velocity
   double distance = 0.0;  ///< m, driven from the first sample to this one
+};
+
+/// Picks a time series' first sample and then its first at or after each multiple of `period`
+/// (s): the rows of trajectories.csv and the gap samples.
+class PeriodicPick
+{
+public:
+  explicit PeriodicPick(double period) : period_(period) {}
+  /// True when the sample at `t` (times in order) is picked.
+  bool take(double t)
+  {
+    if (t < next_ - 1e-9)
+      return false;
+    next_ = (std::floor(t / period_ + 1e-9) + 1.0) * period_;
+    return true;
+  }
+
+private:
+  double period_;
+  double next_ = -std::numeric_limits<double>::infinity();
 };
 
 /// One wheel's or track segment's contact as telemetry reports it (avsp_msgs/WheelContact).
