@@ -103,7 +103,16 @@ def main():
     p.add_argument("--period", type=float, default=1.0)
     p.add_argument("--keep", default="")
     a = p.parse_args()
-    warmup = min(a.warmup, 0.5 * a.duration)
+    if not (a.duration > 0.0 and a.duration < 1e7):
+        p.error("--duration %g: must be in (0, 1e7) s of sim time" % a.duration)
+    if not (0.0 <= a.warmup < a.duration):
+        p.error("--warmup %g: must be >= 0 and below --duration %g s (the slope is fitted after it)"
+                % (a.warmup, a.duration))
+    if not (a.period > 0.0):
+        p.error("--period %g: must be > 0 s (wall time between RSS samples)" % a.period)
+    if not os.path.isfile(a.scenario):
+        p.error("--scenario %s: not a file" % a.scenario)
+    warmup = a.warmup
 
     tmp = tempfile.mkdtemp(prefix="avsp_bench_soak_")
     out_dir = os.path.abspath(a.keep) if a.keep else tmp
