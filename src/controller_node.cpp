@@ -261,9 +261,16 @@ private:
     if (lockstep_)
     {
       // Lockstep: exactly the odometry on the grid k / ~rate (the barrier instants).
-      // Once per instant: dynamics_node may send the odometry of time 0 again until answered.
-      if (std::fabs(t - std::round(t / period_) * period_) > 1e-6 || (has_step_ && t <= last_step_))
+      if (std::fabs(t - std::round(t / period_) * period_) > 1e-6 || (has_step_ && t < last_step_))
         return;
+      // Once per instant. dynamics_node sends the odometry of time 0 again until answered: our
+      // answer may have gone out before its cmd_drive subscription connected. The same instant
+      // again gets the same command again (the controller is not stepped twice).
+      if (has_step_ && t == last_step_)
+      {
+        publishCommand(odom->header.stamp, last_command_);
+        return;
+      }
     }
     else if (has_step_ && t < last_step_ + period_ - 1e-6)
       return;  // control at ~rate on the odometry's own clock: the same sim instants at any speed
@@ -302,6 +309,7 @@ private:
         ROS_WARN_THROTTLE(5.0, "controller_node: leader '%s' silent for more than %g s; braking", leader_.c_str(),
                           follower_->options().leader_timeout);
     }
+    last_command_ = st.command;
     publishCommand(odom->header.stamp, st.command);
     if (target_pub_.getNumSubscribers() > 0)
       publishTarget(odom->header.stamp, st);
@@ -426,6 +434,7 @@ private:
   double period_ = 0.05;
   bool has_step_ = false;
   bool lockstep_ = false;
+  ac::Command last_command_{ 0.0, 1.0, 0.0 };          ///< the answer to the odometry of last_step_ (lockstep)
   double batch_through_ = -1e300;                      ///< s, stamp of the last radio batch (lockstep)
   std::deque<nav_msgs::Odometry::ConstPtr> waiting_;  ///< lockstep odometry waiting for its batch
   double last_step_ = 0.0;

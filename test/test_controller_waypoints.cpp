@@ -164,6 +164,58 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
   }
 }
 
+// dynamics_node sends the odometry of time 0 again until every lockstep controller has
+// answered it: the first answer can go out before dynamics_node's cmd_drive subscription has
+// connected. A repeated instant must be answered again with the same command (or the run stalls
+// at t = 0); an instant on the grid after it gets its own answer, an older one none.
+TEST(ControllerLockstep, TheSameInstantAgainIsAnsweredAgainWithTheSameCommand)
+{
+  ros::NodeHandle nh;
+  std::vector<avsp_msgs::DriveCommand> answers;
+  ros::Subscriber sub = nh.subscribe<avsp_msgs::DriveCommand>(
+      "/echo/cmd_drive", 10, [&](const avsp_msgs::DriveCommand::ConstPtr& c) { answers.push_back(*c); });
+  ros::Publisher pub = nh.advertise<nav_msgs::Odometry>("/echo/avt_341/odometry", 10);
+  ASSERT_TRUE(spinUntil([&] { return pub.getNumSubscribers() > 0 && sub.getNumPublishers() > 0; }, 60.0));
+  auto odometryAt = [](double t) {
+    nav_msgs::Odometry o;
+    o.header.stamp = ros::Time(t);
+    o.header.frame_id = "odom";
+    o.pose.pose.position.y = 5.0;  // 5 m left of the path: it steers right
+    o.pose.pose.orientation.w = 1.0;
+    return o;
+  };
+  // Until the first answer comes we may not be connected both ways yet: send until one does.
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        if (answers.empty())
+          pub.publish(odometryAt(0.0));
+        ros::WallDuration(0.05).sleep();
+        ros::spinOnce();
+        return !answers.empty();
+      },
+      30.0));
+  // Then time 0 once more, the next instant, an older one, the one after. One connection keeps
+  // the order, so every answer before 0.05's is one to time 0.
+  pub.publish(odometryAt(0.0));
+  pub.publish(odometryAt(0.05));
+  pub.publish(odometryAt(0.0));
+  pub.publish(odometryAt(0.1));
+  ASSERT_TRUE(spinUntil([&] { return answers.back().header.stamp == ros::Time(0.1); }, 30.0));
+  const std::size_t n = answers.size();
+  ASSERT_GE(n, 4u);
+  EXPECT_EQ(answers[n - 1].header.stamp, ros::Time(0.1));
+  EXPECT_EQ(answers[n - 2].header.stamp, ros::Time(0.05));  // the older instant: no answer
+  const avsp_msgs::DriveCommand& first = answers.front();
+  EXPECT_LT(first.steering, 0.0);  // a command of its own, not a default
+  for (std::size_t k = 0; k + 2 < n; ++k)
+  {
+    EXPECT_EQ(answers[k].header.stamp, ros::Time(0.0)) << k;
+    EXPECT_EQ(answers[k].throttle, first.throttle) << k;
+    EXPECT_EQ(answers[k].brake, first.brake) << k;
+    EXPECT_EQ(answers[k].steering, first.steering) << k;
+  }
+}
+
 TEST(ControllerNodeStartup, BadParametersExitNamingTheKey)
 {
   ros::NodeHandle nh;
