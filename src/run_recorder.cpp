@@ -448,6 +448,9 @@ private:
     const auto& p = m.pose.pose.position;
     const auto& l = m.twist.twist.linear;
     const double speed = std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z);
+    const ar::OdometryAdded added = v.record.addOdometry(t, p.x, p.y, p.z, speed);
+    if (added == ar::OdometryAdded::kRepeat)
+      return;  // the same instant again (dynamics_node repeats time 0 at start-up): not a sample
     double ground = 0.0;
     const bool on_terrain = std::isfinite(p.x) && std::isfinite(p.y) && terrain_->base().heightAt(p.x, p.y, ground);
     const std::string anomaly = anomalies_.sample(v.spec.name, t, p.x, p.y, p.z, speed,
@@ -455,7 +458,7 @@ private:
     if (!anomaly.empty())
       ROS_WARN("run_recorder: anomaly: %s (counted in summary.json; each kind is reported once per vehicle)",
                anomaly.c_str());
-    if (!v.record.addOdometry(t, p.x, p.y, p.z, speed))
+    if (added == ar::OdometryAdded::kRefused)
     {
       warnThrottled(v.odom_topic, 5.0, format("odometry at %.3f s ignored (a non-finite value, or out of order)", t));
       return;

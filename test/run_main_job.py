@@ -18,7 +18,9 @@ of bad scenario files. Writes a JUnit XML result with one test case per check:
   overlapping the ground or a building was once thrown 5 m up at 12 m/s, governed 2 m/s);
 - partitions_same_trajectories: the same scenario with `partitions: 2` (two dynamics_node
   processes behind lockstep_clock, the sensors in the lockstep) for 10 s writes the same
-  trajectories.csv rows (x, y, z, speed) as the single-process run up to 9.9 s.
+  trajectories.csv rows (x, y, z, speed) as the single-process run up to 9.9 s, and in both
+  runs every vehicle's odometry_samples is one per odometry instant (a repeat of time 0 at
+  start-up once counted twice in the partitioned run: 2002 samples, not 2001).
 
 When run_recorder is not built (a tree without it), run_ends and results are replaced by
 clock_reaches_duration: /clock reaches the duration (then the run is stopped).
@@ -199,6 +201,40 @@ def partitioned_case(scenario, reference, env, port, tmp, launch_file, limit):
                     % (len(differ), len(common), k, ref[k], mine[k]))
     print("run_main_job: partitioned run: %d trajectory rows (x, y, z, speed) compared, %d differ"
           % (len(common), len(differ)))
+    msgs += sample_counts_case(os.path.join(os.path.dirname(reference), "summary.json"),
+                               os.path.join(out, "summary.json"))
+    return msgs
+
+
+def sample_counts_case(reference_summary, partitioned_summary):
+    """Every odometry instant is one sample, however long start-up took (dynamics_node repeats
+    the odometry of time 0 until its controllers answer; a repeat once counted): in both runs,
+    n - 1 samples span t_last - t_first at one whole rate, the same in both."""
+    msgs = []
+    try:
+        with open(reference_summary) as f:
+            ref = json.load(f)
+        with open(partitioned_summary) as f:
+            mine = json.load(f)
+    except Exception as e:  # noqa: BLE001
+        return ["summaries unreadable: %s" % e]
+    rates = {}
+    for label, doc in (("single-process", ref), ("partitioned", mine)):
+        for v in doc["vehicles"]:
+            n, t0, t1 = v["odometry_samples"], v["t_first"], v["t_last"]
+            if n < 2 or t1 <= t0:
+                msgs.append("%s run: %s has %s samples over %s-%s s" % (label, v["name"], n, t0, t1))
+                continue
+            rate = (n - 1) / (t1 - t0)
+            rates.setdefault(v["name"], []).append(rate)
+            if abs(rate - round(rate)) > 1e-6 * rate:
+                msgs.append("%s run: %s has %d odometry samples over %.3f-%.3f s: %.4f per second, not a whole "
+                            "rate (a repeated instant counted?)" % (label, v["name"], n, t0, t1, rate))
+    for name, r in sorted(rates.items()):
+        if len(r) == 2 and abs(r[0] - r[1]) > 1e-6 * r[0]:
+            msgs.append("%s: odometry at %.4f Hz single-process, %.4f Hz partitioned" % (name, r[0], r[1]))
+    print("run_main_job: odometry sample counts: %s" % ", ".join(
+        "%s %s Hz" % (name, "/".join("%.4f" % x for x in r)) for name, r in sorted(rates.items())))
     return msgs
 
 

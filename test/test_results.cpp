@@ -88,10 +88,10 @@ TEST(VehicleList, ValidatesNamesAndLeaders)
 TEST(VehicleRecord, DistanceOfAKnownPolylineAndSpeeds)
 {
   VehicleRecord r;
-  EXPECT_TRUE(r.addOdometry(0.0, 0.0, 0.0, 0.0, 0.0));
-  EXPECT_TRUE(r.addOdometry(1.0, 3.0, 0.0, 0.0, 3.0));
-  EXPECT_TRUE(r.addOdometry(2.0, 3.0, 4.0, 0.0, 4.0));
-  EXPECT_TRUE(r.addOdometry(3.0, 6.0, 4.0, 4.0, -5.0));  // (3, 0, 4): 5 m; reversing speed counts as 5 m/s
+  EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(0.0, 0.0, 0.0, 0.0, 0.0));
+  EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(1.0, 3.0, 0.0, 0.0, 3.0));
+  EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(2.0, 3.0, 4.0, 0.0, 4.0));
+  EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(3.0, 6.0, 4.0, 4.0, -5.0));  // (3, 0, 4): 5 m; reversing speed counts as 5 m/s
   EXPECT_DOUBLE_EQ(r.distance(), 12.0);
   EXPECT_DOUBLE_EQ(r.maxSpeed(), 5.0);
   EXPECT_DOUBLE_EQ(r.speed(), 5.0);
@@ -99,11 +99,15 @@ TEST(VehicleRecord, DistanceOfAKnownPolylineAndSpeeds)
   EXPECT_DOUBLE_EQ(*r.meanSpeed(), 4.0);
   // Bad samples leave everything as it was.
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(r.addOdometry(4.0, nan, 0.0, 0.0, 1.0));
-  EXPECT_FALSE(r.addOdometry(4.0, 0.0, 0.0, 0.0, std::numeric_limits<double>::infinity()));
-  EXPECT_FALSE(r.addOdometry(2.5, 0.0, 0.0, 0.0, 1.0));  // out of order
+  EXPECT_EQ(OdometryAdded::kRefused, r.addOdometry(4.0, nan, 0.0, 0.0, 1.0));
+  EXPECT_EQ(OdometryAdded::kRefused, r.addOdometry(4.0, 0.0, 0.0, 0.0, std::numeric_limits<double>::infinity()));
+  EXPECT_EQ(OdometryAdded::kRefused, r.addOdometry(2.5, 0.0, 0.0, 0.0, 1.0));  // out of order
+  // The last instant again, even moved: a repeat, not a sample (the count would depend on how
+  // long start-up took).
+  EXPECT_EQ(OdometryAdded::kRepeat, r.addOdometry(3.0, 9.0, 4.0, 4.0, 1.0));
   EXPECT_DOUBLE_EQ(r.distance(), 12.0);
   EXPECT_EQ(r.sampleCount(), 4u);
+  EXPECT_DOUBLE_EQ(r.last()->x, 6.0);
   EXPECT_DOUBLE_EQ(r.first()->t, 0.0);
   EXPECT_DOUBLE_EQ(r.last()->t, 3.0);
   EXPECT_DOUBLE_EQ(r.last()->distance, 12.0);
@@ -161,7 +165,7 @@ std::vector<OdometrySample> samples(const std::vector<std::array<double, 3>>& tx
   VehicleRecord r;
   std::vector<OdometrySample> out;
   for (const auto& p : txy)
-    if (r.addOdometry(p[0], p[1], p[2], 0.0, 0.0))
+    if (r.addOdometry(p[0], p[1], p[2], 0.0, 0.0) == OdometryAdded::kSample)
       out.push_back(*r.last());
   return out;
 }

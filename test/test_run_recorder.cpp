@@ -14,6 +14,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -134,7 +135,9 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
                                                     [&odom, v](const nav_msgs::Odometry::ConstPtr& m) {
                                                       const auto& p = m->pose.pose.position;
                                                       const auto& l = m->twist.twist.linear;
-                                                      if (std::isfinite(p.x))  // not the test's own NaN
+                                                      // Not the test's own NaN or copy (below).
+                                                      if (std::isfinite(p.x) &&
+                                                          (odom[v].empty() || m->header.stamp.toSec() > odom[v].back().t))
                                                         odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z,
                                                                             std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z) });
                                                     }));
@@ -146,7 +149,8 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     cmd[v] = nh.advertise<geometry_msgs::Twist>("/" + v + "/avt_341/cmd_vel", 1, true);
   }
 
-  // A bad odometry message among dynamics_node's: run_recorder must ignore it, naming the topic.
+  // A bad odometry message among dynamics_node's: run_recorder must ignore it, naming the topic;
+  // and a copy of one of dynamics_node's, which is not a new sample.
   ros::Publisher bad_odom = nh.advertise<nav_msgs::Odometry>("/lead/avt_341/odometry", 1);
 
   // run_recorder in the background; the test drives once it is up.
@@ -193,7 +197,7 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
   while (!done && (ros::WallTime::now() - start).toSec() < 75.0)
   {
     ros::spinOnce();
-    if (!bad_sent && ros::Time::now().toSec() >= 3.0)
+    if (!bad_sent && ros::Time::now().toSec() >= 3.0 && !odom["lead"].empty())
     {
       nav_msgs::Odometry nan_odom;
       nan_odom.header.stamp = ros::Time::now();
@@ -201,6 +205,14 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
       nan_odom.pose.pose.position.x = std::nan("");
       nan_odom.pose.pose.orientation.w = 1.0;
       bad_odom.publish(nan_odom);
+      nav_msgs::Odometry copy;
+      copy.header.stamp = ros::Time(odom["lead"].back().t);
+      copy.header.frame_id = "odom";
+      copy.pose.pose.position.x = odom["lead"].back().x;
+      copy.pose.pose.position.y = odom["lead"].back().y;
+      copy.pose.pose.position.z = odom["lead"].back().z;
+      copy.pose.pose.orientation.w = 1.0;
+      bad_odom.publish(copy);
       bad_sent = true;
     }
     if (!braked && ros::Time::now().toSec() >= brake_time)
@@ -270,6 +282,10 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
                 name.c_str(), distance, own, t0, t1, show(v["max_slip"]).c_str(),
                 show(v["collisions"]).c_str(), show(v["gap_min"]).c_str(), show(v["gap_mean"]).c_str());
     EXPECT_GT(own, 10.0) << name << " hardly moved";
+    const std::size_t own_samples = std::count_if(odom[name].begin(), odom[name].end(), [&](const Sample& s) {
+      return s.t >= t0 - 1e-9 && s.t <= t1 + 1e-9;
+    });
+    EXPECT_EQ(v["odometry_samples"].as<std::size_t>(), own_samples) << name;
     EXPECT_NEAR(distance, own, 0.01 * own) << name;
     EXPECT_NEAR(v["mean_speed"].as<double>(), distance / (t1 - t0), 1e-6 * distance);
     EXPECT_GT(v["max_slip"].as<double>(), 0.0) << name << ": driving on sandy loam slips";

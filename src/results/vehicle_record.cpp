@@ -49,16 +49,18 @@ std::optional<double> maxDrivenSlip(const std::vector<ContactSlip>& contacts)
   return out;
 }
 
-bool VehicleRecord::addOdometry(double t, double x, double y, double z, double speed)
+OdometryAdded VehicleRecord::addOdometry(double t, double x, double y, double z, double speed)
 {
   if (!std::isfinite(t) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(speed))
-    return false;
+    return OdometryAdded::kRefused;
   OdometrySample s{ t, x, y, z, std::abs(speed), 0.0 };
   if (count_ > 0)
   {
     const OdometrySample& p = last_;
     if (t < p.t)
-      return false;
+      return OdometryAdded::kRefused;
+    if (t == p.t)
+      return OdometryAdded::kRepeat;
     s.distance = p.distance + std::sqrt((x - p.x) * (x - p.x) + (y - p.y) * (y - p.y) + (z - p.z) * (z - p.z));
     bounds_ = { std::min(bounds_[0], x), std::min(bounds_[1], y), std::max(bounds_[2], x), std::max(bounds_[3], y) };
   }
@@ -70,7 +72,7 @@ bool VehicleRecord::addOdometry(double t, double x, double y, double z, double s
   max_speed_ = std::max(max_speed_, s.speed);
   last_ = s;
   ++count_;
-  return true;
+  return OdometryAdded::kSample;
 }
 
 std::optional<OdometrySample> VehicleRecord::first() const

@@ -82,18 +82,27 @@ struct ContactSlip
  */
 std::optional<double> maxDrivenSlip(const std::vector<ContactSlip>& contacts);
 
+/// What VehicleRecord::addOdometry did with a message.
+enum class OdometryAdded
+{
+  kSample,   ///< a new sample
+  kRepeat,   ///< the instant of the last sample again: not a new sample (dynamics_node repeats time 0)
+  kRefused,  ///< a value not finite, or earlier than the last sample (out of order): ignored
+};
+
 /// The record of one vehicle over the run.
 class VehicleRecord
 {
 public:
   /**
    * @brief Adds an odometry sample. The distance grows by the straight 3-D distance from the
-   *        previous sample (at 100 Hz the chord of any path a vehicle can drive).
+   *        previous sample (at 100 Hz the chord of any path a vehicle can drive). A message
+   *        stamped with the last sample's time is a repeat (dynamics_node sends the odometry
+   *        of time 0 again until its lockstep controllers answer, as often as start-up takes):
+   *        counting it would make the sample count depend on wall-clock timing.
    * @param t s, sim time; speed m/s (>= 0)
-   * @return false, and the sample is ignored, when a value is not finite or t is earlier
-   *         than the previous sample's (out of order)
    */
-  bool addOdometry(double t, double x, double y, double z, double speed);
+  OdometryAdded addOdometry(double t, double x, double y, double z, double speed);
 
   /**
    * @brief Adds a telemetry message. Time stuck grows by the time from the previous message
