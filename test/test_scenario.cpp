@@ -338,6 +338,22 @@ TEST(Scenario, StartInsideABuildingOrOffTheTerrainIsRefused)
   EXPECT_ERROR(errorOf(n), "paths.loop[2]: (50, 150) is off the terrain");
 }
 
+// The agents' paths as the nodes build them: agents_node would stop the run at start-up with
+// this error, after --check had passed it (issue 21).
+TEST(Scenario, AnAgentPathLeavingTheTerrainIsRefused)
+{
+  YAML::Node n = base();
+  n["agents"][0]["path"] = YAML::Load("[[10, 10], [150, 10]]");
+  EXPECT_ERROR(errorOf(dump(n), options()), "agents[0].path: leaves the terrain at (");
+  // Every point on the terrain, but the closed spline through them swings past the east edge
+  // (x = 100) between the two points at x = 99.
+  n["agents"][0]["path"] = YAML::Load("[[99, -60], [99, 60], [0, 90], [-60, 0], [0, -90]]");
+  n["agents"][0]["loop"] = true;
+  EXPECT_ERROR(errorOf(dump(n), options()), "agents[0].path: leaves the terrain at (100.");
+  n["agents"][0]["path"] = YAML::Load("[[80, -60], [80, 60], [0, 90], [-60, 0], [0, -90]]");
+  EXPECT_EQ(errorOf(dump(n), options()), "");
+}
+
 TEST(Scenario, StartInsideABuildingOfTheDefaultCourse)
 {
   // The real course at 1 m cells: the staging area's first building spans x 53-67, y 218.5-227.5.

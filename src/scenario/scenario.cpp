@@ -466,11 +466,12 @@ std::vector<Waypoint> readPath(const Context& ctx, const YAML::Node& node, const
   return out;
 }
 
-YAML::Node readAgents(const Context& ctx, const YAML::Node& node, std::set<std::string>& names)
+YAML::Node readAgents(const Context& ctx, const YAML::Node& node, std::set<std::string>& names,
+                      std::vector<terrain::AgentSpec>& specs)
 {
   if (!node.IsSequence())
     ctx.fail("agents", "must be a list of agents {name, type, path, speed, start_time, loop, yaw}");
-  std::vector<terrain::AgentSpec> specs;
+  specs.clear();
   for (std::size_t i = 0; i < node.size(); ++i)
   {
     const std::string key = indexKey("agents", i);
@@ -709,6 +710,7 @@ std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& 
   out->max_x = g.originX() + g.dx() * static_cast<double>(g.columns() - 1);
   out->max_y = g.originY() + g.dy() * static_cast<double>(g.rows() - 1);
   out->objects = std::move(loaded.objects);
+  out->ground = std::move(loaded.terrain);
   return out;
 }
 
@@ -979,7 +981,7 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
     if (present(agents))
     {
       std::set<std::string> agent_names = names;  // an agent may not share a vehicle's name
-      s.agents = readAgents(ctx, agents, agent_names);
+      s.agents = readAgents(ctx, agents, agent_names, s.agent_specs);
     }
 
     // Machines, then partitions naming them.
@@ -1134,6 +1136,20 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
       for (const auto& kv : s.paths)
         for (std::size_t k = 0; k < kv.second.size(); ++k)
           checkOnTerrain(ctx, *t, kv.second[k].x, kv.second[k].y, 0.0, indexKey("paths." + kv.first, k));
+      // Each agent as agents_node, dynamics_node and sensors_node build it: the spline through
+      // its points (which can swing outside them) must stay on the ground, within the sample budget.
+      if (t->ground)
+        for (std::size_t i = 0; i < s.agent_specs.size(); ++i)
+        {
+          try
+          {
+            terrain::Agent(s.agent_specs[i], t->ground->base(), indexKey("agents", i));
+          }
+          catch (const std::invalid_argument& e)
+          {
+            throw ScenarioError(ctx.file() + ": " + e.what());
+          }
+        }
     }
     return s;
   }

@@ -22,6 +22,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <avsp/control/leader_follower.hpp>
+#include <avsp_terrain/agents.hpp>
+#include <avsp_terrain/deformable_terrain.hpp>
 #include <avsp_terrain/dem_io.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
 
@@ -164,6 +166,7 @@ struct Scenario
   FormationSpec formation;
   V2VSpec v2v;
   YAML::Node agents;                ///< agents_node's ~agents list (validated); may be null
+  std::vector<terrain::AgentSpec> agent_specs;  ///< the same agents as parsed (checked against the terrain)
   /// Dynamics partitions (`partitions:` N or an explicit list); empty = one dynamics_node
   /// that is its own clock. Each vehicle is in exactly one.
   std::vector<PartitionSpec> partitions;
@@ -180,6 +183,9 @@ struct TerrainFootprint
 {
   double min_x = 0.0, min_y = 0.0, max_x = 0.0, max_y = 0.0;  ///< m, map: the grid's extent
   terrain::ObjectSet objects;
+  /// The terrain itself, for the agents' paths (each spline's height profile, as the nodes
+  /// build it); null = not loaded (a test's footprint): the agents are not checked against it.
+  std::shared_ptr<const terrain::DeformableTerrain> ground;
 };
 
 /// Loads the terrain a spec describes (throws std::exception with the reason on failure).
