@@ -978,10 +978,11 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
     }
 
     const YAML::Node agents = top.get("agents");
+    std::vector<terrain::AgentSpec> agent_specs;  // the agents as parsed, for the terrain check below
     if (present(agents))
     {
       std::set<std::string> agent_names = names;  // an agent may not share a vehicle's name
-      s.agents = readAgents(ctx, agents, agent_names, s.agent_specs);
+      s.agents = readAgents(ctx, agents, agent_names, agent_specs);
     }
 
     // Machines, then partitions naming them.
@@ -1139,11 +1140,11 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
       // Each agent as agents_node, dynamics_node and sensors_node build it: the spline through
       // its points (which can swing outside them) must stay on the ground, within the sample budget.
       if (t->ground)
-        for (std::size_t i = 0; i < s.agent_specs.size(); ++i)
+        for (std::size_t i = 0; i < agent_specs.size(); ++i)
         {
           try
           {
-            terrain::Agent(s.agent_specs[i], t->ground->base(), indexKey("agents", i));
+            terrain::Agent(agent_specs[i], t->ground->base(), indexKey("agents", i));
           }
           catch (const std::invalid_argument& e)
           {

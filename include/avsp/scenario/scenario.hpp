@@ -22,13 +22,16 @@
 #include <yaml-cpp/yaml.h>
 
 #include <avsp/control/leader_follower.hpp>
-#include <avsp_terrain/agents.hpp>
-#include <avsp_terrain/deformable_terrain.hpp>
 #include <avsp_terrain/dem_io.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
 
 namespace avsp
 {
+namespace terrain
+{
+class DeformableTerrain;  // avsp_terrain/deformable_terrain.hpp: held, not used, here
+}  // namespace terrain
+
 namespace scenario
 {
 /// A bad scenario: "<file>: <key path>: <reason>".
@@ -166,7 +169,6 @@ struct Scenario
   FormationSpec formation;
   V2VSpec v2v;
   YAML::Node agents;                ///< agents_node's ~agents list (validated); may be null
-  std::vector<terrain::AgentSpec> agent_specs;  ///< the same agents as parsed (checked against the terrain)
   /// Dynamics partitions (`partitions:` N or an explicit list); empty = one dynamics_node
   /// that is its own clock. Each vehicle is in exactly one.
   std::vector<PartitionSpec> partitions;
