@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints a URDF with every link name prefixed by '<vehicle>/', so that one robot
 description can serve several vehicles of the same model and TF frames read
-'<vehicle>/base_link' (ARCHITECTURE.md: prefixed names, no tf_prefix).
+'<vehicle>/base_link' (docs/ARCHITECTURE.md: prefixed names, no tf_prefix).
 
 usage: python3 prefix_urdf.py URDF_FILE VEHICLE_NAME
 """

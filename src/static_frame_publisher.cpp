@@ -1,5 +1,5 @@
 // Publishes one static transform parent -> child from private parameters: map -> odom
-// (identity, ARCHITECTURE.md) and, until the dynamics runs, a parked vehicle's
+// (identity, docs/ARCHITECTURE.md) and, until the dynamics runs, a parked vehicle's
 // odom -> <vehicle>/base_link. Debian ships no tf2_ros static_transform_publisher.
 //
 // Parameters (private): parent_frame (string, required), child_frame (string, required),

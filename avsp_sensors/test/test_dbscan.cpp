@@ -1,4 +1,4 @@
-// DBSCAN against a brute-force O(n^2) reference written here from MODELS.md 4's definition
+// DBSCAN against a brute-force O(n^2) reference written here from docs/MODELS.md 4's definition
 // (and dbscan.hpp's rule for contested border points), on random and adversarial inputs.
 #include <algorithm>
 #include <cmath>

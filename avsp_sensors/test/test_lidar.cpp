@@ -112,7 +112,7 @@ TEST(LidarPresets, PublishedChannelAnglesAndRates)
   EXPECT_NEAR(eo.back(), 16.611, 1e-9);
   EXPECT_NEAR(os1.channels[0].azimuth_offset, -3.164 * kDeg, 1e-12);
   EXPECT_EQ(os1.columns * os1.rotation_rate, 10240.0);
-  // Sub-rays from MODELS.md 4: N = ceil(2 (r + R tan(theta/2)) / x).
+  // Sub-rays from docs/MODELS.md 4: N = ceil(2 (r + R tan(theta/2)) / x).
   EXPECT_EQ(subRayCount(vlp), 4u);  // 2 (0.005 + 100 tan 1.5 mrad) / 0.1 = 3.1
   EXPECT_EQ(subRayCount(os1), 3u);  // 2 (0.005 + 120 tan 0.065 deg) / 0.1 = 2.8
 }

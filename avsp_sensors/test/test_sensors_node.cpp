@@ -440,7 +440,7 @@ TEST_F(SensorsNode, OutputsAreInTheContractFrames)
   const auto& cells = run->markers["/ego/octomap/occupied_cells"].messages.back();
   ASSERT_GE(cells.markers.size(), 2u);
   expectFrame("occupied cells", cells.markers[1].header.frame_id, "odom");
-  // The PointCloud2 fields of ARCHITECTURE.md: x, y, z, intensity, ring (+ time).
+  // The PointCloud2 fields of docs/ARCHITECTURE.md: x, y, z, intensity, ring (+ time).
   const auto& cloud = run->clouds["/ego/avt_341/points"].messages.at(0);
   std::vector<std::string> names;
   for (const auto& f : cloud.fields)

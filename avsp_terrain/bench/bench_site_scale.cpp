@@ -1,4 +1,4 @@
-// The test-site scale of MODELS.md section 1: the founding report ran the 1.2 km x 1.9 km
+// The test-site scale of docs/MODELS.md section 1: the founding report ran the 1.2 km x 1.9 km
 // site as one grid of 11600 x 18800 cells at 0.1 m (218 M points). The terrain issue asks
 // that such a grid loads with peak RSS under 1.5 GB, that a 10 km traverse of a vehicle
 // adds under 200 MB, and that the bytes per deformed point are stated.

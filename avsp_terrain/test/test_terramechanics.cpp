@@ -1,5 +1,5 @@
-// The terramechanics formulas against closed forms (MODELS.md T2, T3, T7-T13;
-// SOILS_AND_SENSORS.md for Janosi-Hanamoto and the rigid wheel's validity range).
+// The terramechanics formulas against closed forms (docs/MODELS.md T2, T3, T7-T13;
+// docs/SOILS_AND_SENSORS.md for Janosi-Hanamoto and the rigid wheel's validity range).
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -22,7 +22,7 @@ const SoilLibrary& library()
 //
 // T13 replaces the exact load integral of a parabolic rim, b k (sqrt(D)/2) z0^(n+1/2)
 // B(n+1, 1/2), by b k sqrt(D) z0^(n+1/2) (3-n)/3: exact at n = 1, about 4 % high in load at
-// n = 0.75 and 6 % at n = 0.5 (more in sinkage). So T13 is the check (MODELS.md's 5 %) for
+// n = 0.75 and 6 % at n = 0.5 (more in sinkage). So T13 is the check (docs/MODELS.md's 5 %) for
 // the library's soils with n in [0.7, 1.3]: dry sand, gravel, grass over loam. The model's
 // integration is checked for every soil against the exact parabolic rim (shallow) and, for
 // n = 1, against the exact circle.

@@ -19,7 +19,7 @@ namespace avsp
 {
 namespace dynamics
 {
-/// Driver command, the contract's DriveCommand (ARCHITECTURE.md).
+/// Driver command, the contract's DriveCommand (docs/ARCHITECTURE.md).
 struct DriveCommand
 {
   double throttle = 0.0;  ///< [0, 1]: Ackermann: fraction of the available engine torque;

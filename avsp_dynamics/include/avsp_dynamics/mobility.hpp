@@ -3,7 +3,7 @@
  * @file mobility.hpp
  * @brief The mobility matrix: vehicle x surface x manoeuvre cases run through the same World as
  *        every other job, each figure set against its reference: a closed form computed here
- *        from the vehicle's and the soil's parameters (MODELS.md: Bekker-Wong-Janosi, the brush
+ *        from the vehicle's and the soil's parameters (docs/MODELS.md: Bekker-Wong-Janosi, the brush
  *        tyre, the drivetrain's force), a public figure, or an acceptance limit. The cases are
  *        data (config/mobility_matrix.yaml); test_mobility_matrix asserts each, bench_mobility
  *        prints the table (docs/mobility_matrix.md keeps it).

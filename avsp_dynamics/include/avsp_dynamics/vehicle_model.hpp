@@ -107,7 +107,7 @@ struct TrackSpec
   double contactLength() const;
 };
 
-/// Track shoe parameters shared by both sides (MODELS.md T10).
+/// Track shoe parameters shared by both sides (docs/MODELS.md T10).
 struct TrackParameters
 {
   double pitch = 0.0;        ///< m

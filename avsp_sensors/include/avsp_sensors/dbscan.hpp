@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file dbscan.hpp
- * @brief DBSCAN clustering exactly as MODELS.md section 4 states it, on a fixed-radius
+ * @brief DBSCAN clustering exactly as docs/MODELS.md section 4 states it, on a fixed-radius
  *        neighbour search (a uniform grid of eps cells by default, or nanoflann's kd-tree),
  *        with a deterministic rule for border points that two clusters could claim.
  *

@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file gps.hpp
- * @brief GPS receiver model (MODELS.md section 4): the antenna's ENU position in `map` becomes a
+ * @brief GPS receiver model (docs/MODELS.md section 4): the antenna's ENU position in `map` becomes a
  *        WGS-84 fix through the scenario's geodetic reference (exact ellipsoid math,
  *        geodetic.hpp), with a slowly varying bias (first-order Gauss-Markov per ENU axis) plus
  *        white noise, at a configurable rate, with the covariance NavSatFix reports.

@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file imu.hpp
- * @brief Inertial measurement unit (MODELS.md section 4: linear acceleration and angular
+ * @brief Inertial measurement unit (docs/MODELS.md section 4: linear acceleration and angular
  *        velocity of a point on the vehicle): specific force (gravity included, so a level IMU
  *        at rest reads +g on z), angular rate and orientation, in the IMU frame, with white noise
  *        and bias random walk per axis (the Allan-variance noise density and random walk).

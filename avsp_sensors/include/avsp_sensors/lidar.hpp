@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file lidar.hpp
- * @brief Rotating multi-channel lidar (MODELS.md section 4): presets with the published channel
+ * @brief Rotating multi-channel lidar (docs/MODELS.md section 4): presets with the published channel
  *        angles and firing rates of the Velodyne VLP-16, HDL-32E, HDL-64E and Ouster OS1-64, or a
  *        custom configuration; per-point firing time and the vehicle's motion during the
  *        sweep; beam divergence as N sub-rays per pulse whose returns are summed into echoes
@@ -65,9 +65,9 @@ struct LidarConfig
   double dropout = 0.0;                  ///< probability a pulse returns nothing, [0, 1]
   double divergence_horizontal = 3.0e-3; ///< rad, full angle along the scan, >= 0
   double divergence_vertical = 1.5e-3;   ///< rad, full angle across the scan, >= 0
-  double aperture_radius = 0.005;        ///< m, r of MODELS.md 4, >= 0
-  double target_scale = 0.1;             ///< m, x of MODELS.md 4 (scale of the scene's detail), > 0
-  std::size_t sub_rays = 0;              ///< 0: N from MODELS.md 4's formula; else exactly this many
+  double aperture_radius = 0.005;        ///< m, r of docs/MODELS.md 4, >= 0
+  double target_scale = 0.1;             ///< m, x of docs/MODELS.md 4 (scale of the scene's detail), > 0
+  std::size_t sub_rays = 0;              ///< 0: N from docs/MODELS.md 4's formula; else exactly this many
   ReturnMode return_mode = ReturnMode::kStrongest;
   double echo_separation = 1.0;          ///< m, sub-ray hits closer in range merge into one echo, >= 0
   double wavelength = 905e-9;            ///< m, for the fog law
@@ -89,7 +89,7 @@ LidarConfig lidarPreset(const std::string& name);
 void validateLidarConfig(const LidarConfig& config);
 
 /**
- * @brief Sub-rays per pulse: config.sub_rays if set, else MODELS.md 4's
+ * @brief Sub-rays per pulse: config.sub_rays if set, else docs/MODELS.md 4's
  *        N = ceil(2 [r + R_max tan(theta / 2)] / x), theta the larger divergence, at least 1.
  */
 std::size_t subRayCount(const LidarConfig& config);

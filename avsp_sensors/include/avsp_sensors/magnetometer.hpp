@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file magnetometer.hpp
- * @brief Three-axis magnetometer (MODELS.md section 4: the direction of magnetic north relative
+ * @brief Three-axis magnetometer (docs/MODELS.md section 4: the direction of magnetic north relative
  *        to the vehicle): the Earth's field, given by total intensity, inclination and
  *        declination, rotated from the map (ENU) into the sensor frame (REP 103: x forward,
  *        y left, z up), plus white noise and a constant offset. A centred-dipole field from the

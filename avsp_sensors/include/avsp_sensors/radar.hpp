@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file radar.hpp
- * @brief Radar (MODELS.md section 4): a fan of rays over the field of view (HFOV 30 deg,
+ * @brief Radar (docs/MODELS.md section 4): a fan of rays over the field of view (HFOV 30 deg,
  *        VFOV 4.4 deg by default), each hit a detection with its Doppler range rate from the
  *        relative velocity of what it hit; DBSCAN groups the detections and each cluster is
  *        reported as a target (centroid, range, azimuth, elevation, range rate, point count,

@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file ultrasonic.hpp
- * @brief Ultrasonic range finder (MODELS.md section 4: short range, like radar in a narrow
+ * @brief Ultrasonic range finder (docs/MODELS.md section 4: short range, like radar in a narrow
  *        cone): the cone is sampled by a few rays cast through the Scene; the nearest hit is the
  *        range, with sensor_msgs/Range semantics (REP 117: +inf when nothing is within
  *        max_range, -inf when something is nearer than min_range). No ROS types.

@@ -3,7 +3,7 @@
  * @file contact_soil.hpp
  * @brief One soil prepared for the per-grid-point contact solve of DeformableTerrain: the
  *        constants the inner loop needs (tan phi, the compression curve as arrays) and the
- *        pressure-sinkage laws of MODELS.md (simple T2 + T3 + T4, or Bekker's T13 family)
+ *        pressure-sinkage laws of docs/MODELS.md (simple T2 + T3 + T4, or Bekker's T13 family)
  *        solved in closed form, so a contact costs no iteration per point.
  */
 #include <cmath>
@@ -33,7 +33,7 @@ struct PointLoad
 /**
  * @brief A validated soil with the constants of the contact's inner loop precomputed.
  *
- * The simple model's extra sinkage of a point under stress sigma (MODELS.md T2 + T4's b1
+ * The simple model's extra sinkage of a point under stress sigma (docs/MODELS.md T2 + T4's b1
  * term + T3, with the point's state: plastic z_p, displaced z_f - z_n, largest stress seen) is
  *
  *     e(sigma) = max(z_p(max(sigma, sigma_max)) - plastic, 0) + b1 max(sigma - sigma_max, 0)

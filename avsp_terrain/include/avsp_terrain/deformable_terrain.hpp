@@ -2,10 +2,10 @@
 /**
  * @file deformable_terrain.hpp
  * @brief Terrain that ruts: base heights (ElevationGrid), a soil per grid point (a palette of
- *        up to 256 soils and a uint8 soil map), per-point deformation (MODELS.md T2-T6)
+ *        up to 256 soils and a uint8 soil map), per-point deformation (docs/MODELS.md T2-T6)
  *        stored sparsely in tiles allocated only where running gear has touched, and the
  *        rigid-wheel and track-patch soil contacts (T7-T13) that deform it, with grass
- *        resistance and toppling vegetation (MODELS.md section 3).
+ *        resistance and toppling vegetation (docs/MODELS.md section 3).
  */
 #include <array>
 #include <cstdint>
@@ -169,7 +169,7 @@ struct PointChange
  * inside also takes the sliver of the next cell), so the loaded width (and a track's length)
  * equals the running gear's for any alignment with the grid instead of rounding to whole cells.
  *
- * Vegetation (MODELS.md section 3), when the contact is given the ObjectSet:
+ * Vegetation (docs/MODELS.md section 3), when the contact is given the ObjectSet:
  * - A grass patch adds rolling resistance: its `rolling_resistance` f times the normal load
  *   carried by the grid points inside it (the largest f where patches overlap: grass on grass
  *   is still one sward). The default course gives its patches f = 0.05-0.10, an assumption

@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file dynamic_soil.hpp
- * @brief Soil that changes during a run (MODELS.md section 3): moisture per region rises
+ * @brief Soil that changes during a run (docs/MODELS.md section 3): moisture per region rises
  *        with rain and dries with a time constant, moisture changes strength and Bekker
  *        moduli through the soil's table, and snow builds a layer. No ROS: driven by plain
  *        rates (the environment node feeds them from /environment).

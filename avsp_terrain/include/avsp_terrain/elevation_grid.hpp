@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file elevation_grid.hpp
- * @brief Cartesian elevation grid (MODELS.md section 1, T1): grid points on a regular
+ * @brief Cartesian elevation grid (docs/MODELS.md section 1, T1): grid points on a regular
  *        lattice in the map frame, O(1) cell lookup, bilinear height and normal queries.
  */
 #include <algorithm>

@@ -24,8 +24,8 @@ public:
 /// Which pressure-sinkage law a soil's contacts use.
 enum class SinkageModel
 {
-  kSimple,  ///< compaction + elastic + flow (MODELS.md T2-T6)
-  kBekker,  ///< p = (k_c / b + k_phi) z^n on first loading, k_unload z below it (MODELS.md T13)
+  kSimple,  ///< compaction + elastic + flow (docs/MODELS.md T2-T6)
+  kBekker,  ///< p = (k_c / b + k_phi) z^n on first loading, k_unload z below it (docs/MODELS.md B1, B2)
   kRigid    ///< pavement, concrete, rock: no sinkage; tyres and track pads deflect instead
 };
 
@@ -56,7 +56,7 @@ struct MoistureRow
   double k_phi = 0.0;           ///< N/m^(n+2)
 };
 
-/// How a soil's moisture evolves and what it changes (MODELS.md section 3).
+/// How a soil's moisture evolves and what it changes (docs/MODELS.md section 3).
 struct MoistureSpec
 {
   double initial = 0.0;          ///< moisture at which `strength`/`bekker` were given

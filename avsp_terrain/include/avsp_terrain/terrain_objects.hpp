@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file terrain_objects.hpp
- * @brief Vegetation and structures standing on the terrain (MODELS.md section 3): their
+ * @brief Vegetation and structures standing on the terrain (docs/MODELS.md section 3): their
  *        footprints, strength and toppled state, queryable by region for the dynamics
  *        (collisions, grass resistance) and the sensors (ray casting).
  */

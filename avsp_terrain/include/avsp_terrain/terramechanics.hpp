@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file terramechanics.hpp
- * @brief The soil-contact formulas of MODELS.md as pure functions: compaction (T2), elastic
+ * @brief The soil-contact formulas of docs/MODELS.md as pure functions: compaction (T2), elastic
  *        sinkage (T3), Mohr-Coulomb/Janosi-Hanamoto traction (T7, T11), slip (T8-T10),
  *        resistance (T12), Bekker-Wong pressure-sinkage and the rigid wheel (T13).
  *        SI units throughout; no state (the deformable grid builds on these).

@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file leader_follower.hpp
- * @brief The leader–follower pursuit controller and formations (MODELS.md section 5), no ROS.
+ * @brief The leader–follower pursuit controller and formations (docs/MODELS.md section 5), no ROS.
  *
  * The follower knows its leader only from the leader's V2V broadcasts (position, heading,
  * speed, stamp). It keeps them as breadcrumbs: a path through the leader's positions, one
@@ -128,7 +128,7 @@ private:
   double base_s_ = 0.0;    ///< the follower base_link's arc length at the last step
 };
 
-/// Formation shapes (MODELS.md section 5).
+/// Formation shapes (docs/MODELS.md section 5).
 enum class FormationType
 {
   kColumn,   ///< single file: each vehicle behind the one before it

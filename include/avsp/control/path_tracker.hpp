@@ -28,7 +28,7 @@ namespace avsp
 {
 namespace control
 {
-/// The contract's drive command (ARCHITECTURE.md): throttle, brake [0, 1], steering [-1, 1] + left.
+/// The contract's drive command (docs/ARCHITECTURE.md): throttle, brake [0, 1], steering [-1, 1] + left.
 struct Command
 {
   double throttle = 0.0;

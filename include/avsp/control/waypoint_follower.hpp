@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file waypoint_follower.hpp
- * @brief The waypoint controller (MODELS.md section 5): pure pursuit along the polyline
+ * @brief The waypoint controller (docs/MODELS.md section 5): pure pursuit along the polyline
  *        through the waypoints, each segment at its prescribed speed, slowing down in time
  *        for slower segments and stopping at the last waypoint (no ROS).
  *

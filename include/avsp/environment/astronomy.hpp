@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file astronomy.hpp
- * @brief Sun and Moon positions for the environment node (MODELS.md section 6), no ROS.
+ * @brief Sun and Moon positions for the environment node (docs/MODELS.md section 6), no ROS.
  *
  * Time: UTC as seconds since 1970-01-01 (Unix time, leap seconds ignored, UT1 = UTC: at
  * most 0.9 s, 0.004 deg of hour angle). Dynamical time TT = UT + deltaT(year).

@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file environment_model.hpp
- * @brief The simulated world's clock, sky, light and weather (MODELS.md section 6), no ROS:
+ * @brief The simulated world's clock, sky, light and weather (docs/MODELS.md section 6), no ROS:
  *        what environment_node publishes on /environment.
  *
  * World time: utc(t) = anchor_utc + time_acceleration * (t - anchor_t) for sim-clock time t

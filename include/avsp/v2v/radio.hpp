@@ -1,7 +1,7 @@
 #pragma once
 /**
  * @file radio.hpp
- * @brief The simulated V2V radio (MODELS.md section 5), no ROS: which broadcast reaches
+ * @brief The simulated V2V radio (docs/MODELS.md section 5), no ROS: which broadcast reaches
  *        which vehicle, and when.
  *
  * A broadcast from vehicle s at sim time t (its state's stamp) reaches vehicle r != s at
