@@ -629,7 +629,15 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   EXPECT_NE(ext_group.find("v2v_broadcaster"), std::string::npos);
   EXPECT_EQ(ext_group.find("controller_node"), std::string::npos);
   // recorder: required, vehicles with leaders, the duration override.
-  EXPECT_NE(xml.find("type=\"run_recorder\" name=\"run_recorder\" required=\"true\""), std::string::npos);
+  EXPECT_NE(xml.find("type=\"run_recorder\" name=\"run_recorder\" clear_params=\"true\" required=\"true\""),
+            std::string::npos);
+  // Every node starts from an empty private namespace: on a master that ran another scenario,
+  // its parameters (another vehicle's sensors, its agents) must not be read as this run's.
+  std::size_t nodes = 0;
+  for (std::size_t at = xml.find("<node "); at != std::string::npos; at = xml.find("<node ", at + 1), ++nodes)
+    EXPECT_NE(xml.substr(at, xml.find('>', at) - at).find(" clear_params=\"true\""), std::string::npos)
+        << xml.substr(at, xml.find('>', at) - at);
+  EXPECT_GE(nodes, 10u);
   const YAML::Node rec = rosparamOf(xml, "run_recorder", "vehicles");
   ASSERT_EQ(rec.size(), 4u);
   EXPECT_EQ(rec[0]["leader"].as<std::string>(), "");
@@ -851,7 +859,7 @@ TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
   EXPECT_EQ(xml.find("name=\"dynamics\""), std::string::npos);  // no single dynamics_node
   // The clock and the partitions are watched by run_recorder, not required: roslaunch would
   // stop the run without saying which node died.
-  EXPECT_NE(xml.find("type=\"lockstep_clock\" name=\"clock\">"), std::string::npos);
+  EXPECT_NE(xml.find("type=\"lockstep_clock\" name=\"clock\" clear_params=\"true\">"), std::string::npos);
   const YAML::Node parts = rosparamOf(xml, "clock", "partitions");
   ASSERT_EQ(parts.size(), 3u);
   EXPECT_EQ(parts[0].as<std::string>(), "north");
@@ -860,7 +868,7 @@ TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
   EXPECT_EQ(paramOf(xml, "sensors", "lockstep_interval"), "0.01");
   EXPECT_EQ(paramOf(xml, "clock", "real_time_factor"), "1.0");
   EXPECT_EQ(paramOf(xml, "clock", "sync_interval"), "0.01");
-  EXPECT_NE(xml.find("name=\"dynamics_north\" machine=\"hostb\""), std::string::npos);
+  EXPECT_NE(xml.find("name=\"dynamics_north\" clear_params=\"true\" machine=\"hostb\""), std::string::npos);
   {
     std::set<std::string> watched;
     for (const YAML::Node& n : rosparamOf(xml, "run_recorder", "watch"))

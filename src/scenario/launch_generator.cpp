@@ -136,7 +136,9 @@ void emitFlow(std::ostream& out, const YAML::Node& n, bool force_double)
   }
 }
 
-/// A node's opening tag and its private parameters, written line by line.
+/// A node's opening tag and its private parameters, written line by line. Every node clears its
+/// private namespace first (clear_params): on a master that ran another scenario, what that run
+/// set (another vehicle's ~vehicle_sensors, its ~agents) would otherwise be read as this run's.
 class NodeWriter
 {
 public:
@@ -146,7 +148,7 @@ public:
             const std::string& extra = "")
   {
     out_ << indent_ << "<node pkg=\"" << pkg << "\" type=\"" << type << "\" name=\"" << name << "\""
-         << (required ? " required=\"true\"" : "") << extra << ">\n";
+         << " clear_params=\"true\"" << (required ? " required=\"true\"" : "") << extra << ">\n";
   }
   void close() { out_ << indent_ << "</node>\n"; }
 
@@ -525,7 +527,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   (void)any_external;
 
   if (options.rviz)
-    o << "  <node pkg=\"rviz\" type=\"rviz\" name=\"rviz\" args=\"-d $(find avsp)/rviz/avsp.rviz\"/>\n";
+    o << "  <node pkg=\"rviz\" type=\"rviz\" name=\"rviz\" clear_params=\"true\" args=\"-d $(find avsp)/rviz/avsp.rviz\"/>\n";
   o << "</launch>\n";
   return o.str();
 }
