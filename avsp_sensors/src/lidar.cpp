@@ -314,6 +314,7 @@ LidarScan Lidar::scan(const Scene& scene, const LidarScanRequest& req) const
   for (const PulseResult& r : results)
     valid += r.valid;
   scan.points.reserve(valid);
+  scan.particle_echo.reserve(valid);
   for (const PulseResult& r : results)
   {
     scan.rays += r.rays;
@@ -322,6 +323,7 @@ LidarScan Lidar::scan(const Scene& scene, const LidarScanRequest& req) const
       continue;
     scan.clutter += r.clutter;
     scan.points.push_back(r.point);
+    scan.particle_echo.push_back(r.clutter);
   }
   return scan;
 }

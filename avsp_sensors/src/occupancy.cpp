@@ -299,35 +299,50 @@ OccupancyMap& OccupancyMap::operator=(OccupancyMap&&) noexcept = default;
 
 void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin)
 {
+  insert(points, {}, origin);
+}
+
+void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const std::vector<Eigen::Vector3f>& clear_ends,
+                          const Eigen::Vector3d& origin)
+{
   if (!origin.allFinite())
     throw std::invalid_argument("OccupancyMap::insert: origin is not finite");
   for (std::size_t k = 0; k < points.size(); ++k)
     if (!points[k].allFinite())
       throw std::invalid_argument("OccupancyMap::insert: points[" + std::to_string(k) + "] is not finite");
-  if (points.empty())
+  for (std::size_t k = 0; k < clear_ends.size(); ++k)
+    if (!clear_ends[k].allFinite())
+      throw std::invalid_argument("OccupancyMap::insert: clear_ends[" + std::to_string(k) + "] is not finite");
+  if (points.empty() && clear_ends.empty())
     return;
   const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
                           static_cast<float>(origin.z()));
   const octomap::OcTree& tree = *tree_;
 
-  // The endpoints: as given, or (discretize) the centres of the distinct voxels they fall in.
+  // The endpoints: as given, or (discretize) the centres of the distinct voxels they fall in;
+  // the returns' first, then the clear ones (`returns` of them end in a hit).
   std::vector<octomap::point3d> ends;
-  ends.reserve(points.size());
-  if (config_.discretize)
-  {
-    CodeSet seen;
-    for (const Eigen::Vector3f& p : points)
+  ends.reserve(points.size() + clear_ends.size());
+  auto addEnds = [&](const std::vector<Eigen::Vector3f>& from) {
+    if (config_.discretize)
     {
-      const octomap::OcTreeKey k = tree.coordToKey(octomap::point3d(p.x(), p.y(), p.z()));
-      const std::size_t before = seen.size();
-      seen.insert(mortonCode(k));
-      if (seen.size() != before)
-        ends.push_back(tree.keyToCoord(k));
+      CodeSet seen;
+      for (const Eigen::Vector3f& p : from)
+      {
+        const octomap::OcTreeKey k = tree.coordToKey(octomap::point3d(p.x(), p.y(), p.z()));
+        const std::size_t before = seen.size();
+        seen.insert(mortonCode(k));
+        if (seen.size() != before)
+          ends.push_back(tree.keyToCoord(k));
+      }
     }
-  }
-  else
-    for (const Eigen::Vector3f& p : points)
-      ends.emplace_back(p.x(), p.y(), p.z());
+    else
+      for (const Eigen::Vector3f& p : from)
+        ends.emplace_back(p.x(), p.y(), p.z());
+  };
+  addEnds(points);
+  const std::size_t returns = ends.size();
+  addEnds(clear_ends);
 
   // Trace the rays in chunks, one per thread, each into its own sets (computeUpdate's rules).
   const bool clip = std::isfinite(config_.max_range);
@@ -348,7 +363,7 @@ void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const Eige
             for (const octomap::OcTreeKey& k : ray)
               free_sets[c].insert(mortonCode(k));
           octomap::OcTreeKey key;
-          if (tree.coordToKeyChecked(p, key))
+          if (i < returns && tree.coordToKeyChecked(p, key))
             occupied_sets[c].insert(mortonCode(key));
         }
         else
@@ -407,21 +422,35 @@ void OccupancyMap::insert(const LidarScan& scan, const SensorMotion& motion, std
     throw std::invalid_argument("OccupancyMap::insert: slices must be >= 1");
   validateMotion(motion, "OccupancyMap::insert");
   const double duration = scan.duration > 0.0 ? scan.duration : 1.0;
-  std::vector<std::vector<Eigen::Vector3f>> parts(slices);
-  for (const LidarPoint& p : scan.points)
-  {
-    const double s = std::floor(static_cast<double>(p.time) / duration * static_cast<double>(slices));
-    const std::size_t k = static_cast<std::size_t>(std::clamp(s, 0.0, static_cast<double>(slices - 1)));
-    Eigen::Vector3f q(p.x, p.y, p.z);
-    if (!scan.registered)
-      q = (motion.at(p.time) * q.cast<double>()).cast<float>();
-    parts[k].push_back(q);
-  }
+  std::vector<std::vector<Eigen::Vector3f>> parts(slices), clears(slices);
+  auto sort = [&](const std::vector<LidarPoint>& from, std::vector<std::vector<Eigen::Vector3f>>& into) {
+    for (const LidarPoint& p : from)
+    {
+      const double s = std::floor(static_cast<double>(p.time) / duration * static_cast<double>(slices));
+      const std::size_t k = static_cast<std::size_t>(std::clamp(s, 0.0, static_cast<double>(slices - 1)));
+      Eigen::Vector3f q(p.x, p.y, p.z);
+      if (!scan.registered)
+        q = (motion.at(p.time) * q.cast<double>()).cast<float>();
+      into[k].push_back(q);
+    }
+  };
+  if (!scan.particle_echo.empty() && scan.particle_echo.size() != scan.points.size())
+    throw std::invalid_argument("OccupancyMap::insert: scan.particle_echo has " +
+                                std::to_string(scan.particle_echo.size()) + " flags for " +
+                                std::to_string(scan.points.size()) + " points");
+  // A falling particle's echo says the space up to it is free, not that the world is solid
+  // there: it clears like a ray that met nothing (clutter above the sensor would otherwise stay
+  // occupied for good, as no later return passes through it).
+  std::vector<LidarPoint> solid, particles;
+  for (std::size_t k = 0; k < scan.points.size(); ++k)
+    (!scan.particle_echo.empty() && scan.particle_echo[k] ? particles : solid).push_back(scan.points[k]);
+  sort(solid, parts);
+  sort(particles, clears);
   for (std::size_t k = 0; k < slices; ++k)
-    if (!parts[k].empty())
+    if (!parts[k].empty() || !clears[k].empty())
     {
       const double t_mid = (static_cast<double>(k) + 0.5) * duration / static_cast<double>(slices);
-      insert(parts[k], motion.at(t_mid).translation());
+      insert(parts[k], clears[k], motion.at(t_mid).translation());
     }
 }
 

@@ -452,6 +452,34 @@ TEST(Lidar, SameSeedSameCloudBitForBitOnAnyThreadCount)
   EXPECT_FALSE(sameBits(one.points, lidar.scan(scene, req).points));
 }
 
+TEST(Lidar, ParticleEchoesAreFlaggedPointForPoint)
+{
+  Scene scene = flatGround();
+  const LidarConfig c = lidarPreset("VLP-16");
+  const Lidar lidar(c, 7);
+  LidarScanRequest req = at(Vector3d(0.5, 0.5, 1.9));
+  req.weather.snow_rate = 3.0;
+  const LidarScan snow = lidar.scan(scene, req);
+  ASSERT_EQ(snow.particle_echo.size(), snow.points.size());
+  ASSERT_GT(snow.clutter, 20u);
+  std::size_t flagged = 0;
+  for (std::size_t k = 0; k < snow.points.size(); ++k)
+  {
+    if (!snow.particle_echo[k])
+      continue;
+    ++flagged;
+    // A particle echoes from within clutter_max_range of the sensor (range noise aside).
+    const LidarPoint& p = snow.points[k];
+    const double range = (Vector3d(p.x, p.y, p.z) - Vector3d(0.5, 0.5, 1.9)).norm();
+    EXPECT_LE(range, c.clutter_max_range + 5.0 * c.range_noise) << k;
+  }
+  EXPECT_EQ(flagged, snow.clutter);
+  req.weather = Weather();
+  const LidarScan clear = lidar.scan(scene, req);
+  ASSERT_EQ(clear.particle_echo.size(), clear.points.size());
+  EXPECT_EQ(std::count(clear.particle_echo.begin(), clear.particle_echo.end(), true), 0);
+}
+
 TEST(Lidar, BadMotionAndWeatherThrowNamingTheField)
 {
   const Scene scene = flatGround(20.0);

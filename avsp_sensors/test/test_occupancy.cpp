@@ -206,6 +206,88 @@ TEST(Occupancy, LidarSweepOverAWallMarksIt)
   }
 }
 
+TEST(Occupancy, RainClutterClearsTheSpaceInsteadOfStandingInIt)
+{
+  // A parked VLP-16 in heavy rain by a wall, 30 sweeps. Particle echoes come from within 10 m of
+  // the sensor, many from its upward rings, where no later return passes: inserted as returns
+  // they would stay occupied for good (the map, and a soak's memory, grow with the rain); as
+  // what they are, rays through free space, they leave nothing standing above the wall.
+  const auto n = static_cast<std::size_t>(2 * 60 / 1.0) + 1;
+  Scene scene(HeightField(-60, -60, 1.0, 1.0, n, n, std::vector<float>(n * n, 0.f)));
+  Primitive wall;
+  wall.shape = Shape::kBox;
+  wall.half_extents = Vector3d(0.2, 4.0, 1.5);
+  wall.centre = Vector3d(12.3, 0.0, 1.5);
+  scene.setStaticPrimitives({ wall });
+  const Lidar lidar(lidarPreset("VLP-16"), 5);
+  std::vector<LidarScan> scans;
+  LidarScanRequest req;
+  req.motion.pose.translation() = Vector3d(0.0, 0.0, 2.0);
+  req.weather.rain_rate = 20.0;
+  std::size_t echoes = 0;
+  for (std::uint64_t k = 0; k < 30; ++k)
+  {
+    req.sweep = k;
+    scans.push_back(lidar.scan(scene, req));
+    echoes += scans.back().clutter;
+  }
+  ASSERT_GT(echoes, 300u);
+  auto occupiedAbove = [](const OccupancyMap& map, double z) {
+    int count = 0;
+    for (const OccupiedCell& c : map.occupiedCells())
+      count += c.centre.z() - 0.5 * c.size > z;
+    return count;
+  };
+  OccupancyMap map, naive;
+  for (const LidarScan& scan : scans)
+  {
+    map.insert(scan, req.motion, 1);
+    LidarScan as_returns = scan;
+    as_returns.particle_echo.clear();  // no point known as an echo
+    naive.insert(as_returns, req.motion, 1);
+  }
+  EXPECT_EQ(occupiedAbove(map, 3.2), 0);  // the wall's top is at 3.0 m
+  EXPECT_GT(occupiedAbove(naive, 3.2), 100);
+  // The wall is mapped as before.
+  const OccupancyGrid2D grid = map.projectGrid(window(), kFlat);
+  int wall_cells = 0;
+  for (double y = -2.9; y < 3.0; y += 0.2)
+    wall_cells += grid.atPoint(12.1, y) == OccupancyGrid2D::kOccupied;
+  EXPECT_GE(wall_cells, 28);
+  // A scan whose flags do not match its points is refused, naming the field.
+  LidarScan bad = scans.front();
+  bad.particle_echo.pop_back();
+  try
+  {
+    map.insert(bad, req.motion, 1);
+    FAIL() << "accepted " << bad.particle_echo.size() << " flags for " << bad.points.size() << " points";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("particle_echo"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Occupancy, ClearRaysFreeTheirPathButNeverOccupyTheirEnd)
+{
+  OccupancyMap map;
+  const Vector3d origin(0.0, 0.0, 1.0);
+  // A return 5 m ahead, and a clear ray (nothing met) 5 m to the left.
+  map.insert({ Vector3f(5.05f, 0.05f, 1.05f) }, { Vector3f(0.05f, 5.05f, 1.05f) }, origin);
+  EXPECT_EQ(map.state(Vector3d(5.1, 0.1, 1.1)), CellState::kOccupied);
+  EXPECT_EQ(map.state(Vector3d(0.1, 5.1, 1.1)), CellState::kUnknown);  // its end: not observed
+  for (double y = 0.5; y < 4.9; y += 0.2)
+    EXPECT_EQ(map.state(Vector3d(0.1, y, 1.1)), CellState::kFree) << y;
+  // A voxel a return made occupied is freed by clear rays through it, as by any ray: log-odds
+  // ln(0.7 / 0.3) = 0.847 after the hit, -ln(0.6 / 0.4) = -0.405 per pass, so the third frees it.
+  for (int pass = 1; pass <= 3; ++pass)
+  {
+    map.insert({}, { Vector3f(9.05f, 0.05f, 1.05f) }, origin);
+    EXPECT_EQ(map.state(Vector3d(5.1, 0.1, 1.1)), pass < 3 ? CellState::kOccupied : CellState::kFree) << pass;
+  }
+  EXPECT_THROW(map.insert({}, { Vector3f(std::nanf(""), 0.f, 0.f) }, origin), std::invalid_argument);
+}
+
 namespace
 {
 /// Every leaf of both trees, in the same depth-first order: same key, depth and log-odds.

@@ -142,6 +142,10 @@ struct LidarScan
   std::size_t rays = 0;            ///< sub-rays cast
   std::size_t dropped = 0;         ///< pulses lost to `dropout`
   std::size_t clutter = 0;         ///< points that are false returns from precipitation
+  /// Per point of `points`: true for a falling particle's echo (one of the `clutter` points). A
+  /// map of the solid world leaves these out (OccupancyMap::insert), as a real pipeline's
+  /// weather filter would; the cloud keeps them.
+  std::vector<bool> particle_echo;
   double duration = 0.0;           ///< s, one revolution
   bool registered = true;
 };

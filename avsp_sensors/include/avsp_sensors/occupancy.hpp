@@ -145,10 +145,21 @@ public:
   void insert(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin);
 
   /**
+   * @brief insert(points, origin), and rays that met nothing: every voxel from `origin` to each
+   *        of `clear_ends` (clipped at max_range) is updated once as free, none as occupied
+   *        (occupied wins over free within the scan, as for returns).
+   * @throw std::invalid_argument when the origin, a point or a clear end is not finite (nothing inserted)
+   */
+  void insert(const std::vector<Eigen::Vector3f>& points, const std::vector<Eigen::Vector3f>& clear_ends,
+              const Eigen::Vector3d& origin);
+
+  /**
    * @brief Inserts a lidar sweep split into `slices` time slices, each cast from the sensor's
    *        position at the slice's middle (motion.at(t)); unregistered sweeps are registered
-   *        with each point's firing pose first.
-   * @throw std::invalid_argument for slices == 0, a bad motion or a non-finite point
+   *        with each point's firing pose first. Its particle echoes (weather clutter) only
+   *        clear the space up to them: the map is of the solid world.
+   * @throw std::invalid_argument for slices == 0, a bad motion, a non-finite point or a
+   *        particle_echo not of the points' size (empty: none is an echo)
    */
   void insert(const LidarScan& scan, const SensorMotion& motion, std::size_t slices = 1);
 
