@@ -814,7 +814,10 @@ void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j
   window_top_ = top - least_plastic;
 }
 
-DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y, double behind) const
+// Inline: a wheel's contact asks it for every sample of its rim (the inner loop).
+[[gnu::always_inline]] inline DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y,
+                                                                                            double behind,
+                                                                                            bool with_sigma) const
 {
   // Bilinear between the four window points around (x, y); clamped to the window (a sample
   // within half a cell of the grid's edge takes the edge's cell).
@@ -859,15 +862,19 @@ DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y
   }
   WindowPoint out;
   out.plastic_min = std::numeric_limits<double>::infinity();
+  if (behind < 0.0)  // only the front arc's cap reads it
+    for (int k = 0; k < 4; ++k)
+      if (weight[k] > 0.0)
+        out.plastic_min = std::min(out.plastic_min, static_cast<double>(corner[k]->plastic));
   for (int k = 0; k < 4; ++k)
   {
-    if (weight[k] > 0.0)
-      out.plastic_min = std::min(out.plastic_min, static_cast<double>(corner[k]->plastic));
     out.base += weight[k] * corner[k]->base;
     out.plastic += weight[k] * corner[k]->plastic;
     out.displaced += weight[k] * corner[k]->displaced;
-    out.sigma_max += weight[k] * corner[k]->sigma_max;
   }
+  if (with_sigma)  // only the simple model reads it
+    for (int k = 0; k < 4; ++k)
+      out.sigma_max += weight[k] * corner[k]->sigma_max;
   return out;
 }
 
@@ -1073,7 +1080,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
             // wheel at rest (pressed straight down) is the same front and back.
             const double side = rolling ? (us * fp.travel < 0.0 ? 1.0 : -1.0) : 0.0;
-            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, side);
+            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, side, !bekker);
             // Ahead of a rolling wheel's bottom, between a point its front arc has pressed and
             // one it has not reached, the linear interpolant runs above the arc's imprint (the
             // imprint ends at the arc's leading edge): the soil there has been pressed at most
