@@ -588,6 +588,15 @@ void DeformableTerrain::spreadFlow()
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
   double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
   const long w = static_cast<long>(width);  // a window row
+  // The 8 neighbours' 1/d weights and window offsets, k = (dj + 1) * 3 + (di + 1) (4: the point
+  // itself). A point inside the grid has all 8: its weights and their total are these (summed
+  // in the order the general case sums them, so the same to the bit).
+  static constexpr double kNeighbour[9] = { M_SQRT1_2, 1.0, M_SQRT1_2, 1.0, 0.0, 1.0, M_SQRT1_2, 1.0, M_SQRT1_2 };
+  const long neighbour_offset[9] = { -w - 1, -w, -w + 1, -1, 0, 1, w - 1, w, w + 1 };
+  double inside_total = 0.0;
+  for (int k = 0; k < 9; ++k)
+    if (k != 4)
+      inside_total += kNeighbour[k];
   for (const LoadedPoint& p : loaded_)
   {
     if (!(p.flow_volume > 0.0))
@@ -599,18 +608,32 @@ void DeformableTerrain::spreadFlow()
     // The neighbours that exist, and of those the ones beside the footprint.
     double weights[9] = {}, total = 0.0, free_total = 0.0;
     bool free_[9] = {};
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
+    if (i > 0 && j > 0 && i + 1 < columns && j + 1 < rows)
+    {
+      total = inside_total;
+      for (int k = 0; k < 9; ++k)
       {
-        if ((di == 0 && dj == 0) || i + di < 0 || j + dj < 0 || i + di >= columns || j + dj >= rows)
-          continue;
-        const int k = (dj + 1) * 3 + (di + 1);
-        weights[k] = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-        total += weights[k];
-        free_[k] = mask[dj * w + di] == 0;
+        weights[k] = kNeighbour[k];
+        free_[k] = k != 4 && mask[neighbour_offset[k]] == 0;
         if (free_[k])
-          free_total += weights[k];
+          free_total += kNeighbour[k];
       }
+    }
+    else
+    {
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+        {
+          if ((di == 0 && dj == 0) || i + di < 0 || j + dj < 0 || i + di >= columns || j + dj >= rows)
+            continue;
+          const int k = (dj + 1) * 3 + (di + 1);
+          weights[k] = kNeighbour[k];
+          total += weights[k];
+          free_[k] = mask[dj * w + di] == 0;
+          if (free_[k])
+            free_total += weights[k];
+        }
+    }
     // Sheared soil is dragged the way the slip goes, past the rest of the footprint, to the
     // first point beside it in that direction (the soil a spinning wheel digs out lands behind
     // it, not under the same wheel); the rest, pressed out, goes to the free surface around.
@@ -629,13 +652,9 @@ void DeformableTerrain::spreadFlow()
     const double pressed = p.flow_volume - shear;
     const bool outward = free_total > 0.0;
     const double pressed_height = pressed / (outward ? free_total : total) / area;
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
-      {
-        const int k = (dj + 1) * 3 + (di + 1);
-        if (weights[k] > 0.0 && (!outward || free_[k]))
-          centre[dj * w + di] += pressed_height * weights[k];
-      }
+    for (int k = 0; k < 9; ++k)
+      if (weights[k] > 0.0 && (!outward || free_[k]))
+        centre[neighbour_offset[k]] += pressed_height * weights[k];
     centre[drop] += shear / area;
     arrived += p.flow_volume;
   }
