@@ -93,6 +93,17 @@ std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette
   return prepared;
 }
 
+/// m, the length of each grid step (di, dj), at [(dj + 1) * 3 + di + 1]: fixed per grid, so
+/// not recomputed per contact.
+std::array<double, 9> stepLengths(const ElevationGrid& grid)
+{
+  std::array<double, 9> out{};
+  for (int dj = -1; dj <= 1; ++dj)
+    for (int di = -1; di <= 1; ++di)
+      out[(dj + 1) * 3 + (di + 1)] = std::hypot(di * grid.dx(), dj * grid.dy());
+  return out;
+}
+
 /// Below this s x / K the shear's strip means are summed as their series: 1 - K/(s D)(e0 - e1)
 /// would lose a relative (1e-16 / (s x / K)) to cancellation (1e-4 at a creeping contact's slip).
 constexpr double kShearSeriesLimit = 1e-3;
@@ -134,6 +145,7 @@ DeformableTerrain::DeformableTerrain(ElevationGrid base, SoilParameters soil, Op
   , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
   , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
+  step_length_ = stepLengths(base_);
 }
 
 DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParameters> palette,
@@ -146,6 +158,7 @@ DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParamet
   , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
   , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
+  step_length_ = stepLengths(base_);
   const std::size_t points = base_.columns() * base_.rows();
   if (soil_map_.size() != points)
     throw std::invalid_argument("DeformableTerrain: soil_map has " + std::to_string(soil_map_.size()) +
@@ -1251,10 +1264,12 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   {
     int soil = -1;
     double half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, scale = 0.0;
+    /// exp(-cap / K): the same for every strip of the soil past the cap; NaN until needed.
+    double cap_factor = std::numeric_limits<double>::quiet_NaN();
   };
   std::array<StripConstants, 4> strips{};
   std::size_t strip_next = 0;
-  const StripConstants* strip = nullptr;
+  StripConstants* strip = nullptr;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
   // Bekker points instead resist by compaction: a wheel's rim pushes back with
@@ -1301,7 +1316,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       if (!strip || p.soil != strip->soil || half != strip->half)
       {
         strip = nullptr;
-        for (const StripConstants& c : strips)
+        for (StripConstants& c : strips)
           if (c.soil == p.soil && c.half == half)
             strip = &c;
         if (!strip)
@@ -1315,6 +1330,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
           c.half_factor = std::exp(slip_magnitude * half * c.inv_k);
           c.inv_half_factor = 1.0 / c.half_factor;
           c.scale = k / (slip_magnitude * 2.0 * half);
+          c.cap_factor = std::numeric_limits<double>::quiet_NaN();
           strip = &c;
         }
       }
@@ -1333,7 +1349,9 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
         // all along); ahead of it by |s| x. Means over the strip, and their slopes in |s| and in
         // the cap (the boundary terms cancel).
         const double xc = std::max(fp.shear_cap / slip_magnitude, p.x0), span = p.x1 - p.x0;
-        const double ec = std::exp(-fp.shear_cap * inv_k);
+        if (std::isnan(strip->cap_factor))
+          strip->cap_factor = std::exp(-fp.shear_cap * inv_k);
+        const double ec = strip->cap_factor;
         double part = 0.0, dpart = 0.0;
         if (!(span > 1e-12))
         {
@@ -1432,7 +1450,8 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       {
         if (di == 0 && dj == 0)
           continue;
-        const double cosine = (di * base_.dx() * fx + dj * base_.dy() * fy) / std::hypot(di * base_.dx(), dj * base_.dy());
+        const double cosine =
+            (di * base_.dx() * fx + dj * base_.dy() * fy) / step_length_[(dj + 1) * 3 + (di + 1)];
         if (cosine > best)
         {
           best = cosine;

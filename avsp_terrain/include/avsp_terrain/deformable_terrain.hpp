@@ -390,6 +390,8 @@ private:
   std::vector<long> landing_;        ///< scratch of spreadFlow(): where soil dragged from a window point lands, -1 unknown
   std::vector<long> landing_path_;   ///< scratch of landingOf()
   int drag_di_ = 0, drag_dj_ = 0;  ///< the grid step along which this contact's slip drags soil
+  /// m, length of the grid step (di, dj) at [(dj + 1) * 3 + di + 1] (forcesAndDeform's drag direction)
+  std::array<double, 9> step_length_{};
   std::size_t window_i0_ = 0, window_j0_ = 0, window_columns_ = 0, window_rows_ = 0;
   /// m, an upper bound of the surface anywhere in the window (max of base - displaced less the
   /// least plastic sinkage): the rim cannot press where it is above it.
