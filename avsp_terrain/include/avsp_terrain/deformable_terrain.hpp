@@ -351,8 +351,8 @@ private:
   void fillWindow(std::size_t i0, std::size_t i1, std::size_t j0, std::size_t j1);
   /// The window's state at (x, y), bilinear between its four points; `behind` > 0: a sample
   /// behind a rolling footprint's bottom, interpolated from the points behind it only; < 0:
-  /// ahead of it, from the points ahead only. plastic_min only for behind < 0, sigma_max only
-  /// `with_sigma` (the fields the samples read), zero otherwise.
+  /// ahead of it, from the points ahead only. Only the fields the samples read: plastic_min
+  /// for behind < 0 (+inf otherwise), sigma_max `with_sigma` (0 otherwise).
   WindowPoint windowState(double x, double y, double behind, bool with_sigma) const;
   /// spreadFlow(): the window offset where soil dragged from the window point `start` (column
   /// a, row b of a width x height window) lands: the first point along the drag not under the
