@@ -93,6 +93,17 @@ std::vector<ContactSoil> prepareSoils(const std::vector<SoilParameters>& palette
   return prepared;
 }
 
+/// m, the length of each grid step (di, dj), at [(dj + 1) * 3 + di + 1]: fixed per grid, so
+/// not recomputed per contact.
+std::array<double, 9> stepLengths(const ElevationGrid& grid)
+{
+  std::array<double, 9> out{};
+  for (int dj = -1; dj <= 1; ++dj)
+    for (int di = -1; di <= 1; ++di)
+      out[(dj + 1) * 3 + (di + 1)] = std::hypot(di * grid.dx(), dj * grid.dy());
+  return out;
+}
+
 /// Below this s x / K the shear's strip means are summed as their series: 1 - K/(s D)(e0 - e1)
 /// would lose a relative (1e-16 / (s x / K)) to cancellation (1e-4 at a creeping contact's slip).
 constexpr double kShearSeriesLimit = 1e-3;
@@ -134,6 +145,7 @@ DeformableTerrain::DeformableTerrain(ElevationGrid base, SoilParameters soil, Op
   , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
   , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
+  step_length_ = stepLengths(base_);
 }
 
 DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParameters> palette,
@@ -146,6 +158,7 @@ DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParamet
   , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
   , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
+  step_length_ = stepLengths(base_);
   const std::size_t points = base_.columns() * base_.rows();
   if (soil_map_.size() != points)
     throw std::invalid_argument("DeformableTerrain: soil_map has " + std::to_string(soil_map_.size()) +
@@ -588,6 +601,15 @@ void DeformableTerrain::spreadFlow()
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
   double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
   const long w = static_cast<long>(width);  // a window row
+  // The 8 neighbours' 1/d weights and window offsets, k = (dj + 1) * 3 + (di + 1) (4: the point
+  // itself). A point inside the grid has all 8: its weights and their total are these (summed
+  // in the order the general case sums them, so the same to the bit).
+  static constexpr double kNeighbour[9] = { M_SQRT1_2, 1.0, M_SQRT1_2, 1.0, 0.0, 1.0, M_SQRT1_2, 1.0, M_SQRT1_2 };
+  const long neighbour_offset[9] = { -w - 1, -w, -w + 1, -1, 0, 1, w - 1, w, w + 1 };
+  double inside_total = 0.0;
+  for (int k = 0; k < 9; ++k)
+    if (k != 4)
+      inside_total += kNeighbour[k];
   for (const LoadedPoint& p : loaded_)
   {
     if (!(p.flow_volume > 0.0))
@@ -599,18 +621,32 @@ void DeformableTerrain::spreadFlow()
     // The neighbours that exist, and of those the ones beside the footprint.
     double weights[9] = {}, total = 0.0, free_total = 0.0;
     bool free_[9] = {};
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
+    if (i > 0 && j > 0 && i + 1 < columns && j + 1 < rows)
+    {
+      total = inside_total;
+      for (int k = 0; k < 9; ++k)
       {
-        if ((di == 0 && dj == 0) || i + di < 0 || j + dj < 0 || i + di >= columns || j + dj >= rows)
-          continue;
-        const int k = (dj + 1) * 3 + (di + 1);
-        weights[k] = (di != 0 && dj != 0) ? M_SQRT1_2 : 1.0;
-        total += weights[k];
-        free_[k] = mask[dj * w + di] == 0;
+        weights[k] = kNeighbour[k];
+        free_[k] = k != 4 && mask[neighbour_offset[k]] == 0;
         if (free_[k])
-          free_total += weights[k];
+          free_total += kNeighbour[k];
       }
+    }
+    else
+    {
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+        {
+          if ((di == 0 && dj == 0) || i + di < 0 || j + dj < 0 || i + di >= columns || j + dj >= rows)
+            continue;
+          const int k = (dj + 1) * 3 + (di + 1);
+          weights[k] = kNeighbour[k];
+          total += weights[k];
+          free_[k] = mask[dj * w + di] == 0;
+          if (free_[k])
+            free_total += weights[k];
+        }
+    }
     // Sheared soil is dragged the way the slip goes, past the rest of the footprint, to the
     // first point beside it in that direction (the soil a spinning wheel digs out lands behind
     // it, not under the same wheel); the rest, pressed out, goes to the free surface around.
@@ -629,13 +665,9 @@ void DeformableTerrain::spreadFlow()
     const double pressed = p.flow_volume - shear;
     const bool outward = free_total > 0.0;
     const double pressed_height = pressed / (outward ? free_total : total) / area;
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
-      {
-        const int k = (dj + 1) * 3 + (di + 1);
-        if (weights[k] > 0.0 && (!outward || free_[k]))
-          centre[dj * w + di] += pressed_height * weights[k];
-      }
+    for (int k = 0; k < 9; ++k)
+      if (weights[k] > 0.0 && (!outward || free_[k]))
+        centre[neighbour_offset[k]] += pressed_height * weights[k];
     centre[drop] += shear / area;
     arrived += p.flow_volume;
   }
@@ -814,7 +846,10 @@ void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j
   window_top_ = top - least_plastic;
 }
 
-DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y, double behind) const
+// Inline: a wheel's contact asks it for every sample of its rim (the inner loop).
+[[gnu::always_inline]] inline DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y,
+                                                                                            double behind,
+                                                                                            bool with_sigma) const
 {
   // Bilinear between the four window points around (x, y); clamped to the window (a sample
   // within half a cell of the grid's edge takes the edge's cell).
@@ -859,15 +894,19 @@ DeformableTerrain::WindowPoint DeformableTerrain::windowState(double x, double y
   }
   WindowPoint out;
   out.plastic_min = std::numeric_limits<double>::infinity();
+  if (behind < 0.0)  // only the front arc's cap reads it
+    for (int k = 0; k < 4; ++k)
+      if (weight[k] > 0.0)
+        out.plastic_min = std::min(out.plastic_min, static_cast<double>(corner[k]->plastic));
   for (int k = 0; k < 4; ++k)
   {
-    if (weight[k] > 0.0)
-      out.plastic_min = std::min(out.plastic_min, static_cast<double>(corner[k]->plastic));
     out.base += weight[k] * corner[k]->base;
     out.plastic += weight[k] * corner[k]->plastic;
     out.displaced += weight[k] * corner[k]->displaced;
-    out.sigma_max += weight[k] * corner[k]->sigma_max;
   }
+  if (with_sigma)  // only the simple model reads it
+    for (int k = 0; k < 4; ++k)
+      out.sigma_max += weight[k] * corner[k]->sigma_max;
   return out;
 }
 
@@ -1073,7 +1112,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
             // wheel at rest (pressed straight down) is the same front and back.
             const double side = rolling ? (us * fp.travel < 0.0 ? 1.0 : -1.0) : 0.0;
-            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, side);
+            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, side, !bekker);
             // Ahead of a rolling wheel's bottom, between a point its front arc has pressed and
             // one it has not reached, the linear interpolant runs above the arc's imprint (the
             // imprint ends at the arc's leading edge): the soil there has been pressed at most
@@ -1225,10 +1264,12 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   {
     int soil = -1;
     double half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, scale = 0.0;
+    /// exp(-cap / K): the same for every strip of the soil past the cap; NaN until needed.
+    double cap_factor = std::numeric_limits<double>::quiet_NaN();
   };
   std::array<StripConstants, 4> strips{};
   std::size_t strip_next = 0;
-  const StripConstants* strip = nullptr;
+  StripConstants* strip = nullptr;
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
   // Bekker points instead resist by compaction: a wheel's rim pushes back with
@@ -1275,7 +1316,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       if (!strip || p.soil != strip->soil || half != strip->half)
       {
         strip = nullptr;
-        for (const StripConstants& c : strips)
+        for (StripConstants& c : strips)
           if (c.soil == p.soil && c.half == half)
             strip = &c;
         if (!strip)
@@ -1289,6 +1330,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
           c.half_factor = std::exp(slip_magnitude * half * c.inv_k);
           c.inv_half_factor = 1.0 / c.half_factor;
           c.scale = k / (slip_magnitude * 2.0 * half);
+          c.cap_factor = std::numeric_limits<double>::quiet_NaN();
           strip = &c;
         }
       }
@@ -1307,7 +1349,9 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
         // all along); ahead of it by |s| x. Means over the strip, and their slopes in |s| and in
         // the cap (the boundary terms cancel).
         const double xc = std::max(fp.shear_cap / slip_magnitude, p.x0), span = p.x1 - p.x0;
-        const double ec = std::exp(-fp.shear_cap * inv_k);
+        if (std::isnan(strip->cap_factor))
+          strip->cap_factor = std::exp(-fp.shear_cap * inv_k);
+        const double ec = strip->cap_factor;
         double part = 0.0, dpart = 0.0;
         if (!(span > 1e-12))
         {
@@ -1406,7 +1450,8 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       {
         if (di == 0 && dj == 0)
           continue;
-        const double cosine = (di * base_.dx() * fx + dj * base_.dy() * fy) / std::hypot(di * base_.dx(), dj * base_.dy());
+        const double cosine =
+            (di * base_.dx() * fx + dj * base_.dy() * fy) / step_length_[(dj + 1) * 3 + (di + 1)];
         if (cosine > best)
         {
           best = cosine;

@@ -351,8 +351,9 @@ private:
   void fillWindow(std::size_t i0, std::size_t i1, std::size_t j0, std::size_t j1);
   /// The window's state at (x, y), bilinear between its four points; `behind` > 0: a sample
   /// behind a rolling footprint's bottom, interpolated from the points behind it only; < 0:
-  /// ahead of it, from the points ahead only.
-  WindowPoint windowState(double x, double y, double behind) const;
+  /// ahead of it, from the points ahead only. Only the fields the samples read: plastic_min
+  /// for behind < 0 (+inf otherwise), sigma_max `with_sigma` (0 otherwise).
+  WindowPoint windowState(double x, double y, double behind, bool with_sigma) const;
   /// spreadFlow(): the window offset where soil dragged from the window point `start` (column
   /// a, row b of a width x height window) lands: the first point along the drag not under the
   /// footprint, or the last one in the window. Memoised in landing_.
@@ -389,6 +390,8 @@ private:
   std::vector<long> landing_;        ///< scratch of spreadFlow(): where soil dragged from a window point lands, -1 unknown
   std::vector<long> landing_path_;   ///< scratch of landingOf()
   int drag_di_ = 0, drag_dj_ = 0;  ///< the grid step along which this contact's slip drags soil
+  /// m, length of the grid step (di, dj) at [(dj + 1) * 3 + di + 1] (forcesAndDeform's drag direction)
+  std::array<double, 9> step_length_{};
   std::size_t window_i0_ = 0, window_j0_ = 0, window_columns_ = 0, window_rows_ = 0;
   /// m, an upper bound of the surface anywhere in the window (max of base - displaced less the
   /// least plastic sinkage): the rim cannot press where it is above it.
