@@ -89,6 +89,11 @@ def bad_scenario_cases(scenario, env, tmp):
     edit("looping_agent_on_two_points", "agents[0].path: a moving looping agent needs at least 3 points, got 2",
          lambda d: d["agents"][0].update(loop=True, path=[[95.0, 232.0], [97.0, 252.0]]))
     exe = find_node("scenario_launch")
+    # The magnetometers' World Magnetic Model 2025 is valid 2025.0-2030.0: a later run date is
+    # refused by --check as by sensors_node at start-up.
+    edit("start_utc_after_the_magnetic_model", "time.start_utc 2031-03-01T12:00:00Z with the vehicles' magnetometers: "
+         "~sensors/magnetometer/model 'wmm2025' on ~date '2031-03-01'",
+         lambda d: d["time"].update(start_utc="2031-03-01T12:00:00Z"))
     # A vehicle folder with a negative chassis mass, for a one-partition scenario: --check once
     # never loaded the vehicle files unless the scenario had partitions.
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
