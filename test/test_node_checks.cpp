@@ -51,8 +51,26 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
   b.model = "mrzr";
   s.vehicles = { a, b };
   s.sensors = YAML::Load("{lidar: {preset: VLP-16, columns: 360}, radar: {enabled: false}}");
+  s.latitude = 39.7425;
+  s.longitude = -105.1786;
+  s.altitude = 1829.0;
+  s.start_utc = "2025-10-15T15:00:00Z";  // the magnetometers' World Magnetic Model date
   const std::string vehicles = AVSP_CONFIG_DIR "/vehicles";
   EXPECT_NO_THROW(as::checkSensorsAsTheNodeWill(s, vehicles));
+  // A start after the magnetometers' model (WMM2025: 2025.0-2030.0): sensors_node would exit 1.
+  s.start_utc = "2031-03-01T12:00:00Z";
+  try
+  {
+    as::checkSensorsAsTheNodeWill(s, vehicles);
+    FAIL() << "a 2031 start passed with WMM2025 magnetometers";
+  }
+  catch (const as::ScenarioError& e)
+  {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind("t.yaml: time.start_utc 2031-03-01T12:00:00Z with the vehicles' magnetometers: ", 0), 0u) << m;
+    EXPECT_NE(m.find("valid for decimal years 2025.0 to 2030.0"), std::string::npos) << m;
+  }
+  s.start_utc = "2025-10-15T15:00:00Z";
   s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16, colour: red}}");
   try
   {

@@ -595,6 +595,7 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   EXPECT_EQ(rosparamOf(xml, "sensors", "vehicle_sensors/third")["lidar"]["preset"].as<std::string>(), "VLP-16");
   EXPECT_TRUE(rosparamOf(xml, "sensors", "vehicle_sensors/lead").IsNull());
   EXPECT_EQ(paramOf(xml, "sensors", "latitude"), "39.74");
+  EXPECT_EQ(paramOf(xml, "sensors", "date"), "2025-06-21");  // the magnetometer's model date
   // environment: world time and weather (numbers as floats).
   EXPECT_EQ(paramOf(xml, "environment", "start_utc"), "2025-06-21T10:30:00Z");
   EXPECT_EQ(paramOf(xml, "environment", "time_acceleration"), "2.0");

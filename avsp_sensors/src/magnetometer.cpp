@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <GeographicLib/MagneticModel.hpp>
+
 namespace avsp
 {
 namespace sensors
@@ -20,30 +22,12 @@ Eigen::Vector3d earthFieldEnu(const EarthField& f)
   return { h * std::sin(dec), h * std::cos(dec), -f.intensity * std::sin(inc) };
 }
 
-Eigen::Vector3d dipoleFieldEcef(const Eigen::Vector3d& ecef)
+EarthField earthFieldFromEnu(const Eigen::Vector3d& b)
 {
-  const double r = ecef.norm();
-  if (!ecef.allFinite() || !(r > 0.0))
-    throw std::invalid_argument("dipoleFieldEcef: position must be finite and away from the Earth's centre");
-  using namespace igrf13_dipole;
-  const Eigen::Vector3d g = Eigen::Vector3d(kG11, kH11, kG10) * 1e-9;  // T
-  const Eigen::Vector3d u = ecef / r;
-  const double s = kReferenceRadius / r;
-  return s * s * s * (3.0 * g.dot(u) * u - g);
-}
-
-EarthField dipoleEarthField(const Geodetic& p)
-{
-  const Eigen::Vector3d b = dipoleFieldEcef(geodeticToEcef(p));
-  const double lat = p.latitude_deg * kDegToRad, lon = p.longitude_deg * kDegToRad;
-  const double sl = std::sin(lat), cl = std::cos(lat), so = std::sin(lon), co = std::cos(lon);
-  const double east = -so * b.x() + co * b.y();
-  const double north = -sl * co * b.x() - sl * so * b.y() + cl * b.z();
-  const double up = cl * co * b.x() + cl * so * b.y() + sl * b.z();
+  double horizontal = 0.0;
   EarthField f;
-  f.intensity = b.norm();
-  f.inclination_deg = std::atan2(-up, std::hypot(east, north)) / kDegToRad;
-  f.declination_deg = std::atan2(east, north) / kDegToRad;
+  GeographicLib::MagneticModel::FieldComponents(b.x(), b.y(), b.z(), horizontal, f.intensity, f.declination_deg,
+                                                f.inclination_deg);
   return f;
 }
 
@@ -74,24 +58,27 @@ const MagnetometerConfig& validated(const MagnetometerConfig& c)
 }  // namespace
 
 Magnetometer::Magnetometer(MagnetometerConfig config, std::uint64_t seed)
-  : config_(validated(config)), field_enu_(earthFieldEnu(config_.field)), normal_(seed), clock_(config_.rate)
+  : config_(validated(config)), fixed_field_enu_(earthFieldEnu(config_.field)), normal_(seed), clock_(config_.rate)
 {
 }
 
-MagSample Magnetometer::measure(double t, const Eigen::Quaterniond& body_orientation)
+MagSample Magnetometer::measure(double t, const Eigen::Isometry3d& body_pose)
 {
   const std::string ctx = "Magnetometer::measure";
   if (!std::isfinite(t))
     throw std::invalid_argument(ctx + ": time is not finite");
-  if (!body_orientation.coeffs().allFinite() || std::abs(body_orientation.norm() - 1.0) > 1e-6)
-    throw std::invalid_argument(ctx + ": body_orientation is not a unit quaternion");
+  const Eigen::Matrix3d body_rot = body_pose.linear();
+  if (!body_pose.matrix().allFinite() || !(body_rot.transpose() * body_rot).isApprox(Eigen::Matrix3d::Identity(), 1e-6) ||
+      body_rot.determinant() < 0.0)
+    throw std::invalid_argument(ctx + ": body_pose is not finite or its rotation is not a rotation matrix");
   if (started_ && t < last_time_)
     throw std::invalid_argument(ctx + ": time " + std::to_string(t) + " s is earlier than the last sample (" +
                                 std::to_string(last_time_) + " s)");
-  const Eigen::Matrix3d rot = body_orientation.toRotationMatrix() * config_.mount.linear();
+  const Eigen::Isometry3d sensor = body_pose * config_.mount;
+  const Eigen::Vector3d field_enu = config_.model ? config_.model->at(sensor.translation()) : fixed_field_enu_;
   MagSample s;
   s.time = t;
-  s.field = rot.transpose() * field_enu_ + config_.offset + config_.noise * normal_.vector3();
+  s.field = sensor.linear().transpose() * field_enu + config_.offset + config_.noise * normal_.vector3();
   s.covariance = Eigen::Matrix3d::Identity() * (config_.noise * config_.noise);
   started_ = true;
   last_time_ = t;

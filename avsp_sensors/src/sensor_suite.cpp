@@ -335,7 +335,7 @@ SuiteOutput VehicleSensors::update(const VehicleState& state, const Scene& scene
 
   if (magnetometer_ && mag_clock_->due(t))
   {
-    out.magnetometer = magnetometer_->measure(t, Eigen::Quaterniond(P.linear()));
+    out.magnetometer = magnetometer_->measure(t, P);
     mag_clock_->taken(t);
   }
 

@@ -160,7 +160,7 @@ public:
     if (!pnh_.getParam("vehicles", list))
       throw StartupError("parameter ~vehicles must be a non-empty list of {name, model}");
     const std::vector<asn::VehicleEntry> entries = asn::parseVehicles(list);
-    const std::vector<asn::SensorsSpec> specs = readSensorSpecs(entries);
+    std::vector<asn::SensorsSpec> specs = readSensorSpecs(entries);
 
     world_frame_ = avsp::msgs::stringParam(pnh_, "world_frame", "odom");
     if (world_frame_.empty())
@@ -171,6 +171,9 @@ public:
     const float body_reflectivity = static_cast<float>(boundedParam(pnh_, "body_reflectivity", 0.5, 0.0, 1.0));
     body_reflectivity_ = body_reflectivity;
     const std::optional<as::EnuFrame> origin = readOrigin(asn::needsOrigin(specs));
+    const std::string magnetic = asn::placeMagnetometers(specs, origin, avsp::msgs::stringParam(pnh_, "date", ""));
+    if (!magnetic.empty())
+      ROS_INFO("sensors_node: magnetometer field: %s", magnetic.c_str());
 
     const std::string config_dir =
         avsp::msgs::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
@@ -264,7 +267,7 @@ private:
       return std::nullopt;
     if (!pnh_.hasParam("latitude") || !pnh_.hasParam("longitude"))
       throw StartupError("parameters ~latitude and ~longitude (deg, the map origin's WGS-84 position) are required "
-                         "with a GPS or a magnetometer without intensity and inclination_deg");
+                         "with a GPS or a magnetometer on a geomagnetic model (magnetometer/model other than fixed)");
     const double lat = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
     const double lon = boundedParam(pnh_, "longitude", 0.0, -180.0, 180.0);
     const double alt = boundedParam(pnh_, "altitude", 0.0, -1e4, 1e5);
@@ -301,15 +304,7 @@ private:
     if (suite.imu)
       v->imu_frame = entry.name + "/" + spec.imu_link;
     if (suite.magnetometer)
-    {
       v->mag_frame = entry.name + "/" + spec.magnetometer_link;
-      if (!spec.magnetometer_intensity || !spec.magnetometer_inclination_deg)
-      {
-        const as::EarthField dipole = as::dipoleEarthField(origin->origin());
-        suite.magnetometer->field.intensity = spec.magnetometer_intensity.value_or(dipole.intensity);
-        suite.magnetometer->field.inclination_deg = spec.magnetometer_inclination_deg.value_or(dipole.inclination_deg);
-      }
-    }
     for (std::size_t k = 0; k < suite.ultrasonics.size(); ++k)
     {
       v->range_frames.push_back(entry.name + "/" + suite.ultrasonics[k].name);

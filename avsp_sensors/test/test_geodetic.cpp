@@ -7,7 +7,18 @@
 using avsp::sensors::EnuFrame;
 using avsp::sensors::Geodetic;
 using avsp::sensors::GeodeticError;
-namespace wgs84 = avsp::sensors::wgs84;
+
+namespace
+{
+// WGS 84's defining parameters (NIMA TR8350.2, "Department of Defense World Geodetic System
+// 1984", table 3.1), typed in here so that the closed forms below do not use the library's own.
+namespace wgs84
+{
+constexpr double kSemiMajorAxis = 6378137.0;                           // a, m
+constexpr double kFlattening = 1.0 / 298.257223563;                    // f
+constexpr double kEccentricitySq = kFlattening * (2.0 - kFlattening);  // e^2
+}  // namespace wgs84
+}  // namespace
 
 TEST(Geodetic, EquatorEastOffsetHasClosedForm)
 {
@@ -20,6 +31,26 @@ TEST(Geodetic, EquatorEastOffsetHasClosedForm)
   EXPECT_NEAR(g.latitude_deg, 0.0, 1e-12);
   EXPECT_NEAR(g.longitude_deg, std::atan(1000.0 / a) * 180.0 / M_PI, 1e-12);
   EXPECT_NEAR(g.altitude, std::sqrt(a * a + 1e6) - a, 1e-6);
+}
+
+TEST(Geodetic, LocalAxesAtAnEastOffsetAreTheMapAxesTurnedAboutNorth)
+{
+  // From (0 N, 0 E) a point at longitude t on the equator has its up axis turned by t about the
+  // map's north axis (ECEF z): local east = (cos t, 0, -sin t), north = (0, 1, 0),
+  // up = (sin t, 0, cos t) in map (east, north, up) components.
+  const EnuFrame frame({ 0.0, 0.0, 0.0 });
+  Eigen::Matrix3d local_to_map;
+  const Geodetic g = frame.toGeodetic({ 50000.0, 0.0, 0.0 }, local_to_map);
+  const double t = std::atan(50000.0 / wgs84::kSemiMajorAxis);
+  EXPECT_NEAR(g.longitude_deg, t * 180.0 / M_PI, 1e-12);
+  Eigen::Matrix3d expected;
+  expected.col(0) << std::cos(t), 0.0, -std::sin(t);
+  expected.col(1) << 0.0, 1.0, 0.0;
+  expected.col(2) << std::sin(t), 0.0, std::cos(t);
+  EXPECT_LT((local_to_map - expected).cwiseAbs().maxCoeff(), 1e-12) << local_to_map;
+  // At the origin the axes are the map's.
+  frame.toGeodetic(Eigen::Vector3d::Zero(), local_to_map);
+  EXPECT_LT((local_to_map - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-15);
 }
 
 TEST(Geodetic, PoleIsAtSemiMinorAxis)

@@ -1,5 +1,6 @@
 // Magnetometer: the Earth's field in the body frame for known headings, declination and
-// inclination (closed forms), noise, determinism, the IGRF dipole's closed forms, bad config.
+// inclination (closed forms), noise, determinism, bad config; on the World Magnetic Model, NOAA's
+// test values through the sensor and the field at the sensor's position.
 #include <cmath>
 #include <string>
 
@@ -23,10 +24,10 @@ MagnetometerConfig noiseFree(double intensity, double inclination_deg, double de
   return c;
 }
 
-/// Body orientation with yaw psi (rad, from east, counter-clockwise: REP 103 in ENU).
-Eigen::Quaterniond yaw(double psi)
+/// Body pose at the map origin with yaw psi (rad, from east, counter-clockwise: REP 103 in ENU).
+Eigen::Isometry3d yaw(double psi)
 {
-  return Eigen::Quaterniond(Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitZ()));
+  return Eigen::Isometry3d(Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitZ()));
 }
 
 std::string thrownMessage(const MagnetometerConfig& c)
@@ -103,8 +104,8 @@ TEST(Magnetometer, NoseDownByTheInclinationAlongMagneticNorthReadsTheWholeField)
   const double f = 52e-6, inc = 67.0, dec = -7.0;
   Magnetometer mag(noiseFree(f, inc, dec), 1);
   // Yaw to magnetic north, then pitch the nose down (positive rotation about body y) by I.
-  const Eigen::Quaterniond q =
-      yaw((90.0 - dec) * kDeg) * Eigen::Quaterniond(Eigen::AngleAxisd(inc * kDeg, Eigen::Vector3d::UnitY()));
+  const Eigen::Isometry3d q =
+      yaw((90.0 - dec) * kDeg) * Eigen::Isometry3d(Eigen::AngleAxisd(inc * kDeg, Eigen::Vector3d::UnitY()));
   const MagSample s = mag.measure(0.0, q);
   EXPECT_NEAR((s.field - Eigen::Vector3d(f, 0.0, 0.0)).norm(), 0.0, 1e-17);
   // Level, the vertical part is -F sin I on z and atan2(-z, |horizontal|) is the inclination.
@@ -151,50 +152,6 @@ TEST(Magnetometer, SameSeedSameSamples)
     EXPECT_EQ(a.measure(0.1 * k, yaw(0.2 * k)).field, b.measure(0.1 * k, yaw(0.2 * k)).field);
 }
 
-TEST(MagneticDipole, PolesAndEquatorHaveTheDipoleClosedForms)
-{
-  namespace d = igrf13_dipole;
-  const Eigen::Vector3d g = Eigen::Vector3d(d::kG11, d::kH11, d::kG10) * 1e-9;
-  const double b0 = g.norm();
-  EXPECT_NEAR(b0, 29805.9e-9, 0.1e-9);  // sqrt(g10^2 + g11^2 + h11^2)
-  const double r = 6371.2e3 + 5000.0;
-  const double scale = std::pow(d::kReferenceRadius / r, 3);
-  // At the boreal geomagnetic pole (along -g) the field points straight down with 2 B0.
-  const Eigen::Vector3d pole = -g.normalized() * r;
-  const Eigen::Vector3d bp = dipoleFieldEcef(pole);
-  EXPECT_NEAR((bp - 2.0 * b0 * scale * g.normalized()).norm(), 0.0, 1e-15);
-  // On the geomagnetic equator it is horizontal, B0, pointing to the boreal pole (along -g).
-  const Eigen::Vector3d eq = g.normalized().cross(Eigen::Vector3d::UnitZ()).normalized() * r;
-  const Eigen::Vector3d be = dipoleFieldEcef(eq);
-  EXPECT_NEAR((be + b0 * scale * g.normalized()).norm(), 0.0, 1e-15);
-  // The boreal pole's geocentric position from these coefficients: 80.59 N, 72.68 W.
-  EXPECT_NEAR(std::asin(-g.normalized().z()) / kDeg, 80.59, 0.01);
-  EXPECT_NEAR(std::atan2(-g.y(), -g.x()) / kDeg, -72.68, 0.01);
-}
-
-TEST(MagneticDipole, InclinationFollowsTanIEqualsTwoTanMagneticLatitude)
-{
-  // At geodetic (0, 0) the ENU up axis is the radial one, so the dipole law holds exactly:
-  // tan I = 2 tan(lambda_m), sin(lambda_m) = -g_hat . r_hat, F = B0 (a/r)^3 sqrt(1 + 3 sin^2).
-  const EarthField f = dipoleEarthField({ 0.0, 0.0, 0.0 });
-  namespace d = igrf13_dipole;
-  const Eigen::Vector3d gh = Eigen::Vector3d(d::kG11, d::kH11, d::kG10).normalized();
-  const double lm = std::asin(-gh.x());
-  EXPECT_NEAR(std::tan(f.inclination_deg * kDeg), 2.0 * std::tan(lm), 1e-9);
-  const double b0 = Eigen::Vector3d(d::kG11, d::kH11, d::kG10).norm() * 1e-9;
-  const double s = d::kReferenceRadius / 6378137.0;
-  EXPECT_NEAR(f.intensity, b0 * s * s * s * std::sqrt(1.0 + 3.0 * std::sin(lm) * std::sin(lm)), 1e-15);
-  // Near the boreal pole the field is nearly vertical (ENU up is the ellipsoid normal, which
-  // differs from the radial direction by < 0.07 deg there).
-  EXPECT_GT(dipoleEarthField({ 80.59, -72.68, 0.0 }).inclination_deg, 89.8);
-  // Mid-northern latitudes: the documented default (50 uT, 60 deg) is in the dipole's range.
-  const EarthField mid = dipoleEarthField({ 42.3, -83.2, 180.0 });
-  EXPECT_GT(mid.inclination_deg, 55.0);
-  EXPECT_LT(mid.inclination_deg, 75.0);
-  EXPECT_GT(mid.intensity, 45e-6);
-  EXPECT_LT(mid.intensity, 60e-6);
-}
-
 TEST(Magnetometer, BadConfigNamesTheField)
 {
   MagnetometerConfig c;
@@ -213,5 +170,73 @@ TEST(Magnetometer, BadConfigNamesTheField)
   c.field.intensity = -1e-6;
   EXPECT_NE(thrownMessage(c).find("field.intensity"), std::string::npos);
   Magnetometer m(MagnetometerConfig(), 1);
-  EXPECT_THROW(m.measure(0.0, Eigen::Quaterniond(2.0, 0.0, 0.0, 0.0)), std::invalid_argument);
+  Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
+  scaled.linear() *= 2.0;
+  EXPECT_THROW(m.measure(0.0, scaled), std::invalid_argument);
+  Eigen::Isometry3d far = Eigen::Isometry3d::Identity();
+  far.translation().x() = std::nan("");
+  EXPECT_THROW(m.measure(0.1, far), std::invalid_argument);
+}
+
+TEST(Magnetometer, FieldElementsRoundTrip)
+{
+  const EarthField f = earthFieldFromEnu(earthFieldEnu({ 51e-6, 65.9, -7.7 }));
+  EXPECT_NEAR(f.intensity, 51e-6, 1e-18);
+  EXPECT_NEAR(f.inclination_deg, 65.9, 1e-12);
+  EXPECT_NEAR(f.declination_deg, -7.7, 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+// On the World Magnetic Model 2025 (data/magnetic/wmm2025.wmm).
+namespace
+{
+const std::string kWmm2025 = std::string(AVSP_SENSORS_DATA_DIR) + "/magnetic/wmm2025.wmm";
+}
+
+TEST(MagnetometerOnWmm, ReadsNoaasTestValueAndGivesTheTrueHeading)
+{
+  // NOAA NCEI, WMM2025_TestValues.txt (WMM2025COF.zip), row 4: 2025.5, 6 km, 36 S, 137 W:
+  // D 20.28 deg, I -52.11 deg, X 23781.930678, Y 8786.698927, Z -32577.518648 nT.
+  const double x = 23781.930678e-9, y = 8786.698927e-9, z = -32577.518648e-9, d = 20.28;
+  MagnetometerConfig c = noiseFree(50e-6, 60.0, 0.0);  // the fixed field is not used with a model
+  c.model.emplace(GeomagneticModel(kWmm2025), EnuFrame({ -36.0, -137.0, 6000.0 }), 2025.5);
+  Magnetometer mag(c, 1);
+  // Level, facing true north (yaw 90 deg): x forward = north, y left = west, z up.
+  const MagSample north = mag.measure(0.0, yaw(90.0 * kDeg));
+  EXPECT_NEAR(north.field.x(), x, 0.01e-9);
+  EXPECT_NEAR(north.field.y(), -y, 0.01e-9);
+  EXPECT_NEAR(north.field.z(), -z, 0.01e-9);
+  // A compass heading (clockwise from magnetic north) plus the declination is the true heading,
+  // within 0.01 deg (NOAA prints D to 0.01 deg).
+  double t = 0.0;
+  for (double psi_deg = -180.0; psi_deg < 180.0; psi_deg += 30.0)
+  {
+    const MagSample s = mag.measure(t += 0.1, yaw(psi_deg * kDeg));
+    const double compass = std::atan2(s.field.y(), s.field.x()) / kDeg;  // as DeclinationShifts... above
+    const double true_heading = 90.0 - psi_deg;
+    EXPECT_NEAR(std::remainder(compass + d - true_heading, 360.0), 0.0, 0.01) << psi_deg;
+  }
+}
+
+TEST(MagnetometerOnWmm, ReadsTheFieldAtTheSensorsPosition)
+{
+  MagnetometerConfig c = noiseFree(50e-6, 60.0, 0.0);
+  c.mount.translation() = Eigen::Vector3d(0.5, 0.0, 1.2);
+  c.mount.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  c.model.emplace(GeomagneticModel(kWmm2025), EnuFrame({ 39.7425, -105.1786, 1829.0 }), 2025.0 + 287.0 / 365.0);
+  Magnetometer mag(c, 1);
+  Eigen::Isometry3d body(Eigen::AngleAxisd(1.1, Eigen::Vector3d::UnitZ()));
+  body.translation() = Eigen::Vector3d(20e3, -35e3, 150.0);  // far enough for the field to differ
+  const MagSample s = mag.measure(0.0, body);
+  const Eigen::Isometry3d sensor = body * c.mount;
+  const Eigen::Vector3d expected = sensor.linear().transpose() * c.model->at(sensor.translation());
+  EXPECT_LT((s.field - expected).norm(), 1e-15);
+  const Eigen::Vector3d at_origin = sensor.linear().transpose() * c.model->at(Eigen::Vector3d::Zero());
+  EXPECT_GT((s.field - at_origin).norm(), 50e-9);
+  // The default site on 2025-10-15: D 7.67 deg east, the compass error the model removes (the
+  // MagneticField tool of GeographicLib on these files: D 7.66796, I 65.86412, F 51056.148 nT).
+  const EarthField site = earthFieldFromEnu(c.model->at(Eigen::Vector3d::Zero()));
+  EXPECT_NEAR(site.declination_deg, 7.66796, 1e-4);
+  EXPECT_NEAR(site.inclination_deg, 65.86412, 1e-4);
+  EXPECT_NEAR(site.intensity, 51056.148e-9, 0.01e-9);
 }

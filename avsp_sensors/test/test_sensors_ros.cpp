@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -93,6 +94,9 @@ TEST(SensorParams, DefaultsGiveEverySensorButUltrasonicsOnTheStandardLinks)
   EXPECT_EQ(s.magnetometer_link, "imu");
   EXPECT_EQ(s.keys.at("radar"), "~sensors/radar");
   EXPECT_TRUE(needsOrigin({ s }));
+  // The magnetometer on the shipped World Magnetic Model by default.
+  ASSERT_TRUE(s.magnetometer_model);
+  EXPECT_EQ(s.magnetometer_model->name(), "wmm2025");
 }
 
 TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
@@ -101,7 +105,8 @@ TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
                                    { "radar", map({ { "rate", 20 }, { "cluster_eps", 1.5 } }) },
                                    { "gps", map({ { "enabled", false } }) } });
   const XmlRpcValue own = map({ { "lidar", map({ { "registered", false }, { "sub_rays", 2 } }) },
-                                { "magnetometer", map({ { "intensity", 4.8e-5 }, { "inclination_deg", 65 } }) },
+                                { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 4.8e-5 },
+                                                        { "inclination_deg", 65 }, { "declination_deg", -8.5 } }) },
                                 { "ultrasonic", list({ map({ { "name", str("rear") }, { "x", -2.0 }, { "yaw", 3.14159 },
                                                              { "max_range", 3.0 } }) }) } });
   const SensorsSpec s = parseSensors(&own, "~vehicle_sensors/ego", &common, "~sensors");
@@ -116,6 +121,9 @@ TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
   EXPECT_FALSE(s.suite.gps);
   ASSERT_TRUE(s.suite.magnetometer);
   EXPECT_EQ(s.suite.magnetometer->field.intensity, 4.8e-5);
+  EXPECT_EQ(s.suite.magnetometer->field.inclination_deg, 65.0);
+  EXPECT_EQ(s.suite.magnetometer->field.declination_deg, -8.5);
+  EXPECT_FALSE(s.magnetometer_model);
   EXPECT_FALSE(needsOrigin({ s }));  // no GPS, the magnetometer's field given
   ASSERT_EQ(s.suite.ultrasonics.size(), 1u);
   EXPECT_EQ(s.suite.ultrasonics[0].name, "rear");
@@ -155,7 +163,19 @@ TEST(SensorParams, EveryMalformedKeyIsNamed)
   EXPECT_MENTIONS(error(map({ { "gps", map({ { "rate", str("fast") } }) } })), "~sensors/gps/rate", "must be a number");
   EXPECT_MENTIONS(error(map({ { "gps", map({ { "horizontal_noise", -1.0 } }) } })), "~sensors/gps", "horizontal_noise");
   EXPECT_MENTIONS(error(map({ { "imu", map({ { "rate", 0.0 } }) } })), "~sensors/imu", "rate");
-  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "inclination_deg", 95 } }) } })), "~sensors/magnetometer", "inclination_deg");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 5e-5 }, { "inclination_deg", 95 },
+                                                     { "declination_deg", 0 } }) } })),
+                  "~sensors/magnetometer", "inclination_deg");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 5e-5 } }) } })),
+                  "~sensors/magnetometer/inclination_deg", "required with model 'fixed'");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "declination_deg", 7.7 } }) } })),
+                  "~sensors/magnetometer/declination_deg", "only read with model 'fixed'", "'wmm2025'");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("wmm2099") } }) } })),
+                  "~sensors/magnetometer/model = 'wmm2099'", "magnetic model file", "wmm2099.wmm");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("/nonexistent/site.wmm") } }) } })),
+                  "~sensors/magnetometer/model", "magnetic model file /nonexistent/site.wmm");
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", 2025 } }) } })), "~sensors/magnetometer/model",
+                  "must be a string");
   EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "x", 1.0 } }) }) } })), "~sensors/ultrasonic[0]/name", "required");
   EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })), "~sensors/ultrasonic[1]/name", "used twice");
   EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") }, { "max_range", 0.01 } }) }) } })), "~sensors/ultrasonic[0]", "max_range");
@@ -471,4 +491,55 @@ TEST(Conversions, RadarOccupancyAndSampledSensorsFillTheirMessages)
   EXPECT_EQ(nf.latitude, 42.0);
   EXPECT_EQ(nf.position_covariance[4], 2.0);
   EXPECT_EQ(nf.position_covariance_type, sensor_msgs::NavSatFix::COVARIANCE_TYPE_DIAGONAL_KNOWN);
+}
+
+namespace
+{
+/// The StartupError message of placeMagnetometers() for the default sensors, or "(no error)".
+std::string placeError(const std::optional<EnuFrame>& origin, const std::string& date)
+{
+  std::vector<SensorsSpec> specs{ parseSensors(nullptr, "~vehicle_sensors/ego", nullptr, "~sensors") };
+  try
+  {
+    placeMagnetometers(specs, origin, date);
+  }
+  catch (const avsp::msgs::StartupError& e)
+  {
+    return e.what();
+  }
+  return "(no error)";
+}
+}  // namespace
+
+TEST(SensorParams, MagnetometerGetsTheModelOnTheRunsDateAtTheOrigin)
+{
+  const EnuFrame origin({ 39.7425, -105.1786, 1829.0 });
+  std::vector<SensorsSpec> specs{ parseSensors(nullptr, "~vehicle_sensors/ego", nullptr, "~sensors") };
+  const std::string summary = placeMagnetometers(specs, origin, "2025-10-15");
+  ASSERT_TRUE(specs[0].suite.magnetometer->model);
+  EXPECT_DOUBLE_EQ(specs[0].suite.magnetometer->model->year(), 2025.0 + 287.0 / 365.0);
+  // D 7.67 deg east at the default site (test_magnetometer: the MagneticField tool's figures).
+  EXPECT_MENTIONS(summary, "World Magnetic Model 2025 on 2025-10-15 (2025.786)", "F 51.06 uT", "I 65.86 deg",
+                  "D 7.67 deg");
+  // A fixed field needs neither the date nor the origin.
+  const XmlRpcValue fixed = map({ { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 5e-5 },
+                                                          { "inclination_deg", 60 }, { "declination_deg", 0 } }) } });
+  std::vector<SensorsSpec> fixed_specs{ parseSensors(nullptr, "", &fixed, "~sensors") };
+  EXPECT_EQ(placeMagnetometers(fixed_specs, std::nullopt, ""), "");
+  EXPECT_FALSE(fixed_specs[0].suite.magnetometer->model);
+}
+
+TEST(SensorParams, MagnetometerDateAndSiteOutsideTheModelAreNamed)
+{
+  const EnuFrame origin({ 39.7425, -105.1786, 1829.0 });
+  EXPECT_MENTIONS(placeError(origin, ""), "parameter ~date", "required by ~sensors/magnetometer/model 'wmm2025'",
+                  "model: fixed");
+  EXPECT_MENTIONS(placeError(origin, "2025-13-01"), "parameter ~date '2025-13-01'");
+  EXPECT_MENTIONS(placeError(origin, "2031-01-01"), "~sensors/magnetometer/model 'wmm2025' on ~date '2031-01-01'",
+                  "valid for decimal years 2025.0 to 2030.0", "the date is 2031.000");
+  EXPECT_MENTIONS(placeError(origin, "2024-12-31"), "the date is 2024.997");
+  EXPECT_MENTIONS(placeError(EnuFrame({ 39.7, -105.2, -5000.0 }), "2026-01-01"), "~altitude",
+                  "the point is at -5000.0 m");
+  EXPECT_MENTIONS(placeError(std::nullopt, "2026-01-01"), "~latitude and ~longitude",
+                  "~sensors/magnetometer/model 'wmm2025'");
 }

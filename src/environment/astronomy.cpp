@@ -7,6 +7,9 @@
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
+
+#include <GeographicLib/Geocentric.hpp>
 
 namespace avsp
 {
@@ -286,18 +289,16 @@ Horizontal toHorizontal(const Equatorial& body, double gast, const Site& site, c
   const double by = -body.distance_km * cd * std::sin(hour_angle_greenwich);
   const double bz = body.distance_km * std::sin(body.declination);
 
-  constexpr double a = 6378.137, f = 1.0 / 298.257223563;  // WGS-84, km
-  const double e2 = f * (2.0 - f);
-  const double phi = site.latitude_deg * kDegToRad, lam = site.longitude_deg * kDegToRad;
-  const double sp = std::sin(phi), cp = std::cos(phi), sl = std::sin(lam), cl = std::cos(lam);
-  const double n = a / std::sqrt(1.0 - e2 * sp * sp);
-  const double h_km = site.altitude_m / 1000.0;
-  const double ox = (n + h_km) * cp * cl, oy = (n + h_km) * cp * sl, oz = (n * (1.0 - e2) + h_km) * sp;
-
-  const double dx = bx - ox, dy = by - oy, dz = bz - oz;
-  const double east = -sl * dx + cl * dy;
-  const double north = -sp * cl * dx - sp * sl * dy + cp * dz;
-  const double up = cp * cl * dx + cp * sl * dy + sp * dz;
+  // The observer on the WGS-84 ellipsoid (GeographicLib::Geocentric, m), and the rotation M
+  // from the east-north-up axes there to the Earth-fixed ones: the body's direction in ENU is
+  // M^T (body - observer).
+  double ox = 0.0, oy = 0.0, oz = 0.0;
+  std::vector<double> m(9);  // row-major
+  GeographicLib::Geocentric::WGS84().Forward(site.latitude_deg, site.longitude_deg, site.altitude_m, ox, oy, oz, m);
+  const double dx = bx - ox / 1000.0, dy = by - oy / 1000.0, dz = bz - oz / 1000.0;  // km
+  const double east = m[0] * dx + m[3] * dy + m[6] * dz;
+  const double north = m[1] * dx + m[4] * dy + m[7] * dz;
+  const double up = m[2] * dx + m[5] * dy + m[8] * dz;
 
   Horizontal out;
   out.azimuth = wrapRad(std::atan2(east, north));

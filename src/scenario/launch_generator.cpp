@@ -349,6 +349,9 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   w.param("latitude", s.latitude);
   w.param("longitude", s.longitude);
   w.param("altitude", s.altitude);
+  // The magnetometer's World Magnetic Model is evaluated on the run's date (start_utc is checked
+  // by parseRunStartUtc, so its first ten characters are YYYY-MM-DD).
+  w.param("date", s.start_utc.substr(0, 10));
   w.paramInt("seed", static_cast<long long>(s.seed));
   if (s.sensors.IsDefined() && !s.sensors.IsNull())
     w.rosparam("sensors", flowYaml(s.sensors, false));

@@ -1,25 +1,20 @@
 #pragma once
 /**
  * @file geodetic.hpp
- * @brief Exact conversions between WGS-84 geodetic coordinates, ECEF and the local ENU
- *        frame (`map`) whose origin is the scenario's geodetic reference.
+ * @brief Conversions between WGS-84 geodetic coordinates, ECEF and the local ENU frame (`map`)
+ *        whose origin is the scenario's geodetic reference, by GeographicLib (`Geocentric`,
+ *        `LocalCartesian`: exact to round-off, C. F. F. Karney's library, Debian's
+ *        libgeographiclib-dev).
  */
 #include <stdexcept>
 
 #include <Eigen/Core>
+#include <GeographicLib/LocalCartesian.hpp>
 
 namespace avsp
 {
 namespace sensors
 {
-/// WGS-84 ellipsoid constants.
-namespace wgs84
-{
-constexpr double kSemiMajorAxis = 6378137.0;             ///< a, m
-constexpr double kFlattening = 1.0 / 298.257223563;      ///< f
-constexpr double kEccentricitySq = kFlattening * (2.0 - kFlattening);  ///< e^2
-}  // namespace wgs84
-
 /// A point on or above the ellipsoid. Angles in degrees (as NavSatFix), altitude in m.
 struct Geodetic
 {
@@ -35,14 +30,14 @@ public:
   using std::invalid_argument::invalid_argument;
 };
 
-/// Geodetic -> Earth-centred Earth-fixed, m.
+/// Geodetic -> Earth-centred Earth-fixed (WGS-84), m.
 Eigen::Vector3d geodeticToEcef(const Geodetic& g);
 
-/// ECEF (m) -> geodetic, exact to < 1e-9 m (iterative Bowring, converged).
+/// ECEF (m) -> geodetic (WGS-84), exact to round-off for any point (GeographicLib::Geocentric).
 Geodetic ecefToGeodetic(const Eigen::Vector3d& ecef);
 
 /**
- * @brief The local east-north-up frame tangent to the ellipsoid at a reference point.
+ * @brief The local east-north-up frame tangent to the WGS-84 ellipsoid at a reference point.
  */
 class EnuFrame
 {
@@ -52,6 +47,15 @@ public:
 
   /// ENU position (m, map frame) -> geodetic.
   Geodetic toGeodetic(const Eigen::Vector3d& enu) const;
+  /**
+   * @brief ENU position (m, map frame) -> geodetic, and the rotation between the axes there and
+   *        the map's.
+   * @param local_to_map set to R with v_map = R v_local for a vector's components in the east,
+   *        north and up axes at the point (v_local) and in the map's axes (v_map); the two sets
+   *        of axes differ by the angle between the verticals, about 0.009 deg per km from the
+   *        origin
+   */
+  Geodetic toGeodetic(const Eigen::Vector3d& enu, Eigen::Matrix3d& local_to_map) const;
   /// Geodetic -> ENU position (m, map frame).
   Eigen::Vector3d toEnu(const Geodetic& g) const;
 
@@ -59,8 +63,7 @@ public:
 
 private:
   Geodetic origin_;
-  Eigen::Vector3d origin_ecef_;
-  Eigen::Matrix3d ecef_to_enu_;  ///< rows: east, north, up unit vectors in ECEF
+  GeographicLib::LocalCartesian local_;  ///< WGS-84, origin_
 };
 
 }  // namespace sensors

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 #include <stdexcept>
 
 #include <avsp_msgs/node_params.hpp>
 #include <ros/names.h>
+#include <ros/package.h>
 
 namespace avsp
 {
@@ -326,19 +328,58 @@ std::optional<ImuConfig> parseImu(const Section& s)
   return c;
 }
 
+/// The file of a magnetometer's `model`: a name in avsp_sensors/data/magnetic/, or a path.
+std::string magneticModelFile(const Section& s, const std::string& model)
+{
+  if (model.find('/') != std::string::npos)
+    return model;
+  const std::string package = ros::package::getPath("avsp_sensors");
+  if (package.empty())
+    throw StartupError("parameter " + s.key("model") + " = '" + model +
+                       "': rospack does not find the package avsp_sensors (ROS_PACKAGE_PATH) whose data/magnetic/ "
+                       "holds the named models; give the path of the .wmm file");
+  return package + "/data/magnetic/" + model + ".wmm";
+}
+
 std::optional<MagnetometerConfig> parseMagnetometer(const Section& s, SensorsSpec& spec)
 {
-  s.allowOnly({ "enabled", "frame", "rate", "intensity", "inclination_deg", "declination_deg", "noise" });
+  s.allowOnly({ "enabled", "frame", "rate", "model", "intensity", "inclination_deg", "declination_deg", "noise" });
   if (!s.flag("enabled", true))
     return std::nullopt;
   MagnetometerConfig c;
   c.rate = s.number("rate", c.rate);
-  spec.magnetometer_intensity = s.optionalNumber("intensity");
-  spec.magnetometer_inclination_deg = s.optionalNumber("inclination_deg");
-  c.field.intensity = spec.magnetometer_intensity.value_or(c.field.intensity);
-  c.field.inclination_deg = spec.magnetometer_inclination_deg.value_or(c.field.inclination_deg);
-  c.field.declination_deg = s.number("declination_deg", c.field.declination_deg);
   c.noise = s.number("noise", c.noise);
+  const std::string model = s.text("model", "wmm2025");
+  const char* elements[] = { "intensity", "inclination_deg", "declination_deg" };
+  if (model == "fixed")
+  {
+    // A fixed field is the user's statement of the site's field: all three elements, no defaults.
+    for (const char* k : elements)
+      if (!s.has(k))
+        throw StartupError("parameter " + s.key(k) + " is required with model 'fixed' (the site's field: intensity T, "
+                           "inclination_deg and declination_deg deg)");
+    c.field.intensity = s.number("intensity", 0.0);
+    c.field.inclination_deg = s.number("inclination_deg", 0.0);
+    c.field.declination_deg = s.number("declination_deg", 0.0);
+  }
+  else
+  {
+    for (const char* k : elements)
+      if (s.has(k))
+        throw StartupError("parameter " + s.key(k) + " is only read with model 'fixed' (model '" + model +
+                           "' gives the field)");
+    if (model.empty())
+      throw StartupError("parameter " + s.key("model") +
+                         " must be 'fixed', a model name in avsp_sensors/data/magnetic (wmm2025) or a .wmm file");
+    try
+    {
+      spec.magnetometer_model.emplace(magneticModelFile(s, model));
+    }
+    catch (const GeomagneticModelError& e)
+    {
+      throw StartupError("parameter " + s.key("model") + " = '" + model + "': " + e.what());
+    }
+  }
   checked(s, [&] { validateMagnetometerConfig(c); });
   return c;
 }
@@ -622,9 +663,58 @@ SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& 
 bool needsOrigin(const std::vector<SensorsSpec>& specs)
 {
   for (const SensorsSpec& s : specs)
-    if (s.suite.gps || (s.suite.magnetometer && (!s.magnetometer_intensity || !s.magnetometer_inclination_deg)))
+    if (s.suite.gps || (s.suite.magnetometer && s.magnetometer_model))
       return true;
   return false;
+}
+
+std::string placeMagnetometers(std::vector<SensorsSpec>& specs, const std::optional<EnuFrame>& origin,
+                               const std::string& date)
+{
+  std::string summary;
+  std::optional<double> year;
+  for (SensorsSpec& spec : specs)
+  {
+    if (!spec.suite.magnetometer || !spec.magnetometer_model)
+      continue;
+    const std::string model_key = spec.keys.at("magnetometer") + "/model";
+    const std::string name = spec.magnetometer_model->name();
+    if (!origin)
+      throw StartupError("parameters ~latitude and ~longitude are required by " + model_key + " '" + name + "'");
+    if (!year)
+    {
+      if (date.empty())
+        throw StartupError("parameter ~date (the run's date, YYYY-MM-DD, or a decimal year) is required by " +
+                           model_key + " '" + name + "' (or set model: fixed with the site's field)");
+      try
+      {
+        year = decimalYear(date);
+      }
+      catch (const GeomagneticModelError& e)
+      {
+        throw StartupError("parameter ~" + std::string(e.what()));
+      }
+    }
+    try
+    {
+      spec.suite.magnetometer->model.emplace(*spec.magnetometer_model, *origin, *year);
+    }
+    catch (const GeomagneticModelError& e)
+    {
+      throw StartupError(model_key + " '" + name + "' on ~date '" + date + "' at the map origin (~latitude, " +
+                         "~longitude, ~altitude): " + e.what());
+    }
+    if (summary.empty())
+    {
+      const EarthField f = earthFieldFromEnu(spec.suite.magnetometer->model->at(Eigen::Vector3d::Zero()));
+      char text[200];
+      std::snprintf(text, sizeof text, "%s on %s (%.3f) at the map origin: F %.2f uT, I %.2f deg, D %.2f deg",
+                    spec.magnetometer_model->description().c_str(), date.c_str(), *year, f.intensity * 1e6,
+                    f.inclination_deg, f.declination_deg);
+      summary = text;
+    }
+  }
+  return summary;
 }
 
 void mountSensors(SensorsSpec& spec, const VehicleFrames& frames, const std::string& where)

@@ -96,6 +96,7 @@ void checkSensorsAsTheNodeWill(const Scenario& s, const std::string& vehicles_di
     throw ScenarioError(s.file + ": sensors: " + e.what());
   }
   std::map<std::string, avsp::sensors::node::VehicleFrames> frames_of;
+  std::vector<avsp::sensors::node::SensorsSpec> specs;
   for (std::size_t i = 0; i < s.vehicles.size(); ++i)
   {
     const VehicleSpec& v = s.vehicles[i];
@@ -113,12 +114,24 @@ void checkSensorsAsTheNodeWill(const Scenario& s, const std::string& vehicles_di
         frames = frames_of.emplace(v.model, avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml"))
                      .first;
       avsp::sensors::node::mountSensors(spec, frames->second, "model '" + v.model + "'");
+      specs.push_back(std::move(spec));
     }
     catch (const std::exception& e)
     {
       throw ScenarioError(s.file + ": " + (has_own ? key : std::string("sensors")) + " (as sensors_node reads it for '" +
                           v.name + "'): " + e.what());
     }
+  }
+  // The magnetometers' model on the run's date (the generator gives sensors_node the date of
+  // time.start_utc as ~date) at the site: a date outside the model's validity stops the node.
+  try
+  {
+    avsp::sensors::node::placeMagnetometers(specs, avsp::sensors::EnuFrame({ s.latitude, s.longitude, s.altitude }),
+                                            s.start_utc.substr(0, 10));
+  }
+  catch (const std::exception& e)
+  {
+    throw ScenarioError(s.file + ": time.start_utc " + s.start_utc + " with the vehicles' magnetometers: " + e.what());
   }
 }
 

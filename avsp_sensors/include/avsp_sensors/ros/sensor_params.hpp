@@ -58,8 +58,9 @@ struct SensorsSpec
   std::vector<UltrasonicMount> ultrasonic_mounts;  ///< per suite.ultrasonics entry
   /// Cameras (section `cameras`), mounts in base_link from x..yaw; a stereo entry gives two.
   std::vector<CameraConfig> cameras;
-  /// Magnetometer field values given in the configuration (else the IGRF dipole at the origin).
-  std::optional<double> magnetometer_intensity, magnetometer_inclination_deg;
+  /// The magnetometer's geomagnetic model (`model`, loaded); nullopt with model 'fixed' or no
+  /// magnetometer. placeMagnetometers() puts it on the map and the run's date.
+  std::optional<GeomagneticModel> magnetometer_model;
   /// Parameter name of each section as read (e.g. "lidar" -> "~vehicle_sensors/ego/lidar").
   std::map<std::string, std::string> keys;
 };
@@ -86,9 +87,24 @@ SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& 
  */
 void mountSensors(SensorsSpec& spec, const VehicleFrames& frames, const std::string& where);
 
-/// True when any vehicle of `specs` has a GPS or a magnetometer without an explicit field (they
+/// True when any vehicle of `specs` has a GPS or a magnetometer on a geomagnetic model (they
 /// need the geodetic reference ~latitude, ~longitude).
 bool needsOrigin(const std::vector<SensorsSpec>& specs);
+
+/**
+ * @brief Gives each magnetometer on a geomagnetic model (SensorsSpec::magnetometer_model) the
+ *        model's field over the map on the run's date (MagnetometerConfig::model).
+ * @param origin the map's geodetic reference (~latitude, ~longitude, ~altitude)
+ * @param date the value of ~date: "YYYY-MM-DD" or a decimal year; "" when not set
+ * @return a line for the log: the model, the date and the field's elements at the map origin
+ *         ("" when no magnetometer uses a model)
+ * @throw avsp::msgs::StartupError naming the parameters: ~date missing or malformed, a date or an
+ *        origin's altitude outside the model's validity (e.g. "~sensors/magnetometer/model
+ *        'wmm2025' on ~date '2031-01-01' at the map origin ...: wmm2025 (...) is valid for decimal
+ *        years 2025.0 to 2030.0: the date is 2031.000"), no origin
+ */
+std::string placeMagnetometers(std::vector<SensorsSpec>& specs, const std::optional<EnuFrame>& origin,
+                               const std::string& date);
 
 }  // namespace node
 }  // namespace sensors
