@@ -637,11 +637,13 @@ double DemWorld::kineticEnergy() const { return kineticEnergyOf(*impl_->l); }
 // Meshes
 
 std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vector3d& axle, double radius,
-                                double width, int facets)
+                                double width, int facets, int grousers, double grouser_height)
 {
   if (!(radius > 0.0) || !(width > 0.0) || facets < 3 || !centre.allFinite() || !axle.allFinite() ||
       std::abs(axle.norm() - 1.0) > 1e-9)
     fail("wheel", "radius and width must be > 0, facets >= 3, the axle a unit vector");
+  if (grousers < 0 || (grousers > 0 && !(grouser_height > 0.0 && grouser_height < radius)))
+    fail("wheel.grousers", "a count >= 0 and, with grousers, a height in (0, radius)");
   // Two unit vectors spanning the wheel's plane.
   Eigen::Vector3d u = axle.cross(Eigen::Vector3d::UnitZ());
   if (u.norm() < 1e-6)
@@ -660,6 +662,15 @@ std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vect
     mesh.push_back({p0 - half, p1 + half, p0 + half});
     mesh.push_back({centre - half, p1 - half, p0 - half});
     mesh.push_back({centre + half, p0 + half, p1 + half});
+  }
+  for (int i = 0; i < grousers; ++i)
+  {
+    // A radial plate across the rim (contact with a triangle is two-sided in LIGGGHTS).
+    const double t = 2.0 * M_PI * (i + 0.5) / grousers;
+    const Eigen::Vector3d dir = std::cos(t) * u + std::sin(t) * w;
+    const Eigen::Vector3d in = centre + 0.98 * radius * dir, out = centre + (radius + grouser_height) * dir;
+    mesh.push_back({in - half, out - half, out + half});
+    mesh.push_back({in - half, out + half, in + half});
   }
   return mesh;
 }

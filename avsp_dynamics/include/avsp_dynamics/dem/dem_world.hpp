@@ -205,10 +205,12 @@ private:
 
 /**
  * @brief The closed cylinder of a wheel's rim (radius, width) with `facets` flat faces round
- *        it and two flat sides, centred at `centre`, its axle along `axle` (unit).
+ *        it and two flat sides, centred at `centre`, its axle along `axle` (unit); with
+ *        `grousers` > 0, that many lugs across the rim, radial plates `grouser_height` tall
+ *        (the tread of an off-road tyre or a rover wheel).
  */
 std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vector3d& axle, double radius,
-                                double width, int facets);
+                                double width, int facets, int grousers = 0, double grouser_height = 0.0);
 
 /// A flat rectangular plate (length along x, width along y) of negligible thickness, its bottom
 /// face at `centre`, normal down: a bevameter's plate.
