@@ -159,3 +159,17 @@ TEST(DemWorld, SpinAxisMovesWithTheBody)
   const Eigen::Vector3d expected = centre + Eigen::Vector3d(0.5 * world.time(), 0.0, 0.0);
   EXPECT_LT((world.load(wheel).reference - expected).norm(), 1e-9);
 }
+
+TEST(DemWorld, ABodyLeavingTheDomainIsRefusedByName)
+{
+  const auto& bed = dem_test::smallTemplate();
+  dem::DemWorld world(bed.parameters(), dem_test::domainFor(bed, 3), bed);
+  const Eigen::Vector3d centre(2.5 * bed.length(), 0.5 * bed.width(), 0.3);
+  const int wheel = world.addBody(dem::wheelMesh(centre, Eigen::Vector3d::UnitY(), 0.05, 0.05, 24), centre,
+                                  Eigen::Vector3d::UnitY());
+  // 0.05 m from the end of the domain, at 100 m/s: 0.1 m in one interval.
+  world.setBodyVelocity(wheel, Eigen::Vector3d(100.0, 0.0, 0.0), 0.0);
+  const std::string e = errorOf([&] { world.step(); });
+  EXPECT_NE(e.find("dem.body: body 0 would leave the domain"), std::string::npos) << e;
+  EXPECT_EQ(world.time(), 0.0);
+}

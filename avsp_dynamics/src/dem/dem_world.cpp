@@ -391,6 +391,8 @@ struct DemWorld::Impl
     std::string id;
     bool spins = false;
     bool stepped = false;
+    Eigen::Vector3d extent = Eigen::Vector3d::Zero();  ///< m, half-size of the box the mesh can take about its reference
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   };
   std::vector<Body> bodies;
 };
@@ -515,6 +517,24 @@ int DemWorld::addBody(const std::vector<Triangle>& mesh, const Eigen::Vector3d& 
   Impl::Body body;
   body.id = "body" + std::to_string(index);
   body.spins = axis_norm > 0.0;
+  // The box the mesh can take about its reference: its own box, or for a spinning body the one
+  // of the solid of revolution it sweeps about the axis.
+  for (const auto& t : mesh)
+    for (const auto* v : {&t.a, &t.b, &t.c})
+    {
+      const Eigen::Vector3d d = *v - reference;
+      for (int a = 0; a < 3; ++a)
+      {
+        double half = std::abs(d[a]);
+        if (body.spins)
+        {
+          const double along = d.dot(spin_axis);
+          const double radial = std::sqrt(std::max(0.0, d.squaredNorm() - along * along));
+          half = radial * std::sqrt(std::max(0.0, 1.0 - spin_axis[a] * spin_axis[a])) + std::abs(along * spin_axis[a]);
+        }
+        body.extent[a] = std::max(body.extent[a], half);
+      }
+    }
   const std::string stl = impl_->scratch.file(body.id + ".stl");
   {
     std::ofstream f(stl);
@@ -563,6 +583,7 @@ void DemWorld::setBodyVelocity(int body, const Eigen::Vector3d& velocity, double
     fail("body", "no body " + std::to_string(body));
   if (!velocity.allFinite() || !std::isfinite(spin_rate))
     fail("body.velocity", "not finite");
+  impl_->bodies[body].velocity = velocity;
   const std::string& id = impl_->bodies[body].id;
   auto& l = *impl_->l;
   l.command("variable %s_vx equal %.17g", id.c_str(), velocity.x());
@@ -573,6 +594,18 @@ void DemWorld::setBodyVelocity(int body, const Eigen::Vector3d& velocity, double
 
 void DemWorld::step()
 {
+  // A mesh leaving the box ends the process in LIGGGHTS: refuse the interval instead, naming
+  // the body (the box its mesh can take, where its reference point will be).
+  for (std::size_t k = 0; k < impl_->bodies.size(); ++k)
+  {
+    const auto& b = impl_->bodies[k];
+    const Eigen::Vector3d end = load(static_cast<int>(k)).reference + b.velocity * params_.coupling_interval;
+    const Eigen::Vector3d lo = end - b.extent, hi = end + b.extent;
+    if (lo.x() < domain_.x_min || hi.x() > domain_.x_max || lo.y() < domain_.y_min || hi.y() > domain_.y_max ||
+        lo.z() < domain_.z_min || hi.z() > domain_.z_max)
+      fail("body", "body " + std::to_string(k) + " would leave the domain this interval (reference at (" +
+                       str(end.x()) + ", " + str(end.y()) + ", " + str(end.z()) + "))");
+  }
   auto& l = *impl_->l;
   if (impl_->needs_setup)
     l.command("run %d", impl_->steps_per_interval);

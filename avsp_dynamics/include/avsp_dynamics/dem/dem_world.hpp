@@ -165,7 +165,11 @@ public:
   /// from the next step() on. @throw DemParameterError for an unknown body or a non-finite value
   void setBodyVelocity(int body, const Eigen::Vector3d& velocity, double spin_rate);
 
-  /// Runs one coupling interval (DemParameters::coupling_interval).
+  /**
+   * @brief Runs one coupling interval (DemParameters::coupling_interval).
+   * @throw DemParameterError naming the body when a body's mesh would leave the domain during
+   *        it (LIGGGHTS would end the process); nothing is run then
+   */
   void step();
 
   /**
