@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
 
 #include "avsp_sensors/ros/camera_conversions.hpp"
 #include "avsp_sensors/ros/conversions.hpp"
@@ -55,7 +55,7 @@ std::string error(const XmlRpcValue& common, const XmlRpcValue* own = nullptr)
   {
     parseSensors(own, "~vehicle_sensors/ego", &common, "~sensors");
   }
-  catch (const avsp::msgs::StartupError& e)
+  catch (const avsp::node::StartupError& e)
   {
     return e.what();
   }
@@ -287,7 +287,7 @@ TEST(SensorParams, VehicleListIsCheckedEntryByEntry)
     {
       parseVehicles(v);
     }
-    catch (const avsp::msgs::StartupError& e)
+    catch (const avsp::node::StartupError& e)
     {
       return std::string(e.what());
     }
