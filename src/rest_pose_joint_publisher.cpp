@@ -6,7 +6,7 @@
 #include <exception>
 #include <string>
 
-#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 #include <urdf/model.h>
@@ -19,7 +19,7 @@ int main(int argc, char** argv)
   double rate = 10.0;
   try
   {
-    rate = avsp::msgs::boundedParam(pnh, "rate", 10.0, 1e-3, 1000.0);
+    rate = avsp::node::boundedParam(pnh, "rate", 10.0, 1e-3, 1000.0);
   }
   catch (const std::exception& e)
   {

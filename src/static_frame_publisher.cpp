@@ -8,7 +8,7 @@
 #include <exception>
 #include <string>
 
-#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
 #include <tf2/LinearMath/Quaternion.h>
@@ -22,20 +22,20 @@ int main(int argc, char** argv)
   double x, y, z, yaw, pitch, roll;
   try
   {
-    parent = avsp::msgs::stringParam(pnh, "parent_frame", "");
-    child = avsp::msgs::stringParam(pnh, "child_frame", "");
+    parent = avsp::node::stringParam(pnh, "parent_frame", "");
+    child = avsp::node::stringParam(pnh, "child_frame", "");
     if (parent.empty() || child.empty())
-      throw avsp::msgs::StartupError("parameters ~parent_frame and ~child_frame are required (non-empty strings)");
+      throw avsp::node::StartupError("parameters ~parent_frame and ~child_frame are required (non-empty strings)");
     if (parent == child)
-      throw avsp::msgs::StartupError("~parent_frame and ~child_frame are both '" + parent + "'");
+      throw avsp::node::StartupError("~parent_frame and ~child_frame are both '" + parent + "'");
     // Any finite number; a wrong type (a string, say) is refused naming the key.
     const double big = 1e300;
-    x = avsp::msgs::boundedParam(pnh, "x", 0.0, -big, big);
-    y = avsp::msgs::boundedParam(pnh, "y", 0.0, -big, big);
-    z = avsp::msgs::boundedParam(pnh, "z", 0.0, -big, big);
-    yaw = avsp::msgs::boundedParam(pnh, "yaw", 0.0, -big, big);
-    pitch = avsp::msgs::boundedParam(pnh, "pitch", 0.0, -big, big);
-    roll = avsp::msgs::boundedParam(pnh, "roll", 0.0, -big, big);
+    x = avsp::node::boundedParam(pnh, "x", 0.0, -big, big);
+    y = avsp::node::boundedParam(pnh, "y", 0.0, -big, big);
+    z = avsp::node::boundedParam(pnh, "z", 0.0, -big, big);
+    yaw = avsp::node::boundedParam(pnh, "yaw", 0.0, -big, big);
+    pitch = avsp::node::boundedParam(pnh, "pitch", 0.0, -big, big);
+    roll = avsp::node::boundedParam(pnh, "roll", 0.0, -big, big);
   }
   catch (const std::exception& e)
   {

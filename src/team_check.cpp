@@ -16,7 +16,7 @@
 #include <vector>
 
 #include <avsp_dynamics/vehicle_model.hpp>
-#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -69,9 +69,9 @@ int main(int argc, char** argv)
   double timeout = 20.0, tolerance = 0.001;
   try
   {
-    timeout = avsp::msgs::boundedParam(pnh, "timeout", 20.0, 1e-3, 1e6);
-    tolerance = avsp::msgs::boundedParam(pnh, "tolerance", 0.001, 1e-9, 1e3);
-    config_dir = avsp::msgs::stringParam(pnh, "config_dir", "");
+    timeout = avsp::node::boundedParam(pnh, "timeout", 20.0, 1e-3, 1e6);
+    tolerance = avsp::node::boundedParam(pnh, "tolerance", 0.001, 1e-9, 1e3);
+    config_dir = avsp::node::stringParam(pnh, "config_dir", "");
   }
   catch (const std::exception& e)
   {

@@ -21,7 +21,7 @@
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
-#include <avsp_terrain/agent_params.hpp>
+#include <avsp_terrain/ros/agent_params.hpp>
 #include <avsp_terrain/agents.hpp>
 
 #include "command_output.hpp"
@@ -59,7 +59,7 @@ at::Agent deerFromParams()
 {
   XmlRpc::XmlRpcValue list;
   EXPECT_TRUE(ros::param::get("~agents", list));
-  const std::vector<at::AgentSpec> specs = at::parseAgents(list);
+  const std::vector<at::AgentSpec> specs = at::node::parseAgents(list);
   EXPECT_EQ(specs.size(), 1u);
   const std::size_t n = 601;
   const at::ElevationGrid flat(-30.0, -30.0, 0.1, 0.1, n, n, std::vector<float>(n * n, 0.f));

@@ -5,14 +5,16 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
-#include "avsp/scenario/ros/node_checks.hpp"
+#include "avsp/ros/node_checks.hpp"
 
 namespace as = avsp::scenario;
+using avsp::node::checkSensorsAsTheNodeWill;
+using avsp::node::toXmlRpc;
 using XmlRpc::XmlRpcValue;
 
 TEST(ToXmlRpc, TypesScalarsAsRosparamDoes)
 {
-  const XmlRpcValue v = as::toXmlRpc(YAML::Load(
+  const XmlRpcValue v = toXmlRpc(YAML::Load(
       "{b1: true, b2: no, i: 42, n: -7, d: 0.5, e: 1.0e-3, inf: -.inf, s: VLP-16, q: '42', t: 'true', "
       "l: [1, 2.5, x], m: {}, big: 10000000000}"));
   ASSERT_EQ(v.getType(), XmlRpcValue::TypeStruct);
@@ -37,7 +39,7 @@ TEST(ToXmlRpc, TypesScalarsAsRosparamDoes)
   EXPECT_EQ(c["m"].size(), 0);
   // Beyond XML-RPC's 32-bit ints: a double, as roslaunch sends it.
   EXPECT_EQ(c["big"].getType(), XmlRpcValue::TypeDouble);
-  EXPECT_THROW(as::toXmlRpc(YAML::Load("{a: ~}")), std::invalid_argument);
+  EXPECT_THROW(toXmlRpc(YAML::Load("{a: ~}")), std::invalid_argument);
 }
 
 TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
@@ -56,12 +58,12 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
   s.altitude = 1829.0;
   s.start_utc = "2025-10-15T15:00:00Z";  // the magnetometers' World Magnetic Model date
   const std::string vehicles = AVSP_CONFIG_DIR "/vehicles";
-  EXPECT_NO_THROW(as::checkSensorsAsTheNodeWill(s, vehicles));
+  EXPECT_NO_THROW(checkSensorsAsTheNodeWill(s, vehicles));
   // A start after the magnetometers' model (WMM2025: 2025.0-2030.0): sensors_node would exit 1.
   s.start_utc = "2031-03-01T12:00:00Z";
   try
   {
-    as::checkSensorsAsTheNodeWill(s, vehicles);
+    checkSensorsAsTheNodeWill(s, vehicles);
     FAIL() << "a 2031 start passed with WMM2025 magnetometers";
   }
   catch (const as::ScenarioError& e)
@@ -74,7 +76,7 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
   s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16, colour: red}}");
   try
   {
-    as::checkSensorsAsTheNodeWill(s, vehicles);
+    checkSensorsAsTheNodeWill(s, vehicles);
     FAIL() << "an unknown key passed";
   }
   catch (const as::ScenarioError& e)
@@ -85,13 +87,13 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
   }
   s.vehicles[1].sensors = YAML::Node();
   s.sensors = YAML::Load("{lidar: {channels: sixteen}}");  // a wrong type in the shared section
-  EXPECT_THROW(as::checkSensorsAsTheNodeWill(s, vehicles), as::ScenarioError);
+  EXPECT_THROW(checkSensorsAsTheNodeWill(s, vehicles), as::ScenarioError);
   // A lidar on a link the URDF lacks: sensors_node refuses it at start-up, so does the check.
   s.sensors = YAML::Node();
   s.vehicles[0].sensors = YAML::Load("{lidar: {frame: no_such_link}}");
   try
   {
-    as::checkSensorsAsTheNodeWill(s, vehicles);
+    checkSensorsAsTheNodeWill(s, vehicles);
     FAIL() << "a missing link passed";
   }
   catch (const as::ScenarioError& e)

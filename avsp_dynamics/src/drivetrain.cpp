@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 namespace avsp
 {
@@ -10,23 +11,56 @@ namespace dynamics
 {
 namespace
 {
-double clampField(double value, double lo, double hi, const char* field)
+// Checks one field; appends to `why` when it is non-finite or outside [lo, hi].
+void checkField(const char* name, double value, double lo, double hi, bool& non_finite, bool& clamped,
+                std::ostringstream& why)
 {
   if (!std::isfinite(value))
-    throw CommandError(std::string("DriveCommand.") + field + " is " + (std::isnan(value) ? "NaN" : "infinite") +
-                       ": the command is rejected (finite values are clamped to their range)");
-  return std::clamp(value, lo, hi);
+  {
+    non_finite = true;
+    why << (why.tellp() > 0 ? "; " : "") << name << " is " << value;
+  }
+  else if (value < lo || value > hi)
+  {
+    clamped = true;
+    why << (why.tellp() > 0 ? "; " : "") << name << "=" << value << " outside [" << lo << ", " << hi << "]";
+  }
 }
 }  // namespace
 
+CommandCheck checkCommand(DriveCommand& command, std::string& why)
+{
+  why.clear();
+  // The usual case, every physics step: no stream built (a NaN fails these comparisons).
+  if (command.throttle >= 0.0 && command.throttle <= 1.0 && command.brake >= 0.0 && command.brake <= 1.0 &&
+      command.steering >= -1.0 && command.steering <= 1.0)
+    return CommandCheck::kAccepted;
+  bool non_finite = false;
+  bool clamped = false;
+  std::ostringstream reasons;
+  checkField("throttle", command.throttle, 0.0, 1.0, non_finite, clamped, reasons);
+  checkField("brake", command.brake, 0.0, 1.0, non_finite, clamped, reasons);
+  checkField("steering", command.steering, -1.0, 1.0, non_finite, clamped, reasons);
+  why = reasons.str();
+  if (non_finite)
+    return CommandCheck::kRejected;
+  command.throttle = std::clamp(command.throttle, 0.0, 1.0);
+  command.brake = std::clamp(command.brake, 0.0, 1.0);
+  command.steering = std::clamp(command.steering, -1.0, 1.0);
+  return clamped ? CommandCheck::kClamped : CommandCheck::kAccepted;
+}
+
 DriveCommand clampedCommand(const DriveCommand& command)
 {
-  DriveCommand out;
-  out.throttle = clampField(command.throttle, 0.0, 1.0, "throttle");
-  out.brake = clampField(command.brake, 0.0, 1.0, "brake");
-  out.steering = clampField(command.steering, -1.0, 1.0, "steering");
-  out.reverse = command.reverse;
-  return out;
+  DriveCommand out = command;
+  std::string why;
+  if (checkCommand(out, why) != CommandCheck::kRejected)
+    return out;
+  // Every offending field named as DriveCommand.<field>: "DriveCommand.throttle is nan; DriveCommand.brake=2 ...".
+  std::string fields = "DriveCommand." + why;
+  for (std::size_t at = fields.find("; "); at != std::string::npos; at = fields.find("; ", at + 2))
+    fields.insert(at + 2, "DriveCommand.");
+  throw CommandError(fields + ": the command is rejected (finite values are clamped to their range)");
 }
 
 double governorFactor(double engine_speed, double governed_engine_speed)

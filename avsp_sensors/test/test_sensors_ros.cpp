@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
 
 #include "avsp_sensors/ros/camera_conversions.hpp"
 #include "avsp_sensors/ros/conversions.hpp"
@@ -56,7 +56,7 @@ std::string error(const XmlRpcValue& common, const XmlRpcValue* own = nullptr)
   {
     parseSensors(own, "~vehicle_sensors/ego", &common, "~sensors");
   }
-  catch (const avsp::msgs::StartupError& e)
+  catch (const avsp::node::StartupError& e)
   {
     return e.what();
   }
@@ -307,7 +307,7 @@ TEST(SensorParams, VehicleListIsCheckedEntryByEntry)
     {
       parseVehicles(v);
     }
-    catch (const avsp::msgs::StartupError& e)
+    catch (const avsp::node::StartupError& e)
     {
       return std::string(e.what());
     }
@@ -503,7 +503,7 @@ std::string placeError(const std::optional<EnuFrame>& origin, const std::string&
   {
     placeMagnetometers(specs, origin, date);
   }
-  catch (const avsp::msgs::StartupError& e)
+  catch (const avsp::node::StartupError& e)
   {
     return e.what();
   }

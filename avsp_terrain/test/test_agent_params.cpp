@@ -1,12 +1,13 @@
-// The ~agents parser (agent_params.hpp) without a master: a full list, defaults, and malformed
+// The ~agents parser (ros/agent_params.hpp) without a master: a full list, defaults, and malformed
 // entries each naming the key.
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "avsp_terrain/agent_params.hpp"
+#include "avsp_terrain/ros/agent_params.hpp"
 
 using namespace avsp::terrain;
+using avsp::terrain::node::parseAgents;
 using XmlRpc::XmlRpcValue;
 
 namespace
@@ -37,7 +38,7 @@ std::string errorOf(XmlRpcValue list)
   {
     parseAgents(list);
   }
-  catch (const avsp::msgs::StartupError& e)
+  catch (const avsp::node::StartupError& e)
   {
     return e.what();
   }

@@ -39,10 +39,30 @@ public:
   using std::invalid_argument::invalid_argument;
 };
 
+/// Outcome of checkCommand().
+enum class CommandCheck
+{
+  kAccepted,  ///< every field was finite and in range
+  kClamped,   ///< some field was out of range and was clamped; `why` says which
+  kRejected   ///< some field was NaN or infinite; the command must not be used
+};
+
 /**
- * @brief The command with each field clamped to its range.
- * @throw CommandError naming the field when a field is NaN or infinite (a clamp would
- *        invent a value; the caller must decide, e.g. hold the last command)
+ * @brief The driver command's one rule, applied on every way into the physics (World::setCommand
+ *        through clampedCommand(), dynamics_node's cmd_vel and cmd_drive): a NaN or infinite
+ *        field rejects the command (a clamp would invent a value; the caller decides, e.g. holds
+ *        the last command); finite fields are clamped to throttle [0, 1], brake [0, 1],
+ *        steering [-1, 1].
+ * @param[in,out] command clamped in place; unchanged when rejected
+ * @param[out] why each offending field and its value, "; "-separated ("throttle=1.5 outside
+ *        [0, 1]; brake is nan"); empty when accepted
+ */
+CommandCheck checkCommand(DriveCommand& command, std::string& why);
+
+/**
+ * @brief The command with each field clamped to its range (checkCommand()).
+ * @throw CommandError naming the field ("DriveCommand.throttle is nan") when a field is NaN or
+ *        infinite
  */
 DriveCommand clampedCommand(const DriveCommand& command);
 

@@ -139,18 +139,6 @@ bool weatherFromEnvironment(const avsp_msgs::Environment& msg, Weather& weather,
   return true;
 }
 
-terrain::HeightPatch heightPatchFromMessage(const avsp_msgs::TerrainPatch& msg)
-{
-  terrain::HeightPatch p;
-  p.origin_x = msg.origin.x;
-  p.origin_y = msg.origin.y;
-  p.resolution = msg.resolution;
-  p.width = msg.width;
-  p.height = msg.height;
-  p.heights = msg.heights;
-  return p;
-}
-
 sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::Header& header)
 {
   sensor_msgs::PointCloud2 cloud;

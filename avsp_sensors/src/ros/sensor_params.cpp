@@ -6,7 +6,7 @@
 #include <set>
 #include <stdexcept>
 
-#include <avsp_msgs/node_params.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
 #include <ros/names.h>
 #include <ros/package.h>
 
@@ -18,7 +18,7 @@ namespace node
 {
 namespace
 {
-using avsp::msgs::StartupError;
+using avsp::node::StartupError;
 using XmlRpc::XmlRpcValue;
 
 const char* typeName(const XmlRpcValue& v)

@@ -2,14 +2,14 @@
 /**
  * @file conversions.hpp
  * @brief sensors_node's conversions between ROS messages and the core's types, as plain
- *        functions (no node state): odometry, weather and rut patches in; point clouds, radar
- *        targets, fixes, IMU and magnetometer samples, ranges, occupancy markers and grids out.
+ *        functions (no node state): odometry and weather in (rut patches through avsp_terrain's
+ *        heightPatchFromMessage()); point clouds, radar targets, fixes, IMU and magnetometer
+ *        samples, ranges, occupancy markers and grids out.
  */
 #include <string>
 
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/RadarTargetArray.h>
-#include <avsp_msgs/TerrainPatch.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/Imu.h>
@@ -19,8 +19,6 @@
 #include <sensor_msgs/Range.h>
 #include <std_msgs/Header.h>
 #include <visualization_msgs/MarkerArray.h>
-
-#include <avsp_terrain/height_patch.hpp>
 
 #include "avsp_sensors/sensor_suite.hpp"
 
@@ -55,9 +53,6 @@ bool stateFromOdometry(const nav_msgs::Odometry& msg, const std::string& frame, 
  * @return false, `why` naming the field, for a value validateWeather() refuses
  */
 bool weatherFromEnvironment(const avsp_msgs::Environment& msg, Weather& weather, std::string& why);
-
-/// The HeightPatch of a TerrainPatch message (checked when applied: applyHeightPatch()).
-terrain::HeightPatch heightPatchFromMessage(const avsp_msgs::TerrainPatch& msg);
 
 /**
  * @brief A lidar scan as PointCloud2: float32 x, y, z, intensity at offsets 0, 4, 8, 12, uint16

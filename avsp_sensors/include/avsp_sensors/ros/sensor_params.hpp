@@ -34,7 +34,7 @@ struct VehicleEntry
 
 /**
  * @brief Reads ~vehicles: a non-empty list of {name, model} (x, y, yaw allowed and ignored).
- * @throw avsp::msgs::StartupError naming the entry and key: not a list, a missing or non-string
+ * @throw avsp::node::StartupError naming the entry and key: not a list, a missing or non-string
  *        name/model, an invalid or duplicate name, an unknown key
  */
 std::vector<VehicleEntry> parseVehicles(const XmlRpc::XmlRpcValue& list);
@@ -73,7 +73,7 @@ struct SensorsSpec
  * @param vehicle_path its parameter name for messages, e.g. "~vehicle_sensors/ego"
  * @param common the map shared by all vehicles (~sensors), or nullptr
  * @param common_path e.g. "~sensors"
- * @throw avsp::msgs::StartupError naming the key ("parameter ~sensors/radar/max_range ...")
+ * @throw avsp::node::StartupError naming the key ("parameter ~sensors/radar/max_range ...")
  */
 SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& vehicle_path,
                          const XmlRpc::XmlRpcValue* common, const std::string& common_path);
@@ -82,7 +82,7 @@ SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& 
  * @brief Puts each configured sensor on its URDF link (suite mounts from `frames`), checking
  *        that every link exists and each ultrasonic has either a link or a pose, not both.
  * @param where the vehicle, for messages, e.g. "vehicle 'ego' (model 'mrzr', ...)"
- * @throw avsp::msgs::StartupError "<where>: parameter <key>/frame = 'x' is not a link of <urdf>" and
+ * @throw avsp::node::StartupError "<where>: parameter <key>/frame = 'x' is not a link of <urdf>" and
  *        the ultrasonic rules' messages
  */
 void mountSensors(SensorsSpec& spec, const VehicleFrames& frames, const std::string& where);
@@ -98,7 +98,7 @@ bool needsOrigin(const std::vector<SensorsSpec>& specs);
  * @param date the value of ~date: "YYYY-MM-DD" or a decimal year; "" when not set
  * @return a line for the log: the model, the date and the field's elements at the map origin
  *         ("" when no magnetometer uses a model)
- * @throw avsp::msgs::StartupError naming the parameters: ~date missing or malformed, a date or an
+ * @throw avsp::node::StartupError naming the parameters: ~date missing or malformed, a date or an
  *        origin's altitude outside the model's validity (e.g. "~sensors/magnetometer/model
  *        'wmm2025' on ~date '2031-01-01' at the map origin ...: wmm2025 (...) is valid for decimal
  *        years 2025.0 to 2030.0: the date is 2031.000"), no origin

@@ -1,0 +1,1200 @@
+// dynamics_node's class (the node's main is ../dynamics_node.cpp): one or more wheeled or tracked
+// vehicles in one avsp::dynamics::World on avsp_terrain's deformable soil, driven through each
+// vehicle's avt_341/cmd_vel, publishing odometry, TF odom -> <vehicle>/base_link, joint_states
+// and the ruts (/terrain/ruts).
+//
+// Thin: the physics is avsp_dynamics_core, the command checks are its checkCommand(), the
+// partitions' exchange protocol is its PartitionRunner; this file converts parameters and
+// messages and keeps time. Parameters and topics: README.md.
+//
+// Time. With ~publish_clock the node is the clock source: it advances the physics in fixed
+// steps and publishes /clock = the world's time, as fast as it can (~real_time_factor 0) or
+// paced to the wall clock. Without it, the node follows /clock from elsewhere: it steps the
+// physics until its world time catches up with ros::Time::now(). Every time it uses (command
+// age, publication periods) is the world's time, so a run does not depend on the wall clock.
+//
+// Lockstep with controllers (~lockstep_vehicles): at every multiple t_k of ~lockstep_period
+// the node publishes the odometry of t_k and waits until each listed vehicle's cmd_drive
+// stamped t_k (or later) has arrived; that command acts from t_k on. So a controller in
+// another process closes its loop at the same sim instants however fast the physics runs,
+// and the run does not depend on how the processes are scheduled. A vehicle that does not
+// answer within ~lockstep_timeout (wall) stops the run with an error naming it.
+//
+// Partition (~partition): one of several dynamics processes of a run, each with its own
+// vehicles in its own world. lockstep_clock publishes /clock; on each tick the node steps its
+// world to that time (with its controllers' barriers on the way) and reports it on
+// /lockstep/done, and the clock moves on only when every partition has.
+//
+// Peers (~peers, the run's other partitions): at the end of every interval the partition sends
+// its exchange on /lockstep/exchange/<partition> and, before stepping on, applies its peers'
+// (partition_runner.hpp: what is exchanged, when an exchange may wait, stepping ahead of the
+// peers by up to ~step_ahead_intervals, soil held back). This node waits (wall clock) for what
+// the runner needs and stops the run when a peer stays silent or sends a bad exchange.
+#include "avsp_dynamics/ros/dynamics_node.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/StepDone.h>
+#include <avsp_msgs/TerrainPatch.h>
+#include <avsp_msgs/VehicleTelemetry.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/callback_queue.h>
+#include <ros/package.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/JointState.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <avsp_terrain/height_patch.hpp>
+#include <avsp_terrain/ros/agent_params.hpp>
+#include <avsp_terrain/ros/conversions.hpp>
+#include <avsp_terrain/ros/node_params.hpp>
+#include <avsp_terrain/ros/terrain_source_params.hpp>
+#include <avsp_terrain/soil.hpp>
+
+#include "avsp_dynamics/collision_counter.hpp"
+#include "avsp_dynamics/partition_reach.hpp"
+#include "avsp_dynamics/partition_runner.hpp"
+#include "avsp_dynamics/ros/conversions.hpp"
+#include "avsp_dynamics/ros/exchange_transport.hpp"
+#include "avsp_dynamics/stuck_detector.hpp"
+#include "avsp_dynamics/vehicle_model.hpp"
+#include "avsp_dynamics/vehicle_sim.hpp"
+
+namespace avsp
+{
+namespace dynamics
+{
+namespace node
+{
+namespace ad = avsp::dynamics;
+namespace at = avsp::terrain;
+
+namespace
+{
+using avsp::node::boundedParam;
+using avsp::node::StartupError;
+
+/// "a, b, c".
+std::string joined(const std::vector<std::string>& names)
+{
+  std::string out;
+  for (const std::string& n : names)
+    out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+/// A number as printf's %g writes it (the parameters' values in messages).
+std::string shortNumber(double v)
+{
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
+/// Number of a vehicle entry's key (int or double XML-RPC value), or the fallback if absent.
+double numberOf(XmlRpc::XmlRpcValue& entry, const std::string& key, double fallback, const std::string& where)
+{
+  if (!entry.hasMember(key))
+    return fallback;
+  XmlRpc::XmlRpcValue& v = entry[key];
+  double value;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
+    value = static_cast<int>(v);
+  else if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    value = static_cast<double>(v);
+  else
+    throw StartupError(where + "." + key + " must be a number");
+  if (!std::isfinite(value))
+    throw StartupError(where + "." + key + " must be finite");
+  return value;
+}
+
+struct VehicleSpec
+{
+  std::string name, model;
+  double x = 0.0, y = 0.0, yaw = 0.0;
+};
+
+std::vector<VehicleSpec> vehicleSpecs(const ros::NodeHandle& pnh)
+{
+  XmlRpc::XmlRpcValue list;
+  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+    throw StartupError("parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
+  std::vector<VehicleSpec> specs;
+  std::set<std::string> names;
+  for (int k = 0; k < list.size(); ++k)
+  {
+    const std::string where = "parameter ~vehicles[" + std::to_string(k) + "]";
+    XmlRpc::XmlRpcValue& entry = list[k];
+    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("name") ||
+        !entry.hasMember("model") || entry["name"].getType() != XmlRpc::XmlRpcValue::TypeString ||
+        entry["model"].getType() != XmlRpc::XmlRpcValue::TypeString)
+      throw StartupError(where + " must have string keys 'name' and 'model'");
+    VehicleSpec s;
+    s.name = static_cast<std::string>(entry["name"]);
+    s.model = static_cast<std::string>(entry["model"]);
+    std::string error;
+    // The name becomes a namespace and a frame prefix, so it must be a plain ROS name.
+    if (s.name.empty() || s.name.find('/') != std::string::npos || !ros::names::validate(s.name, error))
+      throw StartupError(where + ".name '" + s.name + "' must be a valid ROS name without '/'");
+    if (!names.insert(s.name).second)
+      throw StartupError(where + ".name '" + s.name + "' is used twice");
+    if (s.model.empty() || s.model.find('/') != std::string::npos)
+      throw StartupError(where + ".model '" + s.model + "' must be a model name (config_dir/<model>.yaml)");
+    s.x = numberOf(entry, "x", 0.0, where);
+    s.y = numberOf(entry, "y", 0.0, where);
+    s.yaw = numberOf(entry, "yaw", 0.0, where);
+    specs.push_back(s);
+  }
+  return specs;
+}
+
+/// One simulated vehicle's ROS side.
+struct VehicleIo
+{
+  std::string name;
+  std::size_t id = 0;
+  ad::VehicleModel model;
+  std::string model_name;  ///< ~vehicles[k].model (config_dir/<model_name>.yaml); peers load it too
+  std::string cmd_topic, drive_topic;
+  ros::Subscriber cmd_sub, drive_sub;
+  ros::Publisher odom_pub, joint_pub, telemetry_pub;
+  std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
+  std::optional<ad::DriveCommand> last;     ///< last good command
+  double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
+  bool released = false;  ///< the parking brake let go (a command with throttle > 0 came)
+  bool lockstep = false;                    ///< in ~lockstep_vehicles
+  nav_msgs::Odometry last_odom;             ///< the last published (resent at the first barrier)
+  double answered = -std::numeric_limits<double>::infinity();  ///< latest cmd_drive stamp, s
+  std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
+  double rut_margin = 0.0;                  ///< m, a contact's reach beyond its centre
+  ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
+  ad::CollisionCounter collisions;          ///< VehicleTelemetry.collisions
+  sensor_msgs::JointState joints;           ///< names fixed at start-up, values per publication
+  // Area the wheels ran over since the last rut publication (map x, y, m).
+  double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+  bool ran = false;
+};
+}  // namespace
+
+class DynamicsNode::Impl
+{
+public:
+  Impl(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh)
+  {
+    const std::vector<VehicleSpec> specs = vehicleSpecs(pnh_);
+    config_dir_ = avsp::node::stringParam(pnh_, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
+    const std::string soils_file =
+        avsp::node::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
+    try
+    {
+      soils_ = std::make_unique<at::SoilLibrary>(at::SoilLibrary::load(soils_file));
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError("parameter ~soils_file: " + std::string(e.what()));
+    }
+    std::set<std::string> lockstep_names;
+    const ad::WorldOptions options = readOptions(specs, lockstep_names);
+    loadWorld(options);
+    for (const VehicleSpec& s : specs)
+      addVehicle(s, lockstep_names.count(s.name) > 0);
+    transforms_.resize(vehicles_.size());
+    toppled_pub_ = nh_.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 100);
+    ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
+    if (publish_clock_)
+      clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+    loadPeers();
+    if (!partition_.empty())
+    {
+      done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
+      tick_sub_ = nh_.subscribe("/clock", 100, &Impl::onTick, this, ros::TransportHints().tcpNoDelay());
+    }
+    ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
+             source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
+             real_time_factor_);
+  }
+
+  /// A fatal error (a silent lockstep vehicle or peer, a bad exchange) stopped the run.
+  bool failed() const { return failed_; }
+
+  /// Runs until shutdown; false when a lockstep vehicle did not answer in time.
+  bool run()
+  {
+    if (!partition_.empty())
+      return runPartition();
+    if (publish_clock_)
+      publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
+    if (wait_for_command_)
+    {
+      // Physics starts once every vehicle has a command, so a command published before the
+      // start acts from step 0 in every run (the determinism test relies on it).
+      ros::WallRate idle(200.0);
+      while (ros::ok() && !std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending; }))
+      {
+        ros::spinOnce();
+        idle.sleep();
+      }
+    }
+    if (lockstep_every_ > 0)
+    {
+      // The controllers' first step answers the odometry of time 0. A controller (or a V2V
+      // broadcaster its radio waits for) may connect after it went out, so until all have
+      // answered, every vehicle's odometry of time 0 is sent again every 0.2 s (wall; only at
+      // time 0: later the connections stand).
+      publishStates();
+      if (!waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
+        return false;
+    }
+    const ros::WallTime wall_start = ros::WallTime::now();
+    while (ros::ok())
+    {
+      ros::spinOnce();
+      if (publish_clock_)
+      {
+        // One clock period of physics per loop, commands taken at its start.
+        for (std::uint64_t k = 0; k < clock_every_ && ros::ok(); ++k)
+          step();
+        publishClock();
+        if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
+          return false;
+        if (real_time_factor_ > 0.0)
+        {
+          const ros::WallTime due = wall_start + ros::WallDuration(world_->time() / real_time_factor_);
+          const ros::WallDuration wait = due - ros::WallTime::now();
+          if (wait > ros::WallDuration(0))
+            wait.sleep();
+        }
+      }
+      else
+      {
+        // Follow the external clock: catch up with it, then wait for it to move on.
+        const ros::Time now = ros::Time::now();
+        if (now.isZero())
+        {
+          ros::WallDuration(0.001).sleep();
+          continue;
+        }
+        if (!follow_start_)
+          follow_start_ = now;
+        const double target = (now - *follow_start_).toSec();
+        if (world_->time() + 0.5 * world_->options().step >= target)
+        {
+          ros::WallDuration(0.0005).sleep();
+          continue;
+        }
+        while (world_->time() + 0.5 * world_->options().step < target && ros::ok())
+          step();
+      }
+    }
+    return true;
+  }
+
+private:
+  /// Wall time spent per interval of a partition's loop (logged every 1000 intervals and at the end).
+  struct IntervalCosts
+  {
+    double stepping = 0.0;    ///< s, stepping (with the controllers' barriers)
+    double waiting = 0.0;     ///< s, waiting for the clock and the peers
+    double exchanging = 0.0;  ///< s, applying the peers' exchanges and sending ours
+    std::uint64_t intervals = 0;
+  };
+
+  /// A partition's loop: each /clock tick T, step the world to T and report T done.
+  bool runPartition()
+  {
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && !tick_)
+      queue->callAvailable(ros::WallDuration(0.001));
+    if (!ros::ok())
+      return true;
+    // The world starts at the clock's 0 (lockstep_clock starts there).
+    if (wait_for_command_)
+      while (ros::ok() && !std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending; }))
+        queue->callAvailable(ros::WallDuration(0.001));
+    publishStates();
+    if (lockstep_every_ > 0 && !waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
+      return false;
+    double reported = 0.0;
+    if (runner_)
+    {
+      // Every peer must hear the first exchange: wait until all have subscribed.
+      if (!waitForPeerSubscribers())
+        return false;
+      runner_->finish(reported);
+    }
+    reportDone(reported);
+    const double h = world_->options().step;
+    IntervalCosts costs;
+    ros::WallTime mark = ros::WallTime::now();
+    struct AtExit
+    {
+      std::function<void()> f;
+      ~AtExit() { f(); }
+    } at_exit{ [&] { logCosts(costs, reported); } };
+    while (ros::ok())
+    {
+      // Wait for a callback only when there is nothing to step: the ticks processed after the
+      // last interval may already be ahead, and a blocking call would idle until some other
+      // message came (up to its 1 ms timeout).
+      const bool behind = tick_ && *tick_ > reported + 0.5 * h;
+      queue->callAvailable(behind ? ros::WallDuration(0.0) : ros::WallDuration(0.001));
+      if (!(*tick_ > reported + 0.5 * h))
+      {
+        if (tick_repeated_)
+        {
+          reportDone(reported);  // the clock asks again: our report may have been lost
+          // At time 0 a node that waits for our odometry (sensors_node in the lockstep) may
+          // have connected after it went out: send it again (later the connections stand).
+          if (reported == 0.0)
+            for (const auto& v : vehicles_)
+              v->odom_pub.publish(v->last_odom);
+        }
+        tick_repeated_ = false;
+        continue;
+      }
+      // Interval by interval up to the tick (the clock may be ~lookahead intervals ahead of
+      // the slowest partition): the peers exchange at every interval's end, so the result
+      // does not depend on how far ahead the clock is.
+      const double target = *tick_;
+      while (ros::ok() && reported + 0.5 * h < target)
+      {
+        const double end =
+            std::min(target, sync_interval_ * (std::floor(reported / sync_interval_ + 1e-6) + 1.0));
+        if (!stepInterval(reported, end, mark, costs))
+          return false;
+        reported = end;
+        if (costs.intervals % 1000 == 0)
+          logCosts(costs, reported);
+        queue->callAvailable();  // peers' exchanges and ticks that came in meanwhile
+      }
+    }
+    return !failed_;
+  }
+
+  /// One interval of a partition: the peers' exchanges it needs, the steps (with the
+  /// controllers' barriers), our exchange, the report on /lockstep/done. `mark`: when the last
+  /// interval ended (wall); the time since, less what the exchanges took, was spent waiting.
+  bool stepInterval(double from, double end, ros::WallTime& mark, IntervalCosts& costs)
+  {
+    const double h = world_->options().step;
+    const double exchanged_before = costs.exchanging;
+    if (runner_ && !prepareInterval(from, end, costs.exchanging))
+      return false;
+    const ros::WallTime begin = ros::WallTime::now();
+    costs.waiting += (begin - mark).toSec() - (costs.exchanging - exchanged_before);
+    while (ros::ok() && world_->time() + 0.5 * h < end)
+    {
+      step();
+      if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
+        return false;
+    }
+    const ros::WallTime stepped = ros::WallTime::now();
+    costs.stepping += (stepped - begin).toSec();
+    if (runner_)
+      runner_->finish(end);
+    reportDone(end);
+    mark = ros::WallTime::now();
+    costs.exchanging += (mark - stepped).toSec();
+    ++costs.intervals;
+    return true;
+  }
+
+  /// The lockstep's cost per interval, and how often the partition stepped ahead of its peers
+  /// and held its soil changes back.
+  void logCosts(const IntervalCosts& c, double reported) const
+  {
+    if (c.intervals == 0)
+      return;
+    const auto count = [this](std::uint64_t (ad::PartitionRunner::*f)() const) {
+      return static_cast<unsigned long long>(runner_ ? ((*runner_).*f)() : 0);
+    };
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "dynamics_node: partition '%s': %llu intervals to t = %.3f s; per interval %.1f us stepping, "
+                  "%.1f us waiting for the clock and peers, %.1f us exchanging with them; %llu stepped ahead of "
+                  "the peers' last exchange; our soil changes sent in %llu of %llu exchanges",
+                  partition_.c_str(), static_cast<unsigned long long>(c.intervals), reported,
+                  1e6 * c.stepping / c.intervals, 1e6 * c.waiting / c.intervals, 1e6 * c.exchanging / c.intervals,
+                  count(&ad::PartitionRunner::steppedAhead), count(&ad::PartitionRunner::soilExchangesSent),
+                  count(&ad::PartitionRunner::exchangesSent));
+    if (ros::ok())
+      ROS_INFO("%s", line);
+    else
+      std::printf("%s\n", line);  // rosconsole is shut down with the node
+    std::fflush(stdout);
+  }
+
+  void onTick(const rosgraph_msgs::Clock::ConstPtr& c)
+  {
+    const double t = c->clock.toSec();
+    if (tick_ && t <= *tick_)
+      tick_repeated_ = true;
+    else
+      tick_ = t;
+  }
+
+  /// The world's options and the node's own (timeouts, rates, clock, partition), checked;
+  /// `lockstep_names`: ~lockstep_vehicles.
+  ad::WorldOptions readOptions(const std::vector<VehicleSpec>& specs, std::set<std::string>& lockstep_names)
+  {
+    ad::WorldOptions options;
+    options.step = boundedParam(pnh_, "step", 0.001, 1e-5, 0.01);
+    options.seed = static_cast<std::uint64_t>(avsp::node::boundedIntParam(pnh_, "seed", 0, 0, 2147483647));
+    options.deform_terrain = avsp::node::boolParam(pnh_, "deform_terrain", true);
+    command_timeout_ = boundedParam(pnh_, "command_timeout", 0.5, 0.0, 3600.0);
+    hold_until_throttle_ = avsp::node::boolParam(pnh_, "hold_until_throttle", true);
+    const double odom_rate = boundedParam(pnh_, "odometry_rate", 100.0, 1.0, 1.0 / options.step);
+    const double clock_rate = boundedParam(pnh_, "clock_rate", 500.0, 1.0, 1.0 / options.step);
+    const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
+    real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
+    publish_clock_ = avsp::node::boolParam(pnh_, "publish_clock", true);
+    wait_for_command_ = avsp::node::boolParam(pnh_, "wait_for_command", false);
+    partition_ = avsp::node::stringParam(pnh_, "partition", "");
+    sync_interval_ = boundedParam(pnh_, "sync_interval", 0.01, options.step, 10.0);
+    {
+      const double steps = sync_interval_ / options.step;
+      if (std::fabs(steps - std::round(steps)) > 1e-6 * steps)
+        throw StartupError("parameter ~sync_interval " + std::to_string(sync_interval_) +
+                           " s must be a whole number of ~step");
+    }
+    if (!partition_.empty())
+    {
+      std::string why;
+      if (!ros::names::validate(partition_, why) || partition_.find('/') != std::string::npos)
+        throw StartupError("parameter ~partition '" + partition_ + "' must be a plain name (no '/')");
+      if (publish_clock_)
+        throw StartupError("parameter ~partition needs ~publish_clock false: lockstep_clock is the clock");
+    }
+    // Publication periods in whole steps, so they fall on the same steps in every run.
+    odom_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (odom_rate * options.step)));
+    clock_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (clock_rate * options.step)));
+    ruts_every_ = ruts_rate > 0.0 ? std::max<std::uint64_t>(1, std::llround(1.0 / (ruts_rate * options.step))) : 0;
+    lockstep_names = lockstepVehicles(specs, options.step, odom_rate);
+    return options;
+  }
+
+  /// The terrain and its objects, the World on them (colliding with the objects unless
+  /// ~obstacles is false), the agents.
+  void loadWorld(const ad::WorldOptions& options)
+  {
+    loadTerrain();
+    const bool obstacles = avsp::node::boolParam(pnh_, "obstacles", true);
+    try
+    {
+      world_ = std::make_unique<ad::World>(*terrain_, options);
+      if (obstacles && objects_.size() > 0)
+        world_->setObstacles(objects_);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(e.what());
+    }
+    if (obstacles)
+      for (const at::TerrainObject& o : objects_.all())
+        if (std::isfinite(o.strength) && !o.toppled)
+          standing_.push_back(o.id);
+    loadAgents();
+  }
+
+  /// A vehicle of ~vehicles: its model in the world at its resting pose, its joints, its topics.
+  void addVehicle(const VehicleSpec& s, bool lockstep)
+  {
+    auto v = std::make_unique<VehicleIo>();
+    v->name = s.name;
+    const std::string yaml = config_dir_ + "/" + s.model + ".yaml";
+    try
+    {
+      v->model = ad::loadVehicleModel(yaml);
+      // Lowest wheel 1 cm above the ground: it settles in the first fraction of a second.
+      v->id = world_->addVehicle(v->model, world_->restingPose(v->model, s.x, s.y, s.yaw, 0.01), s.name);
+    }
+    catch (const std::exception& e)
+    {
+      throw StartupError("vehicle '" + s.name + "' (model '" + s.model + "', ~vehicles, ~config_dir " + config_dir_ +
+                         "): " + e.what());
+    }
+    v->model_name = s.model;
+    v->spin_angle.assign(v->model.wheels.size(), 0.0);
+    for (const ad::WheelSpec& w : v->model.wheels)
+    {
+      v->joints.name.push_back(w.spin_joint);
+      v->joints.name.push_back(w.suspension_joint);
+      if (!w.steering_joint.empty())
+        v->joints.name.push_back(w.steering_joint);
+    }
+    for (const ad::TrackSpec& t : v->model.tracks)
+    {
+      v->joints.name.push_back(t.sprocket_joint);
+      v->joints.name.push_back(t.idler_joint);
+      for (const ad::RoadWheelSpec& w : t.road_wheels)
+      {
+        v->joints.name.push_back(w.arm_joint);
+        v->joints.name.push_back(w.spin_joint);
+      }
+    }
+    // m: how far outside its centre a contact deforms the soil (the rut patch's margin).
+    for (const ad::WheelSpec& w : v->model.wheels)
+      v->rut_margin = std::max(v->rut_margin, w.radius + w.width);
+    for (const ad::TrackSpec& t : v->model.tracks)
+      for (const ad::RoadWheelSpec& w : t.road_wheels)
+        v->rut_margin = std::max(v->rut_margin, w.radius + v->model.track.shoe_width);
+    v->lockstep = lockstep;
+    v->joints.position.assign(v->joints.name.size(), 0.0);
+    v->joints.velocity.assign(v->joints.name.size(), 0.0);
+    ros::NodeHandle vnh(nh_, s.name);
+    v->cmd_topic = vnh.resolveName("avt_341/cmd_vel");
+    VehicleIo* raw = v.get();
+    v->cmd_sub = vnh.subscribe<geometry_msgs::Twist>(
+        "avt_341/cmd_vel", 10, [this, raw](const geometry_msgs::Twist::ConstPtr& msg) { onCmdVel(*raw, *msg); });
+    v->drive_topic = vnh.resolveName("cmd_drive");
+    v->drive_sub = vnh.subscribe<avsp_msgs::DriveCommand>(
+        "cmd_drive", 10, [this, raw](const avsp_msgs::DriveCommand::ConstPtr& msg) { onCmdDrive(*raw, *msg); },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());  // the lockstep round trip: no Nagle delay
+    v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", 50);
+    v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", 50);
+    v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
+    vehicles_.push_back(std::move(v));
+  }
+
+  /// ~peers: the run's other partitions (plain names, not this one, each once); with any, the
+  /// exchange protocol's runner over the ROS transport.
+  void loadPeers()
+  {
+    if (!pnh_.hasParam("peers"))
+      return;
+    XmlRpc::XmlRpcValue list;
+    pnh_.getParam("peers", list);
+    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+      throw StartupError("parameter ~peers must be a list of partition names");
+    if (list.size() > 0 && partition_.empty())
+      throw StartupError("parameter ~peers needs a ~partition");
+    ad::PartitionOptions options;
+    options.partition = partition_;
+    options.interval = sync_interval_;
+    for (int k = 0; k < list.size(); ++k)
+    {
+      const std::string where = "parameter ~peers[" + std::to_string(k) + "]";
+      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
+        throw StartupError(where + " must be a partition name (string)");
+      const std::string name = static_cast<std::string>(list[k]);
+      std::string why;
+      if (name.empty() || name.find('/') != std::string::npos || !ros::names::validate(name, why))
+        throw StartupError(where + " '" + name + "' must be a plain name (no '/')");
+      if (name == partition_)
+        throw StartupError(where + " '" + name + "' is this partition (~partition)");
+      if (std::find(options.peers.begin(), options.peers.end(), name) != options.peers.end())
+        throw StartupError(where + " '" + name + "' is listed twice");
+      options.peers.push_back(name);
+    }
+    if (options.peers.empty())
+      return;
+    options.step_ahead_intervals = avsp::node::boundedIntParam(pnh_, "step_ahead_intervals", 4, 0, 100);
+    std::vector<ad::PartitionVehicle> ours;
+    for (const auto& v : vehicles_)
+      ours.push_back(ad::PartitionVehicle{ v->id, v->name, v->model_name, ad::boundingBox(v->model) });
+    const std::string config_dir = config_dir_;
+    auto load_model = [config_dir](const std::string& model) {
+      return ad::loadVehicleModel(config_dir + "/" + model + ".yaml");
+    };
+    auto log = [](ad::PartitionRunner::Level level, const std::string& text) {
+      if (level == ad::PartitionRunner::Level::kDebug)
+        ROS_DEBUG("dynamics_node: %s", text.c_str());
+      else if (level == ad::PartitionRunner::Level::kInfo)
+        ROS_INFO("dynamics_node: %s", text.c_str());
+      else
+        ROS_WARN("dynamics_node: %s", text.c_str());
+    };
+    transport_ = std::make_unique<RosExchangeTransport>(
+        nh_, partition_, options.peers,
+        [this](const std::string& peer, ad::PartitionExchange exchange) { onExchange(peer, std::move(exchange)); });
+    try
+    {
+      runner_ = std::make_unique<ad::PartitionRunner>(options, *world_, objects_, std::move(ours), standing_,
+                                                      load_model, *transport_, log);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError(std::string(e.what()) + " (~peers needs fewer)");
+    }
+    ROS_INFO("dynamics_node: partition '%s' exchanges vehicles and soil with %zu peer(s)", partition_.c_str(),
+             options.peers.size());
+  }
+
+  /// Until as many subscribers as peers listen to this partition's exchange (or
+  /// ~lockstep_timeout): the first exchange then mostly goes out once, live (it is latched too).
+  /// The count also takes other listeners (a test, rostopic), so it cannot tell that every peer
+  /// is there; the latch covers a late one.
+  bool waitForPeerSubscribers()
+  {
+    const std::size_t peers = runner_->options().peers.size();
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && transport_->subscriberCount() < peers)
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (ros::WallTime::now() > deadline)
+      {
+        const std::string missing = joined(transport_->unconnectedPeers());
+        fatal("partition '" + partition_ + "': only " + std::to_string(transport_->subscriberCount()) + " of " +
+              std::to_string(peers) + " peers subscribed to /lockstep/exchange/" + partition_ +
+              " within ~lockstep_timeout " + shortNumber(lockstep_timeout_) + " s (wall); not connected: " +
+              (missing.empty() ? "?" : missing));
+        return false;
+      }
+    }
+    return ros::ok();
+  }
+
+  /// Applies what the interval from `from` to `to` needs of the peers' exchanges, waiting (wall
+  /// clock, up to ~lockstep_timeout per exchange) for those that have not arrived. `exchanging`
+  /// (s, wall) grows by the time spent applying them. False after a fatal error or on shutdown.
+  bool prepareInterval(double from, double to, double& exchanging)
+  {
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    std::optional<double> waited;  // the exchange being waited for
+    ros::WallTime deadline;
+    while (ros::ok() && !failed_)
+    {
+      const ros::WallTime start = ros::WallTime::now();
+      ad::PartitionRunner::Ready ready;
+      try
+      {
+        ready = runner_->prepare(from, to);
+      }
+      catch (const ad::ExchangeError& e)
+      {
+        fatal(e.what());
+        return false;
+      }
+      exchanging += (ros::WallTime::now() - start).toSec();
+      // Toppled by a peer: not ours to report on /terrain/toppled.
+      for (std::uint32_t id : runner_->takeToppledByPeers())
+        standing_.erase(std::remove(standing_.begin(), standing_.end(), id), standing_.end());
+      if (ready == ad::PartitionRunner::Ready::kReady)
+        return true;
+      if (waited != runner_->waitingFor())
+      {
+        waited = runner_->waitingFor();
+        deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+      }
+      else if (ros::WallTime::now() > deadline)
+      {
+        char t[32];
+        std::snprintf(t, sizeof t, "%.3f", *waited);
+        fatal("partition '" + partition_ + "': no exchange for t = " + t + " s on " +
+              joined(runner_->missingSources()) + " within ~lockstep_timeout " + shortNumber(lockstep_timeout_) +
+              " s (wall)");
+        return false;
+      }
+      queue->callAvailable(ros::WallDuration(0.001));
+    }
+    return false;
+  }
+
+  /// A peer's exchange arrives: the runner checks it and keeps it until the interval it closes.
+  void onExchange(const std::string& peer, ad::PartitionExchange exchange)
+  {
+    if (failed_)
+      return;
+    try
+    {
+      runner_->receive(peer, std::move(exchange));
+    }
+    catch (const ad::ExchangeError& e)
+    {
+      fatal(e.what());  // the lockstep cannot go on without it, nor guess it
+    }
+  }
+
+  /// Stops the run after an error it cannot go on from (exit 1).
+  void fatal(const std::string& why)
+  {
+    ROS_FATAL("dynamics_node: %s; stopping the run", why.c_str());
+    failed_ = true;
+    ros::shutdown();
+  }
+
+  void reportDone(double t)
+  {
+    avsp_msgs::StepDone d;
+    d.header.stamp = ros::Time(t);
+    d.partition = partition_;
+    done_pub_.publish(d);
+  }
+
+  /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
+  std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
+  {
+    std::set<std::string> names;
+    lockstep_timeout_ = boundedParam(pnh_, "lockstep_timeout", 30.0, 0.01, 3600.0);
+    if (!pnh_.hasParam("lockstep_vehicles"))
+      return names;
+    XmlRpc::XmlRpcValue list;
+    pnh_.getParam("lockstep_vehicles", list);
+    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+      throw StartupError("parameter ~lockstep_vehicles must be a list of vehicle names");
+    for (int k = 0; k < list.size(); ++k)
+    {
+      const std::string where = "parameter ~lockstep_vehicles[" + std::to_string(k) + "]";
+      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
+        throw StartupError(where + " must be a vehicle name (string)");
+      const std::string name = static_cast<std::string>(list[k]);
+      if (std::none_of(specs.begin(), specs.end(), [&](const VehicleSpec& s) { return s.name == name; }))
+        throw StartupError(where + " '" + name + "' is not in ~vehicles");
+      if (!names.insert(name).second)
+        throw StartupError(where + " '" + name + "' is listed twice");
+    }
+    const double period = boundedParam(pnh_, "lockstep_period", 0.05, step, 10.0);
+    if (names.empty())
+      return names;
+    if (!publish_clock_ && partition_.empty())
+      throw StartupError("parameter ~lockstep_vehicles needs ~publish_clock true or a ~partition (the barrier holds "
+                         "the clock)");
+    // The barrier instants must be steps on which the odometry and the clock go out.
+    const double steps = period / step;
+    lockstep_every_ = static_cast<std::uint64_t>(std::llround(steps));
+    if (std::fabs(steps - static_cast<double>(lockstep_every_)) > 1e-6 * steps || lockstep_every_ % odom_every_ != 0 ||
+        (publish_clock_ && lockstep_every_ % clock_every_ != 0))
+      throw StartupError("parameter ~lockstep_period " + std::to_string(period) +
+                         " s must be a whole multiple of the odometry period (" + std::to_string(1.0 / odom_rate) +
+                         " s) and of the clock period");
+    return names;
+  }
+
+  /// The lockstep barrier at the current world time: callbacks run until every lockstep
+  /// vehicle's cmd_drive for this instant is in. False (after an error naming the silent
+  /// vehicles) on timeout.
+  bool waitForCommands()
+  {
+    const double t = world_->time() - 0.5 * world_->options().step;
+    return waitForLockstep([t](const VehicleIo& v) { return v.answered >= t; }, "command");
+  }
+
+  /// Runs callbacks until `ready` holds for every lockstep vehicle or ~lockstep_timeout
+  /// (wall) passes; then the error names what was missing and on which topics.
+  /// With `resend_period` > 0 (wall s), every vehicle's last odometry is sent again that often
+  /// while waiting. With ~publish_clock, /clock is sent again every second (wall) of waiting: a
+  /// node that answers through the clock (v2v_radio_node emits its lockstep batches when /clock
+  /// reaches them) and connected after the last tick went out would otherwise never answer.
+  template <typename Ready>
+  bool waitForLockstep(Ready ready, const char* missing, double resend_period = 0.0)
+  {
+    ros::WallTime resend = ros::WallTime::now() + ros::WallDuration(resend_period);
+    ros::WallTime clock_again = ros::WallTime::now() + ros::WallDuration(1.0);
+    const auto all_ready = [&] {
+      return std::all_of(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return !v->lockstep || ready(*v); });
+    };
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && !all_ready())
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (resend_period > 0.0 && ros::WallTime::now() > resend)
+      {
+        for (const auto& v : vehicles_)
+          v->odom_pub.publish(v->last_odom);
+        resend = ros::WallTime::now() + ros::WallDuration(resend_period);
+      }
+      if (publish_clock_ && ros::WallTime::now() > clock_again)
+      {
+        publishClock();  // the same time again: harmless to every /clock listener
+        clock_again = ros::WallTime::now() + ros::WallDuration(1.0);
+      }
+      if (ros::WallTime::now() > deadline && !all_ready())
+      {
+        std::string silent;
+        for (const auto& v : vehicles_)
+          if (v->lockstep && !ready(*v))
+            silent += (silent.empty() ? "" : ", ") + v->drive_topic;
+        ROS_FATAL("dynamics_node: lockstep: no %s for t = %.3f s on %s within ~lockstep_timeout %g s (wall); "
+                  "stopping the run",
+                  missing, world_->time(), silent.c_str(), lockstep_timeout_);
+        ros::shutdown();
+        failed_ = true;
+        return false;
+      }
+    }
+    return ros::ok();
+  }
+
+  /// ~agents: kinematic bodies the vehicles collide with, on the terrain's base heights (as
+  /// agents_node and sensors_node place them).
+  void loadAgents()
+  {
+    world_->setAgents(at::node::agentsFromParams(pnh_, terrain_->base()));
+    if (world_->agentCount() > 0)
+      ROS_INFO("dynamics_node: %zu dynamic agent(s) collide with the vehicles", world_->agentCount());
+  }
+
+  void loadTerrain()
+  {
+    at::LoadedSource loaded = at::node::loadTerrainFromParams(pnh_, *soils_);
+    if (loaded.filled_no_data > 0)
+      ROS_WARN("dynamics_node: %s: %zu no-data points filled from their nearest valid neighbours",
+               loaded.description.c_str(), loaded.filled_no_data);
+    terrain_ = std::move(loaded.terrain);
+    objects_ = std::move(loaded.objects);
+    source_ = loaded.description;
+  }
+
+  void onCmdVel(VehicleIo& v, const geometry_msgs::Twist& twist)
+  {
+    avsp_msgs::DriveCommand cmd;
+    std::string why;
+    accept(v, v.cmd_topic, ad::node::driveCommandFromTwist(twist, cmd, why), cmd, why);
+  }
+
+  void onCmdDrive(VehicleIo& v, const avsp_msgs::DriveCommand& msg)
+  {
+    avsp_msgs::DriveCommand cmd = msg;
+    std::string why;
+    // Even a rejected command answers the barrier: the last good one then stays in force.
+    v.answered = std::max(v.answered, msg.header.stamp.toSec());
+    accept(v, v.drive_topic, ad::node::sanitizeDriveCommand(cmd, why), cmd, why);
+  }
+
+  /// A command from either topic after the core's command rule (checkCommand(): NaN/inf
+  /// rejected, the rest clamped; an unknown gear rejected). A rejected one leaves the last good
+  /// command in force, ageing towards the timeout. Message stamps are not trusted for the
+  /// timeout (publishers' clocks differ): a command counts from the step that takes it.
+  void accept(VehicleIo& v, const std::string& topic, ad::CommandCheck check,
+              const avsp_msgs::DriveCommand& cmd, const std::string& why)
+  {
+    if (check == ad::CommandCheck::kRejected)
+    {
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", topic.c_str(), why.c_str());
+      return;
+    }
+    if (check == ad::CommandCheck::kClamped)
+      ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", topic.c_str(), why.c_str());
+    v.pending = ad::node::toDriveCommand(cmd);
+  }
+
+  /// One physics step: commands in (with the timeout on world time), step, publications out.
+  void step()
+  {
+    const double now = world_->time();
+    for (auto& v : vehicles_)
+    {
+      if (v->pending)
+      {
+        v->last = v->pending;
+        v->last_time = now;
+        v->pending.reset();
+      }
+      ad::DriveCommand cmd{0.0, 1.0, 0.0};  // none yet, or stale: zero throttle, full brake
+      if (v->last && now - v->last_time <= command_timeout_)
+        cmd = *v->last;
+      else if (v->last)
+        cmd.steering = v->last->steering;  // the steering stays where it was
+      // Parking brake: full brake until the first command that asks for throttle, so a stack
+      // whose first commands are zeros (throttle 0, brake 0: coast) does not let the vehicle
+      // roll away before it has a plan.
+      if (hold_until_throttle_ && !v->released)
+      {
+        if (cmd.throttle > 0.0)
+          v->released = true;
+        else
+          cmd.brake = 1.0;
+      }
+      world_->setCommand(v->id, cmd);
+    }
+    world_->step();
+    // A contact that produced a non-finite force was clamped out of the step; the World names
+    // the vehicle and wheel once.
+    for (const std::string& w : world_->takeWarnings())
+      ROS_WARN("dynamics_node: %s", w.c_str());
+    const double h = world_->options().step;
+    for (auto& v : vehicles_)
+    {
+      const ad::VehicleState& s = world_->state(v->id);
+      v->stuck.update(v->model, s, world_->time());
+      v->collisions.update(s, world_->time());  // every step: a short impact is not missed
+      for (std::size_t w = 0; w < s.wheels.size(); ++w)
+      {
+        v->spin_angle[w] = std::remainder(v->spin_angle[w] + s.wheels[w].spin_rate * h, 2.0 * M_PI);
+        if (s.wheels[w].in_contact && ruts_every_ > 0)
+          coverWheel(*v, s.pose * v->model.wheels[w].rest_position);
+      }
+      for (std::size_t t = 0; t < s.tracks.size() && ruts_every_ > 0; ++t)
+        for (std::size_t k = 0; k < s.tracks[t].segments.size(); ++k)
+          if (s.tracks[t].segments[k].in_contact)
+            coverWheel(*v, s.pose * v->model.tracks[t].road_wheels[k].rest_position);
+    }
+    const std::uint64_t n = world_->stepCount();
+    if (n % odom_every_ == 0)
+    {
+      publishStates();
+      publishToppled();
+    }
+    if (ruts_every_ > 0 && n % ruts_every_ == 0 && ruts_pub_.getNumSubscribers() > 0)
+      publishRuts();
+  }
+
+  void coverWheel(VehicleIo& v, const Eigen::Vector3d& c)
+  {
+    if (!v.ran)
+    {
+      v.min_x = v.max_x = c.x();
+      v.min_y = v.max_y = c.y();
+      v.ran = true;
+      return;
+    }
+    v.min_x = std::min(v.min_x, c.x());
+    v.max_x = std::max(v.max_x, c.x());
+    v.min_y = std::min(v.min_y, c.y());
+    v.max_y = std::max(v.max_y, c.y());
+  }
+
+  /// The sim time of the last step: world time, offset by the external clock's value when the
+  /// node started following it (so a catch-up burst of steps still gets distinct stamps).
+  ros::Time stamp() const
+  {
+    if (publish_clock_ || !follow_start_)
+      return ros::Time(world_->time());
+    return *follow_start_ + ros::Duration(world_->time());
+  }
+
+  void publishClock()
+  {
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(world_->time());
+    clock_pub_.publish(c);
+  }
+
+  void publishStates()
+  {
+    const ros::Time t = stamp();
+    for (std::size_t k = 0; k < vehicles_.size(); ++k)
+    {
+      VehicleIo* v = vehicles_[k].get();
+      const ad::VehicleState& s = world_->state(v->id);
+      nav_msgs::Odometry odom;
+      odom.header.stamp = t;
+      odom.header.frame_id = "odom";  // identity child of map: the simulator knows ground truth
+      odom.child_frame_id = v->name + "/base_link";
+      odom.pose.pose = toPose(s.pose);
+      odom.twist.twist.linear = toVector3(s.body_velocity);
+      odom.twist.twist.angular = toVector3(s.pose.linear().transpose() * s.angular_velocity);
+      v->odom_pub.publish(odom);
+      v->last_odom = odom;
+
+      geometry_msgs::TransformStamped& tf = transforms_[k];
+      tf.header = odom.header;
+      tf.child_frame_id = odom.child_frame_id;
+      tf.transform.translation.x = odom.pose.pose.position.x;
+      tf.transform.translation.y = odom.pose.pose.position.y;
+      tf.transform.translation.z = odom.pose.pose.position.z;
+      tf.transform.rotation = odom.pose.pose.orientation;
+
+      if (v->joint_pub.getNumSubscribers() > 0)
+        publishJoints(*v, s, t);
+      if (v->telemetry_pub.getNumSubscribers() > 0)
+        publishTelemetry(*v, s, t);
+    }
+    tf_.sendTransform(transforms_);
+  }
+
+  /// URDF joint names (robot_state_publisher in the vehicle's namespace prefixes frames), in
+  /// the order jointNames() gave them.
+  void publishJoints(VehicleIo& v, const ad::VehicleState& s, const ros::Time& t)
+  {
+    sensor_msgs::JointState& js = v.joints;
+    js.header.stamp = t;
+    std::size_t k = 0;
+    for (std::size_t w = 0; w < v.model.wheels.size(); ++w)
+    {
+      const ad::WheelState& ws = s.wheels[w];
+      js.position[k] = v.spin_angle[w];
+      js.velocity[k++] = ws.spin_rate;
+      js.position[k++] = ws.suspension_deflection;
+      if (!v.model.wheels[w].steering_joint.empty())
+        js.position[k++] = ws.steering_angle;
+    }
+    for (const ad::TrackState& t : s.tracks)
+    {
+      js.position[k] = t.sprocket_angle;
+      js.velocity[k++] = t.sprocket_speed;
+      js.position[k] = t.idler_angle;
+      js.velocity[k++] = t.idler_speed;
+      for (const ad::RoadWheelState& w : t.road_wheels)
+      {
+        js.position[k] = w.arm_angle;
+        js.velocity[k++] = w.arm_rate;
+        js.position[k] = w.spin_angle;
+        js.velocity[k++] = w.spin_rate;
+      }
+    }
+    v.joint_pub.publish(js);
+  }
+
+  /// The soil at the grid point nearest `p` (map), "" off the grid.
+  std::string soilUnder(const Eigen::Vector3d& p) const
+  {
+    const at::ElevationGrid& g = terrain_->base();
+    const double fi = std::round((p.x() - g.originX()) / g.dx());
+    const double fj = std::round((p.y() - g.originY()) / g.dy());
+    if (fi >= 0 && fj >= 0 && fi < g.columns() && fj < g.rows())
+      return terrain_->soil(static_cast<std::size_t>(fi), static_cast<std::size_t>(fj)).name;
+    return "";
+  }
+
+  void publishTelemetry(VehicleIo& v, const ad::VehicleState& s, const ros::Time& t)
+  {
+    avsp_msgs::VehicleTelemetry tm;
+    tm.header.stamp = t;
+    tm.header.frame_id = v.name + "/base_link";
+    tm.vehicle_id = v.name;
+    tm.command.header.stamp = t;
+    tm.command.throttle = s.command.throttle;
+    tm.command.brake = s.command.brake;
+    tm.command.steering = s.command.steering;
+    // Per wheel, or per track segment (the patch under each road wheel), in the model's order.
+    auto add = [&](const std::string& name, const auto& c, const Eigen::Vector3d& rest, bool driven) {
+      avsp_msgs::WheelContact m;
+      m.name = name;
+      m.driven = driven;
+      m.normal_force = c.normal_force;
+      m.sinkage = c.sinkage;
+      m.slip = c.slip;
+      m.slip_angle = c.slip_angle;
+      m.traction_force = c.traction_force;
+      m.resistance_force = c.resistance_force;
+      m.soil = soilUnder(s.pose * rest);
+      tm.contacts.push_back(m);
+    };
+    for (std::size_t w = 0; w < v.model.wheels.size(); ++w)
+      add(v.model.wheels[w].link, s.wheels[w], v.model.wheels[w].rest_position, v.model.wheels[w].driven);
+    for (std::size_t k = 0; k < s.tracks.size(); ++k)
+      for (std::size_t w = 0; w < s.tracks[k].segments.size(); ++w)
+        add(s.tracks[k].segments[w].name, s.tracks[k].segments[w], v.model.tracks[k].road_wheels[w].rest_position,
+            true);  // a track is driven as a whole by its sprocket
+    tm.stuck = v.stuck.stuck();
+    tm.collisions = v.collisions.count();
+    v.telemetry_pub.publish(tm);
+  }
+
+  /// Objects the vehicles pushed over since the last call, once each, in id order; the vehicle
+  /// named is the one nearest the object (the collision does not say who pushed).
+  void publishToppled()
+  {
+    for (std::uint32_t id : ad::takeToppled(objects_, standing_))
+    {
+      const at::TerrainObject& o = objects_.get(id);
+      avsp_msgs::ObjectToppled msg;
+      msg.header.stamp = stamp();
+      msg.header.frame_id = "map";
+      msg.id = o.id;
+      msg.fall_direction = o.fall_direction;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& v : vehicles_)
+      {
+        const double d = (world_->state(v->id).pose.translation().head<2>() - Eigen::Vector2d(o.x, o.y)).norm();
+        if (d < nearest)
+        {
+          nearest = d;
+          msg.vehicle = v->name;
+        }
+      }
+      toppled_pub_.publish(msg);
+      ROS_INFO("dynamics_node: %s toppled object %u at (%.1f, %.1f)", msg.vehicle.c_str(), o.id, o.x, o.y);
+    }
+  }
+
+  /// The grid points under each vehicle's wheels since the last call, as one TerrainPatch per
+  /// vehicle: the bounding box of the wheel centres widened by a wheel's radius and width plus
+  /// two cells (flowed soil lands on the neighbours of a contact).
+  void publishRuts()
+  {
+    const at::ElevationGrid& g = terrain_->base();
+    for (auto& v : vehicles_)
+    {
+      if (!v->ran)
+        continue;
+      v->ran = false;
+      const double margin = v->rut_margin + 2.0 * g.dx();
+      auto index = [](double value, double origin, double d, std::size_t n) {
+        const double f = std::floor((value - origin) / d);
+        return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(n - 1)));
+      };
+      at::PointRange r;
+      r.i0 = index(v->min_x - margin, g.originX(), g.dx(), g.columns());
+      r.i1 = index(v->max_x + margin + g.dx(), g.originX(), g.dx(), g.columns());
+      r.j0 = index(v->min_y - margin, g.originY(), g.dy(), g.rows());
+      r.j1 = index(v->max_y + margin + g.dy(), g.originY(), g.dy(), g.rows());
+      if (r.i1 <= r.i0 || r.j1 <= r.j0)
+        continue;
+      std_msgs::Header header;
+      header.stamp = stamp();
+      header.frame_id = "map";
+      ruts_pub_.publish(at::node::toTerrainPatch(at::extractPatch(*terrain_, r), header));
+    }
+  }
+
+  ros::NodeHandle& nh_;
+  ros::NodeHandle& pnh_;
+  std::unique_ptr<at::SoilLibrary> soils_;
+  std::unique_ptr<at::DeformableTerrain> terrain_;  // declared before world_: outlives it
+  at::ObjectSet objects_;                           // the terrain's objects (the world collides with them)
+  std::vector<std::uint32_t> standing_;             ///< toppleable objects not yet reported fallen
+  std::unique_ptr<ad::World> world_;
+  std::vector<std::unique_ptr<VehicleIo>> vehicles_;
+  std::vector<geometry_msgs::TransformStamped> transforms_;  ///< odom -> base_link per vehicle
+  std::string source_;
+  double command_timeout_ = 0.5;
+  bool hold_until_throttle_ = true;  ///< ~hold_until_throttle: the parking brake
+  double real_time_factor_ = 0.0;
+  bool publish_clock_ = true;
+  bool wait_for_command_ = false;
+  std::uint64_t lockstep_every_ = 0;  ///< steps between barriers (0: no lockstep)
+  std::string partition_;             ///< this process's partition name ("" = the only one)
+  double sync_interval_ = 0.01;       ///< s, lockstep_clock's interval: the peers exchange at its multiples
+  std::optional<double> tick_;        ///< latest /clock tick (partition), s
+  bool tick_repeated_ = false;        ///< the clock re-sent a tick already reached
+  ros::Publisher done_pub_;
+  ros::Subscriber tick_sub_;
+  // With ~peers: the exchanges' transport and the protocol (declared after world_, objects_ and
+  // the transport they refer to: destroyed before them).
+  std::unique_ptr<RosExchangeTransport> transport_;
+  std::unique_ptr<ad::PartitionRunner> runner_;
+  bool failed_ = false;  ///< a fatal error stopped the run (exit 1; a plain shutdown exits 0)
+  std::string config_dir_;
+  double lockstep_timeout_ = 30.0;    ///< s, wall
+  std::optional<ros::Time> follow_start_;  ///< external clock when following began
+  std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
+  ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
+  tf2_ros::TransformBroadcaster tf_;
+};
+
+DynamicsNode::DynamicsNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : impl_(std::make_unique<Impl>(nh, pnh))
+{
+}
+
+DynamicsNode::~DynamicsNode() = default;
+
+int DynamicsNode::spin()
+{
+  impl_->run();
+  return impl_->failed() ? 1 : 0;
+}
+
+}  // namespace node
+}  // namespace dynamics
+}  // namespace avsp

@@ -1,0 +1,70 @@
+#pragma once
+/**
+ * @file node_params.hpp
+ * @brief Start-up parameter checks every AVSP node shares: a bad value is a StartupError
+ *        naming the private parameter (~key), its value and the allowed range; the node logs
+ *        it and exits 1 instead of running on a silent default.
+ *
+ * Part of avsp_terrain's ROS layer (library `avsp_terrain_ros`) because avsp_terrain is the
+ * package every other one depends on: the helpers reach every node without a package of their
+ * own, and avsp_msgs keeps messages only. Namespace avsp::node: they belong to no package's
+ * domain.
+ */
+#include <stdexcept>
+#include <string>
+
+#include <ros/node_handle.h>
+#include <xmlrpcpp/XmlRpcValue.h>
+
+namespace avsp
+{
+namespace node
+{
+/// A start-up problem: the node logs it (naming the parameter, vehicle or file) and exits 1.
+struct StartupError : std::runtime_error
+{
+  using std::runtime_error::runtime_error;
+};
+
+/// What a parameter value is, for messages ("a string", "a list", ...).
+std::string parameterKind(const XmlRpc::XmlRpcValue& v);
+
+/**
+ * @brief A private number parameter written as an int or a double.
+ * @return its value, `fallback` when unset
+ * @throw StartupError for a value of another type (a string, a list): refused, not replaced by
+ *        the default
+ */
+double numberParam(const ros::NodeHandle& pnh, const std::string& key, double fallback);
+
+/**
+ * @brief A private double parameter (numberParam()) that must be finite and in [min, max].
+ * @throw StartupError naming ~key, its value and the range
+ */
+double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min, double max);
+
+/// Whether `d` is a whole number an int holds.
+bool isWholeInt(double d);
+
+/**
+ * @brief A private int parameter that must be in [min, max]. A whole number written as a
+ *        double (4.0) is taken.
+ * @throw StartupError for a fraction or a value of another type (not rounded, not replaced by
+ *        the default) and for a value outside the range
+ */
+int boundedIntParam(const ros::NodeHandle& pnh, const std::string& key, int fallback, int min, int max);
+
+/**
+ * @brief A private boolean parameter (default `fallback`).
+ * @throw StartupError for a value of another type (a string, a number)
+ */
+bool boolParam(const ros::NodeHandle& pnh, const std::string& key, bool fallback);
+
+/**
+ * @brief A private string parameter (default `fallback`).
+ * @throw StartupError for a value of another type (a number, a list)
+ */
+std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& fallback);
+
+}  // namespace node
+}  // namespace avsp
