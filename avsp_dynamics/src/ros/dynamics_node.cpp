@@ -1,6 +1,6 @@
 // dynamics_node's class (the node's main is ../dynamics_node.cpp): one or more wheeled or tracked
 // vehicles in one avsp::dynamics::World on avsp_terrain's deformable soil, driven through each
-// vehicle's avt_341/cmd_vel, publishing odometry, TF odom -> <vehicle>/base_link, joint_states
+// vehicle's avt_341/cmd_vel (or cmd_drive), publishing odometry, TF odom -> <vehicle>/base_link, joint_states
 // and the ruts (/terrain/ruts).
 //
 // Thin: the physics is avsp_dynamics_core, the command checks are its checkCommand(), the
