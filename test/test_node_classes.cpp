@@ -89,11 +89,11 @@ TEST(NodeClasses, StartGateRefusesAMissingListNamingIt)
   try
   {
     avsp::node::StartGate gate(nh, pnh);
-    ADD_FAILURE() << "constructed without ~vehicles";
+    ADD_FAILURE() << "constructed without ~nodes";
   }
   catch (const std::runtime_error& e)
   {
-    EXPECT_EQ(std::string(e.what()), "parameter ~vehicles: required, a list of names");
+    EXPECT_EQ(std::string(e.what()), "parameter ~nodes: required, a list of names");
   }
 }
 

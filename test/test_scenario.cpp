@@ -587,7 +587,11 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   EXPECT_EQ(paramOf(xml, "dynamics", "flat_soil"), "gravel");
   EXPECT_EQ(paramOf(xml, "dynamics", "flat_cell_size"), "1.0");
   EXPECT_EQ(paramOf(xml, "dynamics", "real_time_factor"), "0.0");
-  EXPECT_EQ(paramOf(xml, "dynamics", "wait_for_command"), "true");
+  // The physics waits for start_gate's signal, not for commands: the gate publishes nothing in
+  // a vehicle's namespace (avt_341/cmd_vel belongs to whatever drives it).
+  EXPECT_EQ(paramOf(xml, "dynamics", "start_topic"), "/start_gate/open");
+  EXPECT_EQ(paramOf(xml, "dynamics", "wait_for_command"), "<no param>");
+  EXPECT_EQ(rosparamOf(xml, "start_gate", "vehicles").IsDefined(), false);
   EXPECT_EQ(paramOf(xml, "terrain", "flat_size"), "200.0");
   EXPECT_EQ(paramOf(xml, "terrain", "soils_file"), kConfig + "/soils.yaml");
   // sensors: shared sections, per-vehicle ones, geodetic reference.

@@ -5,18 +5,20 @@
 // The test plays both ends of a topic, /gate_probe, through the master's XML-RPC API: a
 // publisher /fake_pub and a subscriber /fake_sub whose node API is the test's own small
 // XML-RPC server. That server answers start_gate's getBusInfo with no connection until the
-// test has seen several such polls, then with one: the gate's brake command on
-// /probe/avt_341/cmd_vel must come only after that.
+// test has seen several such polls, then with one: the gate's signal on /gate/open must come
+// only after that. The gate publishes nothing else (no command in a vehicle's namespace: a
+// vehicle's avt_341/cmd_vel belongs to whatever drives it).
+#include <algorithm>
 #include <atomic>
 #include <functional>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <ros/master.h>
 #include <ros/ros.h>
+#include <std_msgs/Empty.h>
 #include <xmlrpcpp/XmlRpcServer.h>
 #include <xmlrpcpp/XmlRpcServerMethod.h>
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -111,12 +113,9 @@ TEST(StartGate, WaitsUntilEveryTopicsSubscribersAreConnected)
   ASSERT_TRUE(masterCall("registerPublisher", { "/fake_pub", kTopic, "std_msgs/Empty", api.uri() }));
 
   ros::NodeHandle nh;
-  std::atomic<int> brakes{ 0 };
-  ros::Subscriber sub = nh.subscribe<geometry_msgs::Twist>(
-      "/probe/avt_341/cmd_vel", 1, [&brakes](const geometry_msgs::Twist::ConstPtr& t) {
-        if (t->linear.y == -1.0)
-          ++brakes;
-      });
+  std::atomic<int> signals{ 0 };  // signals on /gate/open
+  ros::Subscriber sub =
+      nh.subscribe<std_msgs::Empty>("/gate/open", 1, [&signals](const std_msgs::Empty::ConstPtr&) { ++signals; });
   ros::AsyncSpinner spinner(1);
   spinner.start();
 
@@ -127,13 +126,24 @@ TEST(StartGate, WaitsUntilEveryTopicsSubscribersAreConnected)
       ros::WallDuration(0.01).sleep();
     return done();
   };
-  waitFor([&] { return api.polls >= 10 || brakes > 0; });
+  waitFor([&] { return api.polls >= 10 || signals > 0; });
   // Ten answers without the connection: the gate must still hold the physics.
-  ASSERT_EQ(brakes, 0) << "start_gate released while /fake_sub was not connected on " << kTopic << " (after "
+  ASSERT_EQ(signals, 0) << "start_gate released while /fake_sub was not connected on " << kTopic << " (after "
                        << api.polls << " polls)";
   ASSERT_GE(api.polls, 10) << "start_gate did not ask /fake_pub for its connections";
   api.connected = true;
-  EXPECT_TRUE(waitFor([&] { return brakes > 0; })) << "start_gate did not release once every topic was connected";
+  EXPECT_TRUE(waitFor([&] { return signals > 0; })) << "start_gate did not release once every topic was connected";
+  // What the gate publishes, from the master: its log and the signal, nothing else.
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  ASSERT_TRUE(ros::master::execute("getSystemState", args, result, payload, true));
+  std::vector<std::string> published;
+  for (int t = 0; t < payload[0].size(); ++t)
+    for (int n = 0; n < payload[0][t][1].size(); ++n)
+      if (static_cast<std::string>(payload[0][t][1][n]) == "/gate")
+        published.push_back(static_cast<std::string>(payload[0][t][0]));
+  std::sort(published.begin(), published.end());
+  EXPECT_EQ(published, (std::vector<std::string>{ "/gate/open", "/rosout" }));
   spinner.stop();
   masterCall("unregisterPublisher", { "/fake_pub", kTopic, api.uri() });
   masterCall("unregisterSubscriber", { "/fake_sub", kTopic, api.uri() });

@@ -1,10 +1,12 @@
 // start_gate's class (the node's main is ../start_gate.cpp): holds a scenario's physics until
-// every node of the run is up. dynamics_node runs with ~wait_for_command (physics starts when
-// every vehicle has a command); this node waits until each node in ~nodes has advertised or
-// subscribed a topic other than /rosout and /clock (they do so after loading their parameters
-// and terrain; a node that only ever uses /clock gets ~grace s once registered), then sends each
-// vehicle in ~vehicles one full-brake command on <v>/avt_341/cmd_vel (latched), waits for /clock
-// to move and exits. So sensors, controllers and the recorder all see the run from sim time 0,
+// every node of the run is up. dynamics_node runs with ~start_topic = this node's ~open (physics
+// starts when a message arrives there; until their first commands the vehicles stand braked);
+// this node waits until each node in ~nodes has advertised or subscribed a topic other than
+// /rosout and /clock (they do so after loading their parameters and terrain; a node that only
+// ever uses /clock gets ~grace s once registered), then publishes one latched std_msgs/Empty on
+// ~open, waits for /clock to move and exits. It publishes nothing in a vehicle's namespace:
+// <v>/avt_341/cmd_vel belongs to whatever drives the vehicle (the AVT-341 stack's control node,
+// or controller_node standing in for it). So sensors, controllers and the recorder all see the run from sim time 0,
 // however long their start-up took. Before the commands it also waits (up to ~connect_timeout)
 // until every publisher holds a connection to every subscriber the master lists, on every topic:
 // a subscriber registered at the master may still be forming its connection, and a message sent
@@ -21,12 +23,12 @@
 #include <vector>
 
 #include <avsp_terrain/ros/node_params.hpp>
-#include <geometry_msgs/Twist.h>
 #include <ros/master.h>
 #include <ros/network.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
+#include <std_msgs/Empty.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 
 namespace avsp
@@ -159,9 +161,8 @@ std::vector<std::string> unconnected()
 }
 }  // namespace
 
-StartGate::StartGate(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh)
+StartGate::StartGate(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh)
 {
-  vehicles_ = stringList(pnh, "vehicles");
   nodes_ = stringList(pnh, "nodes");
   timeout_ = avsp::node::boundedParam(pnh, "timeout", 300.0, 1e-3, 1e6);
   grace_ = avsp::node::boundedParam(pnh, "grace", 10.0, 0.0, 1e6);
@@ -245,15 +246,9 @@ void StartGate::waitForConnections() const
 
 void StartGate::release()
 {
-  std::vector<ros::Publisher> pubs;
-  geometry_msgs::Twist brake;
-  brake.linear.y = -1.0;  // the contract's brake (avt_341: linear.y = -brake)
-  for (const std::string& v : vehicles_)
-  {
-    pubs.push_back(nh_.advertise<geometry_msgs::Twist>("/" + v + "/avt_341/cmd_vel", 1, true));
-    pubs.back().publish(brake);
-  }
-  // Stay (latched) until the clock moves: then dynamics_node has taken the commands.
+  ros::Publisher open = pnh_.advertise<std_msgs::Empty>("open", 1, true);
+  open.publish(std_msgs::Empty());
+  // Stay (latched) until the clock moves: then every dynamics_node has taken the signal.
   bool moved = false;
   ros::Subscriber clock = nh_.subscribe<rosgraph_msgs::Clock>(
       "/clock", 10, [&moved](const rosgraph_msgs::Clock::ConstPtr& c) { moved |= !c->clock.isZero(); });
@@ -264,7 +259,7 @@ void StartGate::release()
     ros::WallDuration(0.05).sleep();
   }
   if (!moved)
-    ROS_WARN("start_gate: /clock did not move after the commands");
+    ROS_WARN("start_gate: /clock did not move after the gate opened");
 }
 
 }  // namespace node

@@ -16,6 +16,8 @@ namespace
 constexpr double kSyncInterval = 0.01;
 /// lockstep_clock's name for sensors_node (scenario partitions may not use it).
 const std::string kSensorsPartition = "sensors";
+/// start_gate's ~open (node start_gate at the root): dynamics_node's ~start_topic.
+const std::string kStartGateTopic = "/start_gate/open";
 /// s (wall): a partition or peer silent this long stops the run.
 constexpr double kPartitionTimeout = 30.0;
 /// s: the controllers' period (20 Hz), the dynamics' barrier and the radio's batches.
@@ -310,9 +312,10 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
       w.param("real_time_factor", options.real_time_factor);
       w.param("clock_rate", options.clock_rate);
     }
-    // The start gate sends every vehicle a brake command once all nodes are up: the physics
-    // starts then, so every node sees the run from sim time 0.
-    w.paramBool("wait_for_command", options.start_gate);
+    // The start gate opens once all nodes are up: the physics starts then, so every node sees
+    // the run from sim time 0. Until their first commands the vehicles stand braked.
+    if (options.start_gate)
+      w.param("start_topic", kStartGateTopic);
     // Lockstep: every 50 ms of sim time the physics waits for each controlled vehicle's command
     // for that instant (controller_node ~lockstep), and each follower for its radio's batch, so a
     // run does not depend on how fast the processes are scheduled.
@@ -519,11 +522,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     std::vector<std::string> nodes = run_nodes;
     if (options.have_run_recorder)
       nodes.push_back("/run_recorder");
-    std::string names = "[";
-    for (std::size_t i = 0; i < s.vehicles.size(); ++i)
-      names += (i ? ", " : "") + quoted(s.vehicles[i].name);
     w.open("avsp", "start_gate", "start_gate");
-    w.rosparam("vehicles", names + "]");
     w.rosparam("nodes", flowList(nodes));
     w.close();
   }

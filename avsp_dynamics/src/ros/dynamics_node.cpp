@@ -58,6 +58,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/JointState.h>
+#include <std_msgs/Empty.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <avsp_terrain/height_patch.hpp>
@@ -221,6 +222,10 @@ public:
     if (publish_clock_)
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
     loadPeers();
+    if (!start_topic_.empty())
+      start_sub_ = nh_.subscribe<std_msgs::Empty>(start_topic_, 1, [this](const std_msgs::Empty::ConstPtr&) {
+        start_signalled_ = true;
+      });
     if (!partition_.empty())
     {
       done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
@@ -241,12 +246,12 @@ public:
       return runPartition();
     if (publish_clock_)
       publishClock();  // time 0: nodes waiting for a valid /clock see the source exists
-    if (wait_for_command_)
     {
-      // Physics starts once every vehicle has a command, so a command published before the
-      // start acts from step 0 in every run (the determinism test relies on it).
+      // Physics starts once every vehicle has a command (~wait_for_command), so a command
+      // published before the start acts from step 0 in every run (the determinism test relies
+      // on it), and once the start signal came (~start_topic).
       ros::WallRate idle(200.0);
-      while (ros::ok() && !std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending; }))
+      while (ros::ok() && !readyToStart())
       {
         ros::spinOnce();
         idle.sleep();
@@ -317,6 +322,15 @@ private:
   };
 
   /// A partition's loop: each /clock tick T, step the world to T and report T done.
+  /// ~wait_for_command: every vehicle has a command; ~start_topic: the start signal came.
+  bool readyToStart() const
+  {
+    const bool commanded =
+        !wait_for_command_ ||
+        std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending.has_value(); });
+    return commanded && (start_topic_.empty() || start_signalled_);
+  }
+
   bool runPartition()
   {
     ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
@@ -325,9 +339,8 @@ private:
     if (!ros::ok())
       return true;
     // The world starts at the clock's 0 (lockstep_clock starts there).
-    if (wait_for_command_)
-      while (ros::ok() && !std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending; }))
-        queue->callAvailable(ros::WallDuration(0.001));
+    while (ros::ok() && !readyToStart())
+      queue->callAvailable(ros::WallDuration(0.001));
     publishStates();
     if (lockstep_every_ > 0 && !waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
       return false;
@@ -466,6 +479,12 @@ private:
     real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
     publish_clock_ = avsp::node::boolParam(pnh_, "publish_clock", true);
     wait_for_command_ = avsp::node::boolParam(pnh_, "wait_for_command", false);
+    start_topic_ = avsp::node::stringParam(pnh_, "start_topic", "");
+    {
+      std::string why;
+      if (!start_topic_.empty() && !ros::names::validate(start_topic_, why))
+        throw StartupError("parameter ~start_topic '" + start_topic_ + "' is not a ROS name: " + why);
+    }
     partition_ = avsp::node::stringParam(pnh_, "partition", "");
     sync_interval_ = boundedParam(pnh_, "sync_interval", 0.01, options.step, 10.0);
     {
@@ -1163,6 +1182,9 @@ private:
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
   bool wait_for_command_ = false;
+  std::string start_topic_;        ///< ~start_topic: physics waits for a message there ("" = no wait)
+  bool start_signalled_ = false;   ///< a message came on ~start_topic
+  ros::Subscriber start_sub_;
   std::uint64_t lockstep_every_ = 0;  ///< steps between barriers (0: no lockstep)
   std::string partition_;             ///< this process's partition name ("" = the only one)
   double sync_interval_ = 0.01;       ///< s, lockstep_clock's interval: the peers exchange at its multiples

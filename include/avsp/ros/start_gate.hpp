@@ -4,9 +4,9 @@
  * @brief start_gate as a class (README.md, "Scenarios"): holds a scenario's physics until every
  *        node of the run is up (each node in ~nodes has advertised or subscribed a topic other
  *        than /rosout and /clock) and every publisher holds a connection to every subscriber the
- *        master lists, then sends each vehicle in ~vehicles one full-brake command on
- *        <v>/avt_341/cmd_vel (latched, which dynamics_node's ~wait_for_command waits for) and
- *        stays until /clock moves.
+ *        master lists, then publishes one latched std_msgs/Empty on ~open (dynamics_node's
+ *        ~start_topic) and stays until /clock moves. Nothing in a vehicle's namespace: its
+ *        avt_341/cmd_vel belongs to whatever drives it.
  */
 #include <string>
 #include <vector>
@@ -22,7 +22,7 @@ class StartGate
 {
 public:
   /**
-   * @brief Reads ~vehicles, ~nodes (required lists of names), ~timeout, ~grace, ~connect_timeout.
+   * @brief Reads ~nodes (required list of names), ~timeout, ~grace, ~connect_timeout.
    * @throw std::runtime_error naming the parameter
    */
   StartGate(ros::NodeHandle& nh, ros::NodeHandle& pnh);
@@ -36,11 +36,12 @@ private:
   bool waitForNodes(const ros::WallTime& start) const;
   /// Until every topic's publishers hold a connection to each subscriber, up to ~connect_timeout.
   void waitForConnections() const;
-  /// The full-brake commands, latched until /clock moves (or ~timeout).
+  /// Opens the gate (~open, latched) and stays until /clock moves (or ~timeout).
   void release();
 
   ros::NodeHandle& nh_;
-  std::vector<std::string> vehicles_, nodes_;
+  ros::NodeHandle pnh_;
+  std::vector<std::string> nodes_;
   double timeout_ = 300.0, grace_ = 10.0, connect_timeout_ = 10.0;  ///< s, wall
 };
 
