@@ -131,7 +131,8 @@ void checkSensorsAsTheNodeWill(const scenario::Scenario& s, const std::string& v
   }
   catch (const std::exception& e)
   {
-    throw ScenarioError(s.file + ": time.start_utc " + s.start_utc + " with the vehicles' magnetometers: " + e.what());
+    throw scenario::ScenarioError(s.file + ": time.start_utc " + s.start_utc + " with the vehicles' magnetometers: " +
+                                  e.what());
   }
 }
 
