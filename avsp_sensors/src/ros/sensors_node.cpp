@@ -670,8 +670,13 @@ public:
   /// waiting have queued their states).
   void drain()
   {
-    while (std::optional<as::StateSynchronizer::Batch> batch = sync_->next())
+    // Stops at shutdown: behind the clock, the queue may hold seconds of sensing, and a SIGINT
+    // waited for all of it (roslaunch's SIGTERM after 15 s ended some runs).
+    while (ros::ok())
     {
+      std::optional<as::StateSynchronizer::Batch> batch = sync_->next();
+      if (!batch)
+        break;
       for (std::size_t k : sync_->waitedOut())
         warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going on "
                            "without it",
