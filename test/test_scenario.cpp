@@ -591,7 +591,7 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   // a vehicle's namespace (avt_341/cmd_vel belongs to whatever drives it).
   EXPECT_EQ(paramOf(xml, "dynamics", "start_topic"), "/start_gate/open");
   EXPECT_EQ(paramOf(xml, "dynamics", "wait_for_command"), "<no param>");
-  EXPECT_EQ(rosparamOf(xml, "start_gate", "vehicles").IsDefined(), false);
+  EXPECT_TRUE(rosparamOf(xml, "start_gate", "vehicles").IsNull());  // no such rosparam (a list if there were)
   EXPECT_EQ(paramOf(xml, "terrain", "flat_size"), "200.0");
   EXPECT_EQ(paramOf(xml, "terrain", "soils_file"), kConfig + "/soils.yaml");
   // sensors: shared sections, per-vehicle ones, geodetic reference.

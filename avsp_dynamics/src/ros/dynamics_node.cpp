@@ -90,6 +90,8 @@ namespace
 {
 using avsp::node::boundedParam;
 using avsp::node::StartupError;
+/// Outgoing queue of a vehicle's odometry and telemetry, messages per subscriber.
+constexpr std::uint32_t kStateQueue = 2000;
 
 /// "a, b, c".
 std::string joined(const std::vector<std::string>& names)
@@ -586,8 +588,12 @@ private:
     v->drive_sub = vnh.subscribe<avsp_msgs::DriveCommand>(
         "cmd_drive", 10, [this, raw](const avsp_msgs::DriveCommand::ConstPtr& msg) { onCmdDrive(*raw, *msg); },
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());  // the lockstep round trip: no Nagle delay
-    v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", 50);
-    v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", 50);
+    // Deep outgoing queues: a subscriber whose process is not scheduled for a while (a loaded
+    // machine, real-time factor 0) stops reading its socket, and roscpp then drops the oldest
+    // queued messages for it. With 50 (0.5 s of sim, a few ms of wall at full speed)
+    // run_recorder lost 13 of 1000 odometry samples under load; 2000 is 20 s of sim at 100 Hz.
+    v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", kStateQueue);
+    v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", kStateQueue);
     v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
     vehicles_.push_back(std::move(v));
   }
