@@ -5,6 +5,8 @@
 #include <limits>
 #include <sstream>
 
+#include "parameter_error.hpp"
+
 namespace avsp
 {
 namespace dynamics
@@ -13,18 +15,8 @@ namespace dem
 {
 namespace
 {
-[[noreturn]] void fail(const std::string& key, const std::string& why)
-{
-  throw DemParameterError("dem." + key + ": " + why);
-}
-
-std::string str(double v)
-{
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
+using detail::fail;
+using detail::str;
 
 void positive(const std::string& key, double v)
 {

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include "liggghts.hpp"
+#include "parameter_error.hpp"
 
 namespace avsp
 {
@@ -75,18 +76,8 @@ namespace
 {
 constexpr double kGravity = 9.81;  // m/s^2, as the ODE vehicles (WorldOptions::gravity)
 
-[[noreturn]] void fail(const std::string& key, const std::string& why)
-{
-  throw DemParameterError("dem." + key + ": " + why);
-}
-
-std::string str(double v)
-{
-  std::ostringstream s;
-  s.precision(6);
-  s << v;
-  return s.str();
-}
+using detail::fail;
+using detail::str;
 
 /// splitmix64: a portable, seedable generator (std distributions differ between libraries).
 struct Random
