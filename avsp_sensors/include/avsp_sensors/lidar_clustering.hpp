@@ -54,7 +54,7 @@ struct LidarClusterConfig
   double ground_clearance = 0.3;
   /// true: 3-D distances; false: x and y only (see the file comment).
   bool use_height = false;
-  /// m, >= 0: points are first merged per cell of this size (pcl::VoxelGrid; in plan unless
+  /// m, [0, cluster_tolerance): points are first merged per cell of this size (in plan unless
   /// use_height) and the cells' centroids clustered, each point joining its cell's cluster. A
   /// lidar's rings stack a trunk's returns on a few plan cells, so this cuts the kd-tree queries
   /// several fold (figures: docs/benchmarks.md, "2026-12-03: PCL"). Gaps are then judged to
