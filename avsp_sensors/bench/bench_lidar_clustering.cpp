@@ -1,8 +1,9 @@
 // Prints the cost of clustering one VLP-16 sweep (LidarClusterer: ground removal against the
-// terrain, then PCL's Euclidean cluster extraction) on the default course, on one core (target
-// <= 10 ms per sweep), with what it found; and, for the choice of ground removal, the cost of
-// PCL's progressive morphological filter on the same sweep and how many of the points it calls
-// ground lie above the terrain by more than the clearance. Figures are printed, not asserted.
+// terrain, then PCL's Euclidean cluster extraction and the ring links) on the default course, on
+// one core (target <= 10 ms per sweep), with what it found, and without the ring links; and, for
+// the choice of ground removal, the cost of PCL's progressive morphological filter on the same
+// sweep and how many of the points it calls ground lie above the terrain by more than the
+// clearance. Figures are printed, not asserted.
 //
 // Usage: bench_lidar_clustering [x y] (map position, default (150, 340): in the woods along the
 // course's north edge, where a sweep holds the most objects; the course's middle is open ground)
@@ -63,9 +64,25 @@ int main(int argc, char** argv)
   std::printf("VLP-16 sweep at (%.0f, %.0f), 2 m up, 5 m/s: %zu points; %zu ground, %zu above %.2f m\n", x, y,
               scan.points.size(), r.ground_points, r.object_points, config.ground_clearance);
   std::printf("lidar clustering (1 thread, tolerance %.2f m on x-y, min %zu points): best %.2f ms, median %.2f ms "
-              "per sweep; %zu clusters (largest %zu points)\n",
+              "per sweep; %zu clusters (largest %zu points), %zu groups joined by ring links\n",
               config.cluster_tolerance, config.min_points, 1e3 * times.front(), 1e3 * times[times.size() / 2],
-              r.clusters.size(), r.clusters.empty() ? std::size_t{ 0 } : r.clusters.front().size());
+              r.clusters.size(), r.clusters.empty() ? std::size_t{ 0 } : r.clusters.front().size(), r.ring_links);
+  {
+    LidarClusterConfig plain = config;
+    plain.ring_link_angle = 0.5 * 3.14159265358979323846;  // no ring links: the plan tolerance alone
+    const LidarClusterer clusterer0(plain);
+    std::vector<double> t0s;
+    LidarClustering r0;
+    for (int rep = 0; rep < 11; ++rep)
+    {
+      const auto t0 = Clock::now();
+      r0 = clusterer0.cluster(scan, req.motion, terrain);
+      t0s.push_back(seconds(t0));
+    }
+    std::sort(t0s.begin(), t0s.end());
+    std::printf("  without ring links: best %.2f ms, median %.2f ms; %zu clusters\n", 1e3 * t0s.front(),
+                1e3 * t0s[t0s.size() / 2], r0.clusters.size());
+  }
   {
     LidarClusterConfig c3 = config;
     c3.use_height = true;

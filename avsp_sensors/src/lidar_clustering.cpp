@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
@@ -17,6 +18,11 @@ namespace avsp
 {
 namespace sensors
 {
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+}  // namespace
+
 void validateLidarClusterConfig(const LidarClusterConfig& c)
 {
   const std::string ctx = "LidarClusterConfig";
@@ -33,7 +39,50 @@ void validateLidarClusterConfig(const LidarClusterConfig& c)
   check::nonNegative(ctx, "cell_size", c.cell_size);
   if (!(c.cell_size < c.cluster_tolerance))
     check::fail(ctx, "cell_size", "< cluster_tolerance (" + std::to_string(c.cluster_tolerance) + " m)", c.cell_size);
+  // beta < 90 deg for every pair (lidar_clustering.hpp): 90 deg turns the ring links off.
+  if (!(c.ring_link_angle > 0.0 && c.ring_link_angle <= 0.5 * kPi))
+    check::fail(ctx, "ring_link_angle", "in (0, pi/2] rad", c.ring_link_angle);
+  check::nonNegative(ctx, "ring_link_gap", c.ring_link_gap);  // 0: no links
 }
+
+namespace
+{
+/// Union-find over the groups PCL found, for the ring links.
+struct Groups
+{
+  std::vector<int> parent;
+  explicit Groups(std::size_t n) : parent(n)
+  {
+    for (std::size_t g = 0; g < n; ++g)
+      parent[g] = static_cast<int>(g);
+  }
+  int find(int g)
+  {
+    while (parent[static_cast<std::size_t>(g)] != g)
+    {
+      parent[static_cast<std::size_t>(g)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(g)])];
+      g = parent[static_cast<std::size_t>(g)];
+    }
+    return g;
+  }
+  /// The lower root survives, so that the groups keep PCL's order. False: already one group.
+  bool join(int a, int b)
+  {
+    a = find(a);
+    b = find(b);
+    if (a == b)
+      return false;
+    parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+    return true;
+  }
+};
+
+/// Horizontal bearing of v, rad.
+double bearing(const Eigen::Vector3d& v)
+{
+  return std::atan2(v.y(), v.x());
+}
+}  // namespace
 
 LidarClusterer::LidarClusterer(LidarClusterConfig config) : config_(config)
 {
@@ -42,6 +91,13 @@ LidarClusterer::LidarClusterer(LidarClusterConfig config) : config_(config)
 
 LidarClustering LidarClusterer::cluster(const LidarCloud& points, const Eigen::Vector3d& origin,
                                         const TerrainHeightFn& terrain) const
+{
+  return clusterFrom(points, origin, [&origin](float) { return origin; }, terrain);
+}
+
+LidarClustering LidarClusterer::clusterFrom(const LidarCloud& points, const Eigen::Vector3d& origin,
+                                            const std::function<Eigen::Vector3d(float)>& firing_origin,
+                                            const TerrainHeightFn& terrain) const
 {
   LidarClustering out;
   // The points above the ground, flattened onto z = 0 unless use_height, and where they came from.
@@ -136,25 +192,109 @@ LidarClustering LidarClusterer::cluster(const LidarCloud& points, const Eigen::V
   std::vector<pcl::PointIndices> found;
   extraction.extract(found);
 
-  // The points of each group.
+  // The group of each object point.
   std::vector<int> group_of_node(nodes->size(), -1);
   for (std::size_t g = 0; g < found.size(); ++g)
     for (const auto n : found[g].indices)
       group_of_node[static_cast<std::size_t>(n)] = static_cast<int>(g);
+  std::vector<int> group_of(objects->size());
+  for (std::size_t k = 0; k < objects->size(); ++k)
+    group_of[k] = group_of_node[static_cast<std::size_t>(node_of.empty() ? static_cast<int>(k) : node_of[k])];
+
+  // Ring links (lidar_clustering.hpp): each object point and the object point of the ring below
+  // it fired nearest in time (the same column of the range image; among equal times the nearest
+  // in bearing), joined when they lie within the tolerance across the beam, at most
+  // ring_link_gap apart in plan, and the segment between them makes at least ring_link_angle
+  // with the farther beam.
+  Groups groups(found.size());
+  if (config_.ring_link_angle < 0.5 * kPi && config_.ring_link_gap > 0.0)
+  {
+    // Each object point seen from the sensor where it fired, its (firing time, bearing) there,
+    // and per ring the points in that order.
+    using Key = std::pair<float, double>;
+    std::vector<Eigen::Vector3d> ray(objects->size());
+    std::vector<Key> keys(objects->size());
+    std::unordered_map<std::uint16_t, std::vector<int>> by_ring;
+    for (std::size_t k = 0; k < objects->size(); ++k)
+    {
+      const LidarPoint& p = points[static_cast<std::size_t>(source[k])];
+      ray[k] = Eigen::Vector3d(p.x, p.y, p.z) - firing_origin(p.time);
+      keys[k] = Key(p.time, bearing(ray[k]));
+      by_ring[p.ring].push_back(static_cast<int>(k));
+    }
+    auto key = [&keys](int k) -> const Key& { return keys[static_cast<std::size_t>(k)]; };
+    for (auto& [ring, list] : by_ring)
+      std::sort(list.begin(), list.end(), [&](int a, int b) { return key(a) < key(b); });
+    const double tan_min = std::tan(config_.ring_link_angle);
+    for (const auto& [ring, list] : by_ring)
+    {
+      if (ring == 0)
+        continue;
+      const auto below = by_ring.find(static_cast<std::uint16_t>(ring - 1));
+      if (below == by_ring.end())
+        continue;
+      const std::vector<int>& lower = below->second;
+      for (const int q : list)
+      {
+        // The neighbours of q's (time, bearing) in the lower ring: the nearer in time, then in bearing.
+        const Key& kq = key(q);
+        const auto it = std::lower_bound(lower.begin(), lower.end(), kq, [&](int a, const Key& k) { return key(a) < k; });
+        int p = -1;
+        double best_dt = std::numeric_limits<double>::infinity(), best_da = best_dt;
+        for (const auto c : { it, it == lower.begin() ? lower.end() : std::prev(it) })
+        {
+          if (c == lower.end())
+            continue;
+          const double dt = std::abs(static_cast<double>(key(*c).first) - static_cast<double>(kq.first));
+          const double da = std::abs(std::remainder(key(*c).second - kq.second, 2.0 * kPi));
+          if (dt < best_dt || (dt == best_dt && da < best_da))
+          {
+            p = *c;
+            best_dt = dt;
+            best_da = da;
+          }
+        }
+        if (p < 0 || group_of[static_cast<std::size_t>(p)] == group_of[static_cast<std::size_t>(q)])
+          continue;
+        // Near (n) and far (f) return from where each fired; across the beam: f's distance in
+        // plan from the vertical plane of n's beam; beta: the angle at f between its beam (back
+        // to the sensor) and the segment to n, tan(beta) = |n| sin(psi) / (|f| - |n| cos(psi)).
+        const Eigen::Vector3d& a = ray[static_cast<std::size_t>(p)];
+        const Eigen::Vector3d& b = ray[static_cast<std::size_t>(q)];
+        const bool p_near = a.norm() <= b.norm();
+        const Eigen::Vector3d& n = p_near ? a : b;
+        const Eigen::Vector3d& f = p_near ? b : a;
+        const double n_plan = std::hypot(n.x(), n.y());
+        if (!(n_plan > 0.0) || n.x() * f.x() + n.y() * f.y() <= 0.0 ||
+            std::abs(n.x() * f.y() - n.y() * f.x()) / n_plan > config_.cluster_tolerance)
+          continue;
+        const LidarPoint& pp = points[static_cast<std::size_t>(source[static_cast<std::size_t>(p)])];
+        const LidarPoint& pq = points[static_cast<std::size_t>(source[static_cast<std::size_t>(q)])];
+        if (std::hypot(static_cast<double>(pp.x) - pq.x, static_cast<double>(pp.y) - pq.y) > config_.ring_link_gap)
+          continue;
+        const double dn = n.norm(), df = f.norm();
+        const double psi = std::atan2(n.cross(f).norm(), n.dot(f));
+        const double along = df - dn * std::cos(psi);  // > 0 unless |f| = |n| and psi = 0
+        if (dn * std::sin(psi) >= tan_min * along &&
+            groups.join(group_of[static_cast<std::size_t>(p)], group_of[static_cast<std::size_t>(q)]))
+          ++out.ring_links;
+      }
+    }
+  }
+
+  // The points of each group (joined groups under their lowest group's number).
   std::vector<std::vector<int>> members(found.size());
   for (std::size_t k = 0; k < objects->size(); ++k)
-  {
-    const int g = group_of_node[static_cast<std::size_t>(node_of.empty() ? static_cast<int>(k) : node_of[k])];
-    members[static_cast<std::size_t>(g)].push_back(source[k]);
-  }
+    members[static_cast<std::size_t>(groups.find(group_of[k]))].push_back(source[k]);
 
   out.clusters.reserve(found.size());
   for (std::vector<int>& group : members)
   {
-    if (group.size() < config_.min_points || group.size() > config_.max_points)
+    std::sort(group.begin(), group.end());  // object points are in index order, but joined groups interleave
+    if (group.empty() || group.size() < config_.min_points || group.size() > config_.max_points)
       continue;
     LidarCluster c;
-    c.indices = std::move(group);  // ascending: the points were visited in index order
+    c.indices = std::move(group);  // ascending
     c.min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     c.max = -c.min;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -182,8 +322,10 @@ LidarClustering LidarClusterer::cluster(const LidarScan& scan, const SensorMotio
 {
   validateMotion(motion, "LidarClusterer::cluster");
   const Eigen::Vector3d origin = motion.pose.translation();
+  // The ring links see each point from where the sensor was when it fired.
+  const auto firing_origin = [&motion](float t) -> Eigen::Vector3d { return motion.at(t).translation(); };
   if (scan.registered)
-    return cluster(scan.points, origin, terrain);
+    return clusterFrom(scan.points, origin, firing_origin, terrain);
   // Sensor-frame points: each into the map through its own firing pose (as OccupancyMap does),
   // so that the height test and the clusters are in the terrain's frame.
   LidarCloud registered = scan.points;
@@ -194,7 +336,7 @@ LidarClustering LidarClusterer::cluster(const LidarScan& scan, const SensorMotio
     p.y = static_cast<float>(q.y());
     p.z = static_cast<float>(q.z());
   }
-  return cluster(registered, origin, terrain);
+  return clusterFrom(registered, origin, firing_origin, terrain);
 }
 
 }  // namespace sensors

@@ -299,6 +299,169 @@ TEST(LidarClustering, EachObjectOfAKnownSceneIsOneClusterOfItsPoints)
   }
 }
 
+namespace
+{
+/// A box body on flat ground (its footprint centred at (x, 0), bottom to top), and its bounds.
+Known addBox(std::vector<Body>& bodies, const std::string& name, double x, double length, double width,
+             double bottom, double top, std::uint32_t id)
+{
+  VehicleState state;
+  state.pose.translation() = Vector3d(x, 0.0, 0.0);
+  BodyBox box;
+  box.pose.translation() = Vector3d(0.0, 0.0, 0.5 * (bottom + top));
+  box.size = Vector3d(length, width, top - bottom);
+  const std::vector<Body> b = vehicleBodies({ box }, state, id, 0.5f);
+  std::vector<Primitive> parts;
+  for (const Body& x : b)
+    parts.push_back(x.primitive);
+  bodies.insert(bodies.end(), b.begin(), b.end());
+  return boundsOf(name, parts);
+}
+
+/// A still VLP-16 1.8 m above flat ground at the origin, looking at the scene's bodies.
+LidarScan stillSweep(const Scene& scene)
+{
+  const Lidar lidar(lidarPreset("VLP-16"), 5);
+  LidarScanRequest req;
+  req.motion.pose.translation() = Vector3d(0.0, 0.0, 1.8);
+  return lidar.scan(scene, req);
+}
+}  // namespace
+
+TEST(LidarClustering, AVehicleSeenPastItsTopEdgeIsOneCluster)
+{
+  // A vehicle-sized box facing away 10 m ahead (rear face at x = 10, 0.4-0.73 m up), its top
+  // 6.5 cm under the VLP-16's -5 deg ring there: the -7 deg ring hits the rear face, the -5 deg
+  // ring clears the edge and lands on the roof 0.065 / tan(5 deg) = 0.74 m behind the face, the
+  // -9 deg ring passes under the box to the ground. On the ground plane the face's and the
+  // roof's returns lie farther apart than the tolerance (the split sensors_node's rostest met at
+  // 12.4 m); the ring links (beta ~26 deg, 0.74 m <= ring_link_gap) make them one cluster,
+  // without them they are two.
+  const double deg = kPi / 180.0;
+  const double top = 1.8 - 10.0 * std::tan(5.0 * deg) - 0.065;
+  Scene scene(HeightField::fromGrid(planeGrid()));
+  std::vector<Body> bodies;
+  const Known vehicle = addBox(bodies, "vehicle", 11.8, 3.6, 1.5, 0.4, top, 1);
+  scene.setBodies(bodies);
+  const LidarScan scan = stillSweep(scene);
+  LidarClusterConfig exact;  // every point queried: the plan gap is judged exactly
+  exact.cell_size = 0.0;
+  // The premise: face and roof returns, farther apart on the ground plane than the tolerance and
+  // within the ring links' reach.
+  std::vector<int> face, roof;
+  for (int i : pointsIn(scan.points, vehicle, 0.15, 0.0, exact.ground_clearance))
+  {
+    const LidarPoint& p = scan.points[static_cast<std::size_t>(i)];
+    (p.x < 10.2f ? face : roof).push_back(i);
+  }
+  ASSERT_GE(face.size(), exact.min_points);
+  ASSERT_GE(roof.size(), exact.min_points);
+  double gap = 1e300;
+  for (int i : face)
+    for (int j : roof)
+    {
+      const LidarPoint& p = scan.points[static_cast<std::size_t>(i)];
+      const LidarPoint& q = scan.points[static_cast<std::size_t>(j)];
+      EXPECT_NEAR(q.z, top, 0.05);  // on the roof
+      gap = std::min(gap, static_cast<double>(std::hypot(p.x - q.x, p.y - q.y)));
+    }
+  EXPECT_GT(gap, exact.cluster_tolerance);
+  EXPECT_LT(gap, exact.ring_link_gap - 0.15);
+
+  for (const LidarClusterConfig& config : { LidarClusterConfig(), exact })
+  {
+    SCOPED_TRACE("cell_size " + std::to_string(config.cell_size));
+    const LidarClustering r = LidarClusterer(config).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+    expectOneClusterPerObject(scan.points, r, { vehicle }, config, 0.15);
+    ASSERT_EQ(r.clusters.size(), 1u);
+    EXPECT_EQ(r.clusters[0].size(), face.size() + roof.size());
+  }
+  const LidarClustering linked = LidarClusterer(exact).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+  EXPECT_GE(linked.ring_links, 1u);
+
+  LidarClusterConfig unlinked = exact;
+  unlinked.ring_link_angle = 0.5 * kPi;
+  const LidarClustering apart = LidarClusterer(unlinked).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+  EXPECT_EQ(apart.ring_links, 0u);
+  ASSERT_EQ(apart.clusters.size(), 2u);
+  EXPECT_EQ(apart.clusters[0].size() + apart.clusters[1].size(), face.size() + roof.size());
+}
+
+namespace
+{
+/// Two clusters, one per object: each holds only points inside its own object's box (grown by
+/// 0.15 m).
+void expectApart(const LidarCloud& cloud, const LidarClustering& r, const Known& a, const Known& b)
+{
+  ASSERT_EQ(r.clusters.size(), 2u);
+  std::set<std::string> seen;
+  for (const LidarCluster& c : r.clusters)
+  {
+    const Known* owner = nullptr;
+    for (const Known* k : { &a, &b })
+    {
+      const std::vector<int> in = pointsIn(cloud, *k, 0.15, 0.0, -1e9);
+      if (std::includes(in.begin(), in.end(), c.indices.begin(), c.indices.end()))
+        owner = k;
+    }
+    ASSERT_NE(owner, nullptr) << "a cluster holds points of both objects";
+    seen.insert(owner->name);
+  }
+  EXPECT_EQ(seen.size(), 2u);
+}
+}  // namespace
+
+TEST(LidarClustering, RingLinksKeepApartWhatTheRangeImageResolves)
+{
+  // Adjacent rings of one column, one return on a box's face and one, past the box's top, on a
+  // wall behind it: a second object, which the links leave apart in two ways. Every point
+  // queried (no cells), so that the plan tolerance keeps the two apart and the links decide.
+  LidarClusterConfig config;
+  config.cell_size = 0.0;
+  {
+    // Near: a box 3 m ahead (0.3 m long, 1.48 m tall: the -5 deg ring passes over it), a wall
+    // 0.9 m behind its face, narrower than the box (beams straddling the box's sides would
+    // otherwise merge the two echoes, 0.9 m apart, into points between them). The gap is within
+    // ring_link_gap, but at 3 m the rings are 0.1 m apart and the segment runs along the beam
+    // (beta ~7 deg < 10 deg): a depth jump.
+    SCOPED_TRACE("near");
+    Scene scene(HeightField::fromGrid(planeGrid()));
+    std::vector<Body> bodies;
+    const Known box = addBox(bodies, "box", 3.15, 0.3, 1.5, 0.0, 1.48, 1);
+    const Known wall = addBox(bodies, "wall", 4.15, 0.5, 1.2, 0.0, 3.0, 2);
+    scene.setBodies(bodies);
+    const LidarScan scan = stillSweep(scene);
+    const LidarClustering r = LidarClusterer(config).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+    expectApart(scan.points, r, box, wall);
+    EXPECT_EQ(r.ring_links, 0u);
+    LidarClusterConfig eager = config;  // a link angle under that beta joins them
+    eager.ring_link_angle = 5.0 * kPi / 180.0;
+    const LidarClustering joined = LidarClusterer(eager).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+    EXPECT_GE(joined.ring_links, 1u);
+    EXPECT_EQ(joined.clusters.size(), 1u);
+  }
+  {
+    // Far: a box 20 m ahead (0.6 m long, 1.3 m tall: the -3 deg ring hits its face, the -1 deg
+    // ring passes over it), a wall 2 m behind its face that the -1 deg ring hits. At 20 m the
+    // rings are 0.7 m apart and beta ~19 deg, but the gap is beyond ring_link_gap (1 m).
+    SCOPED_TRACE("far");
+    Scene scene(HeightField::fromGrid(planeGrid()));
+    std::vector<Body> bodies;
+    const Known box = addBox(bodies, "box", 20.3, 0.6, 1.5, 0.0, 1.3, 1);
+    const Known wall = addBox(bodies, "wall", 22.25, 0.5, 2.0, 0.0, 3.0, 2);
+    scene.setBodies(bodies);
+    const LidarScan scan = stillSweep(scene);
+    const LidarClustering r = LidarClusterer(config).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+    expectApart(scan.points, r, box, wall);
+    EXPECT_EQ(r.ring_links, 0u);
+    LidarClusterConfig reach = config;  // a longer reach joins them
+    reach.ring_link_gap = 2.5;
+    const LidarClustering joined = LidarClusterer(reach).cluster(scan.points, Vector3d(0.0, 0.0, 1.8), heights(scene));
+    EXPECT_GE(joined.ring_links, 1u);
+    EXPECT_EQ(joined.clusters.size(), 1u);
+  }
+}
+
 TEST(LidarClustering, UnregisteredSweepGivesTheSameClustersInTheMap)
 {
   // The same sweep in the sensor frame (each point at its firing pose): the clusterer carries
@@ -525,6 +688,18 @@ TEST(LidarClustering, BadConfigurationIsRefusedNamingTheField)
   refused(c, "cell_size");
   c.cell_size = c.cluster_tolerance;  // a cell as wide as the tolerance would join what it should not
   refused(c, "cell_size");
+  c = LidarClusterConfig();
+  for (double angle : { 0.0, -0.1, 0.5 * kPi + 1e-9, std::nan("") })
+  {
+    c.ring_link_angle = angle;
+    refused(c, "ring_link_angle");
+  }
+  c = LidarClusterConfig();
+  for (double gap : { -0.1, std::nan(""), std::numeric_limits<double>::infinity() })
+  {
+    c.ring_link_gap = gap;
+    refused(c, "ring_link_gap");
+  }
   c = LidarClusterConfig();
   c.ground_clearance = -0.1;
   refused(c, "ground_clearance");
