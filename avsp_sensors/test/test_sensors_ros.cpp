@@ -158,6 +158,9 @@ TEST(SensorParams, EveryMalformedKeyIsNamed)
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 10 }, { "max_points", 5 } }) } }) } })), "~sensors/lidar/clustering", "max_points");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ground_clearance", -0.1 } }) } }) } })), "~sensors/lidar/clustering", "ground_clearance");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "use_height", 1 } }) } }) } })), "~sensors/lidar/clustering/use_height", "true or false");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 0.0 } }) } }) } })), "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 95.0 } }) } }) } })), "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_gap", -1.0 } }) } }) } })), "~sensors/lidar/clustering", "ring_link_gap");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", 0.5 } }) } })), "~sensors/lidar/clustering", "must be a map");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "max_range", -5.0 } }) } })), "~sensors/radar", "max_range");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "rate", 0 } }) } })), "~sensors/radar", "rate");
@@ -651,7 +654,9 @@ TEST(SensorParams, LidarClusteringDefaultsOnAndReadsItsKeys)
                                                                            { "min_points", 3 },
                                                                            { "max_points", 900 },
                                                                            { "ground_clearance", 0.5 },
-                                                                           { "use_height", true } }) } }) } });
+                                                                           { "use_height", true },
+                                                                           { "ring_link_angle_deg", 20.0 },
+                                                                           { "ring_link_gap", 0.7 } }) } }) } });
   const SensorsSpec s = parseSensors(nullptr, "~vehicle_sensors/ego", &common, "~sensors");
   ASSERT_TRUE(s.suite.lidar->clustering);
   EXPECT_EQ(s.suite.lidar->clustering->cluster_tolerance, 0.8);
@@ -659,6 +664,13 @@ TEST(SensorParams, LidarClusteringDefaultsOnAndReadsItsKeys)
   EXPECT_EQ(s.suite.lidar->clustering->max_points, 900u);
   EXPECT_EQ(s.suite.lidar->clustering->ground_clearance, 0.5);
   EXPECT_TRUE(s.suite.lidar->clustering->use_height);
+  EXPECT_NEAR(s.suite.lidar->clustering->ring_link_angle, 20.0 * M_PI / 180.0, 1e-12);
+  EXPECT_NEAR(d.suite.lidar->clustering->ring_link_angle, defaults.ring_link_angle, 1e-12);
+  EXPECT_EQ(s.suite.lidar->clustering->ring_link_gap, 0.7);
+  EXPECT_EQ(d.suite.lidar->clustering->ring_link_gap, defaults.ring_link_gap);
+  const XmlRpcValue ninety = map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 90 } }) } }) } });
+  EXPECT_EQ(parseSensors(nullptr, "~vehicle_sensors/ego", &ninety, "~sensors").suite.lidar->clustering->ring_link_angle,
+            0.5 * M_PI);  // no links
   const XmlRpcValue off = map({ { "lidar", map({ { "clustering", map({ { "enabled", false } }) } }) } });
   const SensorsSpec o = parseSensors(nullptr, "~vehicle_sensors/ego", &off, "~sensors");
   ASSERT_TRUE(o.suite.lidar);

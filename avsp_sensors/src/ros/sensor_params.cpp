@@ -184,7 +184,7 @@ std::optional<LidarClusterConfig> parseLidarClustering(const Section& lidar)
     value = lidar.get("clustering");
   const Section s(value ? &*value : nullptr, lidar.key("clustering"));
   s.allowOnly({ "enabled", "cluster_tolerance", "min_points", "max_points", "ground_clearance", "use_height",
-                "cell_size" });
+                "cell_size", "ring_link_angle_deg", "ring_link_gap" });
   if (!s.flag("enabled", true))
     return std::nullopt;
   LidarClusterConfig c;
@@ -194,6 +194,12 @@ std::optional<LidarClusterConfig> parseLidarClustering(const Section& lidar)
   c.ground_clearance = s.number("ground_clearance", c.ground_clearance);
   c.use_height = s.flag("use_height", c.use_height);
   c.cell_size = s.number("cell_size", c.cell_size);
+  const double link_deg = s.number("ring_link_angle_deg", c.ring_link_angle * 180.0 / M_PI);
+  if (!(link_deg > 0.0 && link_deg <= 90.0))
+    throw StartupError("parameter " + s.key("ring_link_angle_deg") +
+                       " must be in (0, 90] deg (90: no ring links), got " + std::to_string(link_deg));
+  c.ring_link_angle = link_deg == 90.0 ? 0.5 * M_PI : link_deg * M_PI / 180.0;
+  c.ring_link_gap = s.number("ring_link_gap", c.ring_link_gap);
   checked(s, [&] { validateLidarClusterConfig(c); });
   return c;
 }
