@@ -2,7 +2,8 @@
 // course (600 m x 400 m at 0.1 m, ~1090 objects), target <= 20 ms per sweep: into an empty map
 // and into a map that already holds the previous sweeps of a vehicle driving at 5 m/s; with the
 // default 30 m insertion range and with the lidar's full 100 m; with and without OctoMap's
-// discretisation. Also the 2-D projection of a 60 m x 60 m window.
+// discretisation; with and without the PCL VoxelGrid pre-filter (OccupancyConfig::voxel_filter).
+// Also the 2-D projection of a 60 m x 60 m window.
 //
 // Usage: bench_occupancy [x y] (map position, default the middle of the course)
 #include <algorithm>
@@ -58,7 +59,10 @@ int main(int argc, char** argv)
     double max_range;
     bool discretize;
     unsigned threads;
-  } variants[] = { { 30.0, false, 1 }, { 30.0, false, 2 }, { 30.0, true, 1 }, { 100.0, false, 1 }, { 100.0, true, 1 } };
+    bool voxel_filter;
+  } variants[] = { { 30.0, false, 1, false }, { 30.0, false, 2, false }, { 30.0, true, 1, false },
+                   { 30.0, false, 1, true },  { 30.0, true, 1, true },   { 100.0, false, 1, false },
+                   { 100.0, true, 1, false }, { 100.0, false, 1, true } };
   // octomap's own insertPointCloud on the same sweep, for comparison (best of 5).
   std::vector<Eigen::Vector3f> pts;
   for (const LidarPoint& p : scans[0].points)
@@ -87,6 +91,7 @@ int main(int argc, char** argv)
     config.max_range = max_range;
     config.discretize = discretize;
     config.threads = v.threads;
+    config.voxel_filter = v.voxel_filter;
     // One sweep into an empty map, best of 5 (the machine is shared).
     double first = 1e300;
     for (int rep = 0; rep < 5; ++rep)
@@ -108,12 +113,15 @@ int main(int argc, char** argv)
       total += s;
       worst = std::max(worst, s);
     }
-    std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s, %u thread%s: first sweep %6.1f ms; "
-                "next %d sweeps mean %6.1f ms, worst %6.1f ms; %zu leaves, %.1f MB\n",
-                max_range, discretize ? "yes" : "no", v.threads, v.threads > 1 ? "s" : " ", 1e3 * first, sweeps - 1,
-                1e3 * total / (sweeps - 1), 1e3 * worst,
-                map.leafCount(), map.memoryUsage() / 1e6);
-    if (max_range == 30.0 && !discretize && v.threads == 1)
+    std::size_t occupied = 0;
+    for (const OccupiedCell& c : map.occupiedCells())
+      occupied += c.size <= config.resolution * 1.5;
+    std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s, voxel filter %-3s, %u thread%s: first sweep "
+                "%6.1f ms; next %d sweeps mean %6.1f ms, worst %6.1f ms; %zu leaves, %zu occupied voxels, %.1f MB\n",
+                max_range, discretize ? "yes" : "no", v.voxel_filter ? "yes" : "no", v.threads,
+                v.threads > 1 ? "s" : " ", 1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst,
+                map.leafCount(), occupied, map.memoryUsage() / 1e6);
+    if (max_range == 30.0 && !discretize && v.threads == 1 && !v.voxel_filter)
     {
       GridProjection g;
       g.width = g.height = 300;

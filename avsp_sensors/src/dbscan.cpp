@@ -8,6 +8,9 @@
 #include <string>
 
 #include <nanoflann.hpp>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/octree/octree_search.h>
+#include <pcl/point_types.h>
 
 #include "avsp_sensors/random.hpp"
 
@@ -434,6 +437,82 @@ void kdTreePairs(const Tree& tree, const std::vector<Eigen::Vector3d>& pts, doub
     tree.findNeighbors(rs, pts[i].data(), nanoflann::SearchParams());
   }
 }
+
+// ---------------------------------------------------------------------------- PCL searches
+
+/**
+ * Radius of a PCL query that can miss no pair within eps by the double distance: PCL searches
+ * float copies of the points (each coordinate rounded by up to |c| 2^-24) and compares float
+ * squared distances, so the query is widened by those roundings; every candidate is then
+ * re-tested in double (distance2()), which alone decides.
+ */
+double pclSearchRadius(const std::vector<Eigen::Vector3d>& pts, double eps)
+{
+  double extent = 0.0;
+  for (const auto& p : pts)
+    extent = std::max(extent, p.cwiseAbs().maxCoeff());
+  return eps * (1.0 + 1e-5) + 8.0 * extent * std::ldexp(1.0, -24) + 1e-30;
+}
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr floatCloud(const std::vector<Eigen::Vector3d>& pts)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->resize(pts.size());
+  for (std::size_t k = 0; k < pts.size(); ++k)
+    (*cloud)[k] = pcl::PointXYZ(static_cast<float>(pts[k].x()), static_cast<float>(pts[k].y()),
+                                static_cast<float>(pts[k].z()));
+  return cloud;
+}
+
+/// Calls f(i, j) for every pair i < j within eps (double distance), once each, through PCL's
+/// KdTreeFLANN or octree: one radiusSearch per point, in index order.
+template <class F>
+void pclPairs(NeighbourSearch search, const std::vector<Eigen::Vector3d>& pts, double eps, F&& f)
+{
+  const double eps2 = eps * eps, radius = pclSearchRadius(pts, eps);
+  const pcl::PointCloud<pcl::PointXYZ>::Ptr cloud = floatCloud(pts);
+  pcl::Indices found;
+  std::vector<float> d2;
+  auto visit = [&](std::uint32_t i) {
+    for (const auto j : found)
+      if (static_cast<std::uint32_t>(j) > i && distance2(pts[i], pts[static_cast<std::size_t>(j)]) <= eps2)
+        f(i, static_cast<std::uint32_t>(j));
+  };
+  double span = 0.0;
+  if (!pts.empty())
+  {
+    Eigen::Vector3d lo = pts[0], hi = pts[0];
+    for (const auto& p : pts)
+    {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    span = (hi - lo).maxCoeff();
+  }
+  if (search == NeighbourSearch::kPclKdTree || !(span / eps < std::ldexp(1.0, 30)))
+  {
+    pcl::KdTreeFLANN<pcl::PointXYZ> tree(false);  // unsorted results: the order is ours to fix
+    tree.setInputCloud(cloud);
+    for (std::uint32_t i = 0; i < pts.size(); ++i)
+    {
+      tree.radiusSearch(static_cast<pcl::index_t>(i), radius, found, d2);
+      visit(i);
+    }
+  }
+  else
+  {
+    // Leaves of eps: a query visits the leaves its ball touches. (Spreads beyond 2^30 eps, which
+    // the octree's 32-bit keys cannot hold at that depth, are left to the kd-tree above.)
+    pcl::octree::OctreePointCloudSearch<pcl::PointXYZ> tree(eps);
+    tree.setInputCloud(cloud);
+    tree.addPointsFromInputCloud();
+    for (std::uint32_t i = 0; i < pts.size(); ++i)
+    {
+      tree.radiusSearch(static_cast<pcl::index_t>(i), radius, found, d2);
+      visit(i);
+    }
+  }
+}
 }  // namespace
 
 /// Everything a run allocates, kept for the next run.
@@ -507,6 +586,37 @@ const DbscanResult& Dbscan::run(const std::vector<Eigen::Vector3d>& points, doub
       grid.forEachPair(eps2, [&](std::uint32_t k, std::uint32_t l) { c.linkPair(k, l, grid.distance2(k, l)); });
     }
   }
+  else if (search == NeighbourSearch::kPclKdTree || search == NeighbourSearch::kPclOctree)
+  {
+    // One search per point, the pairs kept between counting and linking (as the grid does,
+    // so the comparison in bench_dbscan times the searches, not a second sweep).
+    c.reset(n, min_points, nullptr);
+    auto& pairs = ws_->pairs;
+    pairs.clear();
+    bool kept = true;
+    pclPairs(search, points, eps, [&](std::uint32_t i, std::uint32_t j) {
+      ++c.count[i];
+      ++c.count[j];
+      if (kept)
+      {
+        if (pairs.size() < kMaxStoredPairs)
+          pairs.push_back({ i, j });
+        else
+          kept = false;
+      }
+    });
+    c.finishCounting();
+    if (kept)
+      for (const Workspace::Pair& p : pairs)
+        c.linkPair(p.k, p.l, distance2(points[p.k], points[p.l]));
+    else
+    {
+      pairs.clear();
+      pairs.shrink_to_fit();
+      pclPairs(search, points, eps,
+               [&](std::uint32_t i, std::uint32_t j) { c.linkPair(i, j, distance2(points[i], points[j])); });
+    }
+  }
   else
   {
     c.reset(n, min_points, nullptr);
@@ -521,6 +631,22 @@ const DbscanResult& Dbscan::run(const std::vector<Eigen::Vector3d>& points, doub
   }
   c.result(ws_->result);
   return ws_->result;
+}
+
+const char* toString(NeighbourSearch search)
+{
+  switch (search)
+  {
+    case NeighbourSearch::kGrid:
+      return "grid";
+    case NeighbourSearch::kKdTree:
+      return "kd-tree";
+    case NeighbourSearch::kPclKdTree:
+      return "pcl-kdtree";
+    case NeighbourSearch::kPclOctree:
+      return "pcl-octree";
+  }
+  return "unknown";
 }
 
 DbscanResult dbscan(const std::vector<Eigen::Vector3d>& points, double eps, std::size_t min_points,

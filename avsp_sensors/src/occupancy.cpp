@@ -7,6 +7,8 @@
 #include <string>
 
 #include <octomap/OcTree.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/point_types.h>
 
 #include <avsp_terrain/output_file.hpp>
 
@@ -293,6 +295,25 @@ const OccupancyConfig& validated(const OccupancyConfig& c)
 }  // namespace
 
 OccupancyMap::OccupancyMap(const OccupancyConfig& config) : config_(validated(config)), tree_(makeTree(config_)) {}
+std::vector<Eigen::Vector3f> voxelGridCentroids(const std::vector<Eigen::Vector3f>& points, double leaf)
+{
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->reserve(points.size());
+  for (const Eigen::Vector3f& p : points)
+    cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  pcl::VoxelGrid<pcl::PointXYZ> grid;
+  grid.setInputCloud(cloud);
+  const float l = static_cast<float>(leaf);
+  grid.setLeafSize(l, l, l);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  grid.filter(out);
+  std::vector<Eigen::Vector3f> centroids;
+  centroids.reserve(out.size());
+  for (const pcl::PointXYZ& p : out)
+    centroids.emplace_back(p.x, p.y, p.z);
+  return centroids;
+}
+
 OccupancyMap::~OccupancyMap() = default;
 OccupancyMap::OccupancyMap(OccupancyMap&&) noexcept = default;
 OccupancyMap& OccupancyMap::operator=(OccupancyMap&&) noexcept = default;
@@ -319,10 +340,17 @@ void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const std:
                           static_cast<float>(origin.z()));
   const octomap::OcTree& tree = *tree_;
 
+  // Optional PCL pre-filter of the returns: the centroid of the returns in each voxel
+  // (OccupancyConfig::voxel_filter); rays that met nothing only clear and are kept as they are.
+  std::vector<Eigen::Vector3f> filtered;
+  if (config_.voxel_filter)
+    filtered = voxelGridCentroids(points, config_.resolution);
+  const std::vector<Eigen::Vector3f>& returns_in = config_.voxel_filter ? filtered : points;
+
   // The endpoints: as given, or (discretize) the centres of the distinct voxels they fall in;
   // the returns' first, then the clear ones (`returns` of them end in a hit).
   std::vector<octomap::point3d> ends;
-  ends.reserve(points.size() + clear_ends.size());
+  ends.reserve(returns_in.size() + clear_ends.size());
   auto addEnds = [&](const std::vector<Eigen::Vector3f>& from) {
     if (config_.discretize)
     {
@@ -340,7 +368,7 @@ void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const std:
       for (const Eigen::Vector3f& p : from)
         ends.emplace_back(p.x(), p.y(), p.z());
   };
-  addEnds(points);
+  addEnds(returns_in);
   const std::size_t returns = ends.size();
   addEnds(clear_ends);
 

@@ -100,6 +100,24 @@ std::vector<RadarTarget> clusterTargets(const std::vector<RadarDetection>& detec
   return targets;
 }
 
+RadarCloud radarCloud(const RadarScan& scan)
+{
+  RadarCloud cloud;
+  cloud.reserve(scan.detections.size());
+  for (std::size_t k = 0; k < scan.detections.size(); ++k)
+  {
+    const RadarDetection& d = scan.detections[k];
+    RadarPoint p;
+    p.x = static_cast<float>(d.position.x());
+    p.y = static_cast<float>(d.position.y());
+    p.z = static_cast<float>(d.position.z());
+    p.range_rate = static_cast<float>(d.range_rate);
+    p.cluster = k < scan.clusters.labels.size() ? scan.clusters.labels[k] : kNoiseLabel;
+    cloud.push_back(p);
+  }
+  return cloud;
+}
+
 Radar::Radar(RadarConfig config, std::uint64_t seed) : config_(config), seed_(seed)
 {
   validateRadarConfig(config_);

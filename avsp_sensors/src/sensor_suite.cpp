@@ -122,6 +122,8 @@ void validateSuiteConfig(const SuiteConfig& c)
   {
     validateLidarConfig(c.lidar->config);
     checkMount(c.lidar->mount, "lidar");
+    if (c.lidar->clustering)
+      validateLidarClusterConfig(*c.lidar->clustering);
   }
   if (c.radar)
   {
@@ -185,6 +187,8 @@ VehicleSensors::VehicleSensors(SuiteConfig config, std::optional<EnuFrame> origi
   {
     lidar_ = std::make_unique<Lidar>(config_.lidar->config, sensorSeed(seed, 1));
     sweep_clock_.emplace(config_.lidar->config.rotation_rate);
+    if (config_.lidar->clustering)
+      clusterer_ = std::make_unique<LidarClusterer>(*config_.lidar->clustering);
   }
   if (config_.radar)
   {
@@ -371,6 +375,14 @@ OccupancyGrid2D VehicleSensors::occupancyGrid(double x, double y, const HeightFi
   g.origin_x = std::floor((x - 0.5 * cells * res) / res) * res;
   g.origin_y = std::floor((y - 0.5 * cells * res) / res) * res;
   return occupancy_->projectGrid(g, [&terrain](double px, double py, double& pz) { return terrain.heightAt(px, py, pz); });
+}
+
+LidarClustering VehicleSensors::clusterSweep(const LidarSweep& sweep, const HeightField& terrain) const
+{
+  if (!clusterer_)
+    throw std::logic_error("VehicleSensors::clusterSweep: no lidar clustering configured");
+  return clusterer_->cluster(sweep.scan, sweep.motion,
+                             [&terrain](double x, double y, double& z) { return terrain.heightAt(x, y, z); });
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -10,7 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include <pcl/point_types.h>
+
 #include "avsp_sensors/dbscan.hpp"
+#include "avsp_sensors/point_types.hpp"
 
 using namespace avsp::sensors;
 using Eigen::Vector3d;
@@ -119,9 +122,10 @@ bool samePartition(const std::vector<int>& a, const std::vector<int>& b)
 void expectSame(const std::vector<Vector3d>& p, double eps, std::size_t m, const std::string& what)
 {
   const DbscanResult want = reference(p, eps, m);
-  for (const NeighbourSearch s : { NeighbourSearch::kGrid, NeighbourSearch::kKdTree })
+  for (const NeighbourSearch s : { NeighbourSearch::kGrid, NeighbourSearch::kKdTree, NeighbourSearch::kPclKdTree,
+                                   NeighbourSearch::kPclOctree })
   {
-    const std::string how = what + (s == NeighbourSearch::kGrid ? " [grid]" : " [kd-tree]");
+    const std::string how = what + " [" + toString(s) + "]";
     const DbscanResult got = dbscan(p, eps, m, s);
     ASSERT_EQ(got.clusters, want.clusters) << how;
     EXPECT_TRUE(samePartition(got.labels, want.labels)) << how;
@@ -305,4 +309,57 @@ TEST(Dbscan, BadInputThrowsNamingTheArgument)
   {
     EXPECT_NE(std::string(e.what()).find("points[1]"), std::string::npos);
   }
+}
+
+TEST(Dbscan, PclCloudGivesTheLabelsOfTheSamePointsAsEigenVectors)
+{
+  // Radar-like blobs in float (as a PCL cloud holds them): the cloud overload widens each
+  // coordinate exactly, so its labels are those of the same coordinates given as doubles, and
+  // those match the brute-force reference.
+  std::mt19937_64 rng(5);
+  std::normal_distribution<float> G(0.0f, 0.4f);
+  RadarCloud cloud;
+  std::vector<Vector3d> same;
+  for (int b = 0; b < 6; ++b)
+    for (int k = 0; k < 40; ++k)
+    {
+      RadarPoint p;
+      p.x = 10.0f + 3.0f * static_cast<float>(b) + G(rng);
+      p.y = 2.0f * static_cast<float>(b % 3) + G(rng);
+      p.z = G(rng);
+      cloud.push_back(p);
+      same.emplace_back(p.x, p.y, p.z);
+    }
+  const DbscanResult want = reference(same, 0.5, 4);
+  ASSERT_GT(want.clusters, 3u);
+  for (const NeighbourSearch s : { NeighbourSearch::kGrid, NeighbourSearch::kPclKdTree })
+  {
+    const DbscanResult got = dbscan(cloud, 0.5, 4, s);
+    EXPECT_EQ(got.labels, want.labels) << toString(s);
+    EXPECT_EQ(got.classes, want.classes) << toString(s);
+  }
+  // Any registered type with x, y, z: pcl::PointXYZ too.
+  pcl::PointCloud<pcl::PointXYZ> xyz;
+  for (const RadarPoint& p : cloud)
+    xyz.push_back(pcl::PointXYZ(p.x, p.y, p.z));
+  EXPECT_EQ(dbscan(xyz, 0.5, 4).labels, want.labels);
+}
+
+TEST(Dbscan, PclCloudWithANanPointIsRefusedNamingThePoint)
+{
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  cloud.push_back(pcl::PointXYZ(0.0f, 0.0f, 0.0f));
+  cloud.push_back(pcl::PointXYZ(0.5f, 0.0f, 0.0f));
+  cloud.push_back(pcl::PointXYZ(std::nanf(""), 0.0f, 0.0f));
+  try
+  {
+    dbscan(cloud, 1.0, 2);
+    FAIL() << "a NaN point was accepted";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("points[2]"), std::string::npos) << e.what();
+  }
+  // An empty cloud is a defined result: no clusters.
+  EXPECT_EQ(dbscan(pcl::PointCloud<pcl::PointXYZ>(), 1.0, 2).clusters, 0u);
 }

@@ -57,7 +57,7 @@ LidarScanRequest at(const Vector3d& position, double yaw = 0.0)
   return r;
 }
 
-bool sameBits(const std::vector<LidarPoint>& a, const std::vector<LidarPoint>& b)
+bool sameBits(const LidarCloud& a, const LidarCloud& b)
 {
   if (a.size() != b.size())
     return false;

@@ -416,3 +416,51 @@ TEST(Occupancy, BadConfigAndInputNameTheField)
   EXPECT_THROW(map.insert({ Vector3f(1, 2, std::nanf("")) }, Vector3d::Zero()), std::invalid_argument);
   EXPECT_THROW(map.insert({ Vector3f(1, 2, 3) }, Vector3d(0, std::nan(""), 0)), std::invalid_argument);
 }
+
+TEST(Occupancy, VoxelGridCentroidsAreTheMeansOfEachLeaf)
+{
+  // Points in three 0.2 m cubes (one of them straddling zero): one centroid per cube, each the
+  // mean of its points, computed here by hand.
+  const std::vector<Vector3f> pts{ { 0.05f, 0.05f, 0.05f }, { 0.15f, 0.05f, 0.15f }, { 0.11f, 0.19f, 0.01f },
+                                   { 1.01f, 0.01f, 0.01f }, { 1.19f, 0.19f, 0.19f }, { -0.05f, -0.1f, 0.1f } };
+  const std::vector<Vector3f> got = voxelGridCentroids(pts, 0.2);
+  ASSERT_EQ(got.size(), 3u);
+  const std::vector<Vector3f> want{ (pts[0] + pts[1] + pts[2]) / 3.0f, (pts[3] + pts[4]) / 2.0f, pts[5] };
+  for (const Vector3f& w : want)
+    EXPECT_TRUE(std::any_of(got.begin(), got.end(), [&](const Vector3f& g) { return (g - w).norm() < 1e-6f; }))
+        << w.transpose();
+  EXPECT_TRUE(voxelGridCentroids({}, 0.2).empty());
+}
+
+TEST(Occupancy, VoxelFilterKeepsTheOccupiedVoxelsAndCutsTheRays)
+{
+  // A wall face (5 cm grid) and the ground before it (10 cm grid), no point on a voxel face
+  // (there PCL's float and OctoMap's double arithmetic may pick neighbouring voxels). With
+  // discretize the filter gives the same tree leaf by leaf (rays end at the voxel centres
+  // either way); without it, one ray per voxel ends at the points' centroid, in the same voxel,
+  // so the occupied voxels are those of the exact insertion.
+  std::vector<Vector3f> pts;
+  for (int j = 0; j < 120; ++j)
+    for (int k = 0; k < 56; ++k)
+      pts.emplace_back(10.05f, -2.975f + 0.05f * static_cast<float>(j), 0.125f + 0.05f * static_cast<float>(k));
+  for (int i = 0; i < 88; ++i)
+    for (int j = 0; j < 60; ++j)
+      pts.emplace_back(1.05f + 0.1f * static_cast<float>(i), -2.95f + 0.1f * static_cast<float>(j), 0.05f);
+  const Vector3d origin(0.0, 0.0, 1.0);
+  for (const bool discretize : { true, false })
+  {
+    OccupancyConfig plain, filtered;
+    plain.discretize = filtered.discretize = discretize;
+    filtered.voxel_filter = true;
+    OccupancyMap a(plain), b(filtered);
+    a.insert(pts, origin);
+    b.insert(pts, origin);
+    EXPECT_EQ(sortedCells(a), sortedCells(b)) << "discretize " << discretize;
+    if (discretize)
+      expectSameTree(a.tree(), b.tree(), "discretize with and without the voxel filter");
+    EXPECT_EQ(b.state(Vector3d(10.1, 0.1, 1.5)), CellState::kOccupied);
+    EXPECT_EQ(b.state(Vector3d(5.1, 0.1, 1.0)), CellState::kFree);
+  }
+  // The filter merges the 5 cm wall grid 4 x 4 into each 0.2 m voxel: far fewer rays.
+  EXPECT_LT(voxelGridCentroids(pts, 0.2).size(), pts.size() / 4);
+}

@@ -24,6 +24,7 @@
 #include <avsp_msgs/ClassTable.h>
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/LidarClusterArray.h>
 #include <avsp_msgs/RadarTargetArray.h>
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/TerrainPatch.h>
@@ -48,6 +49,8 @@
 #include <avsp_terrain/terrain_objects.hpp>
 
 #include "avsp_sensors/geodetic.hpp"
+#include "avsp_sensors/lidar.hpp"
+#include "avsp_sensors/lidar_clustering.hpp"
 #include "avsp_sensors/magnetometer.hpp"
 #include "avsp_sensors/ros/vehicle_frames.hpp"
 
@@ -148,6 +151,7 @@ struct Scenario
   as::node::VehicleFrames ego_frames, other_frames;
   std::map<std::string, Topic<sensor_msgs::PointCloud2>> clouds;  // by topic
   std::map<std::string, Topic<avsp_msgs::RadarTargetArray>> targets;
+  Topic<avsp_msgs::LidarClusterArray> clusters;  // ego's lidar/clusters
   std::map<std::string, Topic<visualization_msgs::MarkerArray>> markers;
   std::map<std::string, Topic<sensor_msgs::NavSatFix>> fixes;
   std::map<std::string, Topic<sensor_msgs::Imu>> imus;
@@ -222,6 +226,8 @@ void runScenario(Scenario& r)
     r.mags[p + "/mag"].subscribe(nh, p + "/mag");
   }
   r.markers["/ego/octomap/occupied_cells"].subscribe(nh, "/ego/octomap/occupied_cells");
+  r.markers["/ego/lidar/cluster_markers"].subscribe(nh, "/ego/lidar/cluster_markers");
+  r.clusters.subscribe(nh, "/ego/lidar/clusters");
   r.sonar.subscribe(nh, "/ego/ultrasonic/sonar_down");
   r.grid.subscribe(nh, "/ego/occupancy/grid");
   r.tf_static.subscribe(nh, "/tf_static");
@@ -252,7 +258,7 @@ void runScenario(Scenario& r)
         };
         return all(r.clouds) && all(r.targets) && all(r.markers) && all(r.fixes) && all(r.imus) && all(r.mags) &&
                all(r.images) && r.camera_info.sub.getNumPublishers() > 0 && r.sonar.sub.getNumPublishers() > 0 &&
-               r.grid.sub.getNumPublishers() > 0;
+               r.grid.sub.getNumPublishers() > 0 && r.clusters.sub.getNumPublishers() > 0;
       },
       60.0);
   if (!connected)
@@ -517,6 +523,88 @@ TEST_F(SensorsNode, LidarPointsLieOnTheGroundAndShowTheBuildingsAndTheOtherVehic
     for (const Point& p : pts)
       ASSERT_LT(std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z), 100.5f);
   }
+}
+
+TEST_F(SensorsNode, LidarClustersShowTheOtherVehicleAndTheBuildingAsOneClusterEach)
+{
+  // ego's lidar/clusters, one message per sweep with the sweep's stamp, in odom. Before the rut
+  // arrives, in every sweep: the other vehicle (its collision boxes at the sweep's end, the
+  // world of a sweep) is exactly one cluster, whose centroid lies within 0.3 m of the mean of
+  // the sweep's points inside its boxes and above the clearance (the geometric oracle), whose
+  // point count is theirs plus at most 10 % (beams straddling its edges put points beside it),
+  // and whose box lies within its boxes' grown by the 0.5 m tolerance; building 0 of the course
+  // (48, 123), 14 m x 9 m, is one cluster too. The oracle's boxes are grown by 3 sigma of the
+  // VLP-16's range noise (0.03 m): the rear face's returns scatter that much along the beam, and
+  // at 0.05 m (1.7 sigma) ~5 % of them fell outside, more than the 10 % allows on 26-30 points.
+  // In the first sweep one ring hits the rear face just under its top edge and the next lands
+  // on the roof 0.64-0.8 m behind it: the ring links make them one cluster
+  // (lidar_clustering.hpp).
+  const auto& sweeps = run->clouds["/ego/avt_341/points"].messages;
+  const auto& arrays = run->clusters.messages;
+  ASSERT_EQ(arrays.size(), sweeps.size());
+  const double clearance = as::LidarClusterConfig().ground_clearance;
+  const double margin = 3.0 * as::lidarPreset("VLP-16").range_noise;
+  // other's boxes' bounds in base_link (facing east: no rotation in the map).
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const as::BodyBox& b : run->other_frames.boxes)
+    for (int corner = 0; corner < 8; ++corner)
+    {
+      const Eigen::Vector3d c(corner & 1 ? 0.5 : -0.5, corner & 2 ? 0.5 : -0.5, corner & 4 ? 0.5 : -0.5);
+      const Eigen::Vector3d q = b.pose * c.cwiseProduct(b.size);
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
+  std::size_t used = 0;
+  for (std::size_t k = 0; k < sweeps.size(); ++k)
+  {
+    const avsp_msgs::LidarClusterArray& a = arrays[k];
+    EXPECT_EQ(a.header.frame_id, "odom");
+    EXPECT_EQ(a.header.stamp, sweeps[k].header.stamp);
+    const double t0 = sweeps[k].header.stamp.toSec();
+    if (t0 > kRutStamp - 0.2 + 1e-6)
+      break;
+    ++used;
+    const Eigen::Vector3d at(run->otherX(t0 + 0.1), kEgoY, run->other_z);
+    std::size_t count = 0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const Point& p : points(sweeps[k]))
+      if (insideBoxes(run->other_frames, at.x(), at.y(), at.z(), p, margin) &&
+          p.z - run->groundAt(p.x, p.y) >= clearance)
+      {
+        ++count;
+        sum += Eigen::Vector3d(p.x, p.y, p.z);
+      }
+    ASSERT_GT(count, 10u) << "t0 " << t0;
+    const Eigen::Vector3d mean = sum / static_cast<double>(count);
+    std::vector<const avsp_msgs::LidarCluster*> on_other, on_building;
+    for (const avsp_msgs::LidarCluster& c : a.clusters)
+    {
+      if (std::abs(c.centroid.x - at.x()) < 0.5 * (hi.x() - lo.x()) + 0.5 &&
+          std::abs(c.centroid.y - at.y()) < 0.5 * (hi.y() - lo.y()) + 0.5)
+        on_other.push_back(&c);
+      if (c.centroid.x > 40.9 && c.centroid.x < 55.1 && c.centroid.y > 118.4 && c.centroid.y < 127.6)
+        on_building.push_back(&c);
+    }
+    ASSERT_EQ(on_other.size(), 1u) << "t0 " << t0;
+    const avsp_msgs::LidarCluster& c = *on_other[0];
+    EXPECT_LT(std::hypot(c.centroid.x - mean.x(), c.centroid.y - mean.y(), c.centroid.z - mean.z()), 0.3) << t0;
+    EXPECT_GE(c.point_count, count) << t0;
+    EXPECT_LE(c.point_count, count + count / 10) << t0;
+    EXPECT_GE(c.min.x, at.x() + lo.x() - 0.5) << t0;
+    EXPECT_LE(c.max.x, at.x() + hi.x() + 0.5) << t0;
+    EXPECT_GE(c.min.y, at.y() + lo.y() - 0.5) << t0;
+    EXPECT_LE(c.max.y, at.y() + hi.y() + 0.5) << t0;
+    EXPECT_LE(c.max.z, at.z() + hi.z() + 0.5) << t0;
+    EXPECT_NEAR(c.extent.x, c.max.x - c.min.x, 1e-9);
+    EXPECT_NEAR(c.range, std::hypot(c.centroid.x - (kEgoX + 1.0), c.centroid.y - kEgoY), 0.5) << t0;
+    EXPECT_EQ(on_building.size(), 1u) << "t0 " << t0;
+  }
+  EXPECT_GE(used, 15u);
+  // Markers while subscribed: DELETEALL, then a box and a label per cluster.
+  const auto& markers = run->markers["/ego/lidar/cluster_markers"].messages;
+  ASSERT_FALSE(markers.empty());
+  EXPECT_EQ(markers[0].markers.at(0).action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_EQ(markers[0].markers.size(), 1 + 2 * arrays.at(0).clusters.size());
 }
 
 TEST_F(SensorsNode, RutsFromTheTerrainReachTheLidarAtTheirStamp)

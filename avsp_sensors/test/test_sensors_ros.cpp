@@ -14,10 +14,12 @@
 
 #include <avsp_terrain/ros/node_params.hpp>
 
+#include "avsp_sensors/lidar.hpp"
 #include "avsp_sensors/ros/camera_conversions.hpp"
 #include "avsp_sensors/ros/conversions.hpp"
 #include "avsp_sensors/ros/sensor_params.hpp"
 #include "avsp_sensors/ros/vehicle_frames.hpp"
+#include "avsp_sensors/scene.hpp"
 
 using namespace avsp::sensors;
 using namespace avsp::sensors::node;
@@ -157,6 +159,17 @@ TEST(SensorParams, EveryMalformedKeyIsNamed)
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "columns", -5 } }) } })), "~sensors/lidar/columns");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "registered", 1 } }) } })), "~sensors/lidar/registered", "true or false");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "frame", str("a/b") } }) } })), "~sensors/lidar/frame", "URDF link");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", 0.0 } }) } }) } })), "~sensors/lidar/clustering", "cluster_tolerance");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", -1 } }) } }) } })), "~sensors/lidar/clustering", "cluster_tolerance");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "tolerance", 0.5 } }) } }) } })), "~sensors/lidar/clustering/tolerance", "not a known key");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 0 } }) } }) } })), "~sensors/lidar/clustering/min_points");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 10 }, { "max_points", 5 } }) } }) } })), "~sensors/lidar/clustering", "max_points");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ground_clearance", -0.1 } }) } }) } })), "~sensors/lidar/clustering", "ground_clearance");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "use_height", 1 } }) } }) } })), "~sensors/lidar/clustering/use_height", "true or false");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 0.0 } }) } }) } })), "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 95.0 } }) } }) } })), "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_gap", -1.0 } }) } }) } })), "~sensors/lidar/clustering", "ring_link_gap");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", 0.5 } }) } })), "~sensors/lidar/clustering", "must be a map");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "max_range", -5.0 } }) } })), "~sensors/radar", "max_range");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "rate", 0 } }) } })), "~sensors/radar", "rate");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "cluster_min_points", 0 } }) } })), "~sensors/radar/cluster_min_points");
@@ -342,11 +355,168 @@ TEST(VehicleFrames, ReferenceVehiclesHaveTheSensorLinksAndCollisionBoxes)
   EXPECT_THROW(f.link("sonar"), std::invalid_argument);
 }
 
+namespace
+{
+LidarPoint lidarPoint(float x, float y, float z, float intensity, std::uint16_t ring, float time)
+{
+  LidarPoint p;
+  p.x = x;
+  p.y = y;
+  p.z = z;
+  p.intensity = intensity;
+  p.ring = ring;
+  p.time = time;
+  return p;
+}
+
+void addField(sensor_msgs::PointCloud2& cloud, const std::string& name, std::uint32_t offset, std::uint8_t type)
+{
+  sensor_msgs::PointField f;
+  f.name = name;
+  f.offset = offset;
+  f.datatype = type;
+  f.count = 1;
+  cloud.fields.push_back(f);
+}
+
+template <typename T>
+void put(std::uint8_t* at, T value)
+{
+  std::memcpy(at, &value, sizeof(T));
+}
+
+/// The lidar cloud as sensors_node packed it by hand before PCL (the published contract): the
+/// oracle the PCL conversion must equal byte for byte.
+sensor_msgs::PointCloud2 handPackedLidar(const LidarScan& scan, const std_msgs::Header& header)
+{
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header = header;
+  cloud.height = 1;
+  cloud.width = static_cast<std::uint32_t>(scan.points.size());
+  addField(cloud, "x", 0, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "y", 4, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "z", 8, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "intensity", 12, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "ring", 16, sensor_msgs::PointField::UINT16);
+  addField(cloud, "time", 20, sensor_msgs::PointField::FLOAT32);
+  cloud.is_bigendian = false;
+  cloud.point_step = 24;
+  cloud.row_step = cloud.point_step * cloud.width;
+  cloud.is_dense = true;
+  cloud.data.assign(static_cast<std::size_t>(cloud.row_step), 0);
+  std::uint8_t* out = cloud.data.data();
+  for (const LidarPoint& p : scan.points)
+  {
+    put(out + 0, p.x);
+    put(out + 4, p.y);
+    put(out + 8, p.z);
+    put(out + 12, p.intensity);
+    put(out + 16, p.ring);
+    put(out + 20, p.time);
+    out += 24;
+  }
+  return cloud;
+}
+
+/// The radar detections as packed by hand before PCL.
+sensor_msgs::PointCloud2 handPackedRadar(const RadarScan& scan, const std_msgs::Header& header)
+{
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header = header;
+  cloud.height = 1;
+  cloud.width = static_cast<std::uint32_t>(scan.detections.size());
+  addField(cloud, "x", 0, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "y", 4, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "z", 8, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "range_rate", 12, sensor_msgs::PointField::FLOAT32);
+  addField(cloud, "cluster", 16, sensor_msgs::PointField::INT32);
+  cloud.is_bigendian = false;
+  cloud.point_step = 20;
+  cloud.row_step = cloud.point_step * cloud.width;
+  cloud.is_dense = true;
+  cloud.data.assign(static_cast<std::size_t>(cloud.row_step), 0);
+  std::uint8_t* out = cloud.data.data();
+  for (std::size_t k = 0; k < scan.detections.size(); ++k)
+  {
+    const RadarDetection& d = scan.detections[k];
+    put(out + 0, static_cast<float>(d.position.x()));
+    put(out + 4, static_cast<float>(d.position.y()));
+    put(out + 8, static_cast<float>(d.position.z()));
+    put(out + 12, static_cast<float>(d.range_rate));
+    put(out + 16, static_cast<std::int32_t>(k < scan.clusters.labels.size() ? scan.clusters.labels[k] : -1));
+    out += 20;
+  }
+  return cloud;
+}
+
+/// Every field of two PointCloud2 messages, the bytes included.
+void expectSameCloud(const sensor_msgs::PointCloud2& got, const sensor_msgs::PointCloud2& want)
+{
+  EXPECT_EQ(got.header.frame_id, want.header.frame_id);
+  EXPECT_EQ(got.header.stamp, want.header.stamp);
+  EXPECT_EQ(got.height, want.height);
+  EXPECT_EQ(got.width, want.width);
+  ASSERT_EQ(got.fields.size(), want.fields.size());
+  for (std::size_t k = 0; k < want.fields.size(); ++k)
+  {
+    EXPECT_EQ(got.fields[k].name, want.fields[k].name) << k;
+    EXPECT_EQ(got.fields[k].offset, want.fields[k].offset) << k;
+    EXPECT_EQ(got.fields[k].datatype, want.fields[k].datatype) << k;
+    EXPECT_EQ(got.fields[k].count, want.fields[k].count) << k;
+  }
+  EXPECT_EQ(got.is_bigendian, want.is_bigendian);
+  EXPECT_EQ(got.point_step, want.point_step);
+  EXPECT_EQ(got.row_step, want.row_step);
+  EXPECT_EQ(got.is_dense, want.is_dense);
+  EXPECT_TRUE(got.data == want.data) << "data bytes differ";
+}
+}  // namespace
+
+TEST(Conversions, PclLidarCloudEqualsTheHandPackedLayoutByteForByte)
+{
+  // A real sweep (a VLP-16 over flat ground and a wall: ~14 000 points, every ring) through
+  // pcl::toROSMsg against the hand packing the node published before PCL.
+  const std::size_t n = 201;
+  Scene scene(HeightField(-50.0, -50.0, 0.5, 0.5, n, n, std::vector<float>(n * n, 0.f)));
+  Primitive wall;
+  wall.centre = Eigen::Vector3d(8.0, 0.0, 1.5);
+  wall.half_extents = Eigen::Vector3d(0.2, 4.0, 1.5);
+  scene.setStaticPrimitives({ wall });
+  const Lidar lidar(lidarPreset("VLP-16"), 5);
+  LidarScanRequest req;
+  req.motion.pose.translation() = Eigen::Vector3d(0.0, 0.0, 1.8);
+  const LidarScan scan = lidar.scan(scene, req);
+  ASSERT_GT(scan.points.size(), 10000u);
+  std_msgs::Header h;
+  h.frame_id = "odom";
+  h.stamp = ros::Time(12, 345678000);
+  expectSameCloud(toPointCloud2(scan, h), handPackedLidar(scan, h));
+  // An empty sweep too.
+  expectSameCloud(toPointCloud2(LidarScan(), h), handPackedLidar(LidarScan(), h));
+}
+
+TEST(Conversions, PclRadarCloudEqualsTheHandPackedLayoutByteForByte)
+{
+  RadarScan scan;
+  for (int k = 0; k < 7; ++k)
+  {
+    RadarDetection d;
+    d.position = Eigen::Vector3d(10.0 + 0.37 * k, -1.0 + 0.11 * k, 0.05 * k);
+    d.range_rate = -2.0 + 0.7 * k;
+    scan.detections.push_back(d);
+  }
+  scan.clusters.labels = { 0, 0, -1, 1, 1, 1, -1 };
+  std_msgs::Header h;
+  h.frame_id = "ego/radar";
+  h.stamp = ros::Time(3, 100000000);
+  expectSameCloud(radarPoints(scan, h), handPackedRadar(scan, h));
+}
+
 TEST(Conversions, LidarCloudHasTheContractLayout)
 {
   LidarScan scan;
-  scan.points.push_back({ 1.5f, -2.0f, 0.25f, 42.0f, 7, 0.05f });
-  scan.points.push_back({ 3.0f, 4.0f, 5.0f, 1.0f, 15, 0.09f });
+  scan.points.push_back(lidarPoint(1.5f, -2.0f, 0.25f, 42.0f, 7, 0.05f));
+  scan.points.push_back(lidarPoint(3.0f, 4.0f, 5.0f, 1.0f, 15, 0.09f));
   std_msgs::Header h;
   h.frame_id = "odom";
   const sensor_msgs::PointCloud2 c = toPointCloud2(scan, h);
@@ -542,4 +712,71 @@ TEST(SensorParams, MagnetometerDateAndSiteOutsideTheModelAreNamed)
                   "the point is at -5000.0 m");
   EXPECT_MENTIONS(placeError(std::nullopt, "2026-01-01"), "~latitude and ~longitude",
                   "~sensors/magnetometer/model 'wmm2025'");
+}
+
+TEST(SensorParams, LidarClusteringDefaultsOnAndReadsItsKeys)
+{
+  const SensorsSpec d = parseSensors(nullptr, "~vehicle_sensors/ego", nullptr, "~sensors");
+  ASSERT_TRUE(d.suite.lidar && d.suite.lidar->clustering);
+  const LidarClusterConfig defaults;
+  EXPECT_EQ(d.suite.lidar->clustering->cluster_tolerance, defaults.cluster_tolerance);
+  EXPECT_EQ(d.suite.lidar->clustering->ground_clearance, defaults.ground_clearance);
+  const XmlRpcValue common = map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", 0.8 },
+                                                                           { "min_points", 3 },
+                                                                           { "max_points", 900 },
+                                                                           { "ground_clearance", 0.5 },
+                                                                           { "use_height", true },
+                                                                           { "ring_link_angle_deg", 20.0 },
+                                                                           { "ring_link_gap", 0.7 } }) } }) } });
+  const SensorsSpec s = parseSensors(nullptr, "~vehicle_sensors/ego", &common, "~sensors");
+  ASSERT_TRUE(s.suite.lidar->clustering);
+  EXPECT_EQ(s.suite.lidar->clustering->cluster_tolerance, 0.8);
+  EXPECT_EQ(s.suite.lidar->clustering->min_points, 3u);
+  EXPECT_EQ(s.suite.lidar->clustering->max_points, 900u);
+  EXPECT_EQ(s.suite.lidar->clustering->ground_clearance, 0.5);
+  EXPECT_TRUE(s.suite.lidar->clustering->use_height);
+  EXPECT_NEAR(s.suite.lidar->clustering->ring_link_angle, 20.0 * M_PI / 180.0, 1e-12);
+  EXPECT_NEAR(d.suite.lidar->clustering->ring_link_angle, defaults.ring_link_angle, 1e-12);
+  EXPECT_EQ(s.suite.lidar->clustering->ring_link_gap, 0.7);
+  EXPECT_EQ(d.suite.lidar->clustering->ring_link_gap, defaults.ring_link_gap);
+  const XmlRpcValue ninety = map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 90 } }) } }) } });
+  EXPECT_EQ(parseSensors(nullptr, "~vehicle_sensors/ego", &ninety, "~sensors").suite.lidar->clustering->ring_link_angle,
+            0.5 * M_PI);  // no links
+  const XmlRpcValue off = map({ { "lidar", map({ { "clustering", map({ { "enabled", false } }) } }) } });
+  const SensorsSpec o = parseSensors(nullptr, "~vehicle_sensors/ego", &off, "~sensors");
+  ASSERT_TRUE(o.suite.lidar);
+  EXPECT_FALSE(o.suite.lidar->clustering);
+}
+
+TEST(Conversions, LidarClustersAndTheirMarkers)
+{
+  LidarClustering r;
+  LidarCluster c;
+  c.indices = { 3, 4, 9 };
+  c.centroid = Eigen::Vector3d(10.0, 2.0, 1.0);
+  c.min = Eigen::Vector3d(9.5, 1.5, 0.3);
+  c.max = Eigen::Vector3d(10.5, 2.5, 1.9);
+  c.range = std::hypot(10.0, 2.0);
+  r.clusters = { c, c };
+  r.clusters[1].max = r.clusters[1].min;  // a single point: the marker keeps a visible size
+  std_msgs::Header h;
+  h.frame_id = "odom";
+  h.stamp = ros::Time(4, 0);
+  const avsp_msgs::LidarClusterArray a = lidarClusters(r, h);
+  EXPECT_EQ(a.header.frame_id, "odom");
+  ASSERT_EQ(a.clusters.size(), 2u);
+  EXPECT_EQ(a.clusters[0].centroid.x, 10.0);
+  EXPECT_EQ(a.clusters[0].min.z, 0.3);
+  EXPECT_EQ(a.clusters[0].max.z, 1.9);
+  EXPECT_NEAR(a.clusters[0].extent.z, 1.6, 1e-12);
+  EXPECT_EQ(a.clusters[0].range, c.range);
+  EXPECT_EQ(a.clusters[0].point_count, 3u);
+  const visualization_msgs::MarkerArray m = lidarClusterMarkers(r, h);
+  ASSERT_EQ(m.markers.size(), 5u);  // DELETEALL, then a box and a label per cluster
+  EXPECT_EQ(m.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_EQ(m.markers[1].type, visualization_msgs::Marker::CUBE);
+  EXPECT_NEAR(m.markers[1].pose.position.z, 1.1, 1e-12);  // the box's middle, not the centroid
+  EXPECT_NEAR(m.markers[1].scale.y, 1.0, 1e-12);
+  EXPECT_EQ(m.markers[3].scale.x, 0.1);
+  EXPECT_EQ(m.markers[2].type, visualization_msgs::Marker::TEXT_VIEW_FACING);
 }

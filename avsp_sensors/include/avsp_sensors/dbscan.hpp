@@ -2,8 +2,9 @@
 /**
  * @file dbscan.hpp
  * @brief DBSCAN clustering exactly as docs/MODELS.md section 4 states it, on a fixed-radius
- *        neighbour search (a uniform grid of eps cells by default, or nanoflann's kd-tree),
- *        with a deterministic rule for border points that two clusters could claim.
+ *        neighbour search (a uniform grid of eps cells by default; nanoflann's kd-tree, PCL's
+ *        KdTreeFLANN or PCL's octree for comparison), with a deterministic rule for border points
+ *        that two clusters could claim. Takes points as Eigen vectors or as any PCL cloud.
  *
  * Definitions (eps > 0, min_points >= 1, distances Euclidean):
  * - N(p) = { q : |p - q| <= eps }, p itself included (as in Ester et al. 1996).
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <pcl/point_cloud.h>
 
 namespace avsp
 {
@@ -55,7 +57,16 @@ enum class NeighbourSearch : std::uint8_t
   kGrid,
   /// nanoflann kd-tree (leaves of 16 points), one radius query per point.
   kKdTree,
+  /// PCL's pcl::KdTreeFLANN (FLANN in float), one radiusSearch per point; each candidate is
+  /// re-tested in double, so the result is the grid's. For the benchmark (README: figures).
+  kPclKdTree,
+  /// PCL's pcl::octree::OctreePointCloudSearch (leaves of eps), one radiusSearch per point,
+  /// candidates re-tested in double. For the benchmark.
+  kPclOctree,
 };
+
+/// Name of a search for messages and benchmarks: "grid", "kd-tree", "pcl-kdtree", "pcl-octree".
+const char* toString(NeighbourSearch search);
 
 /**
  * @brief Clusters `points`.
@@ -86,10 +97,36 @@ public:
   const DbscanResult& run(const std::vector<Eigen::Vector3d>& points, double eps, std::size_t min_points,
                           NeighbourSearch search = NeighbourSearch::kGrid);
 
+  /**
+   * @brief The same clustering of a PCL cloud of any point type with float x, y, z (labels by
+   *        point index). Coordinates are widened to double exactly, so the labels are those of
+   *        run() on the same coordinates as Eigen vectors.
+   * @throw as dbscan(); a NaN point is named as points[i]
+   */
+  template <typename PointT>
+  const DbscanResult& run(const pcl::PointCloud<PointT>& cloud, double eps, std::size_t min_points,
+                          NeighbourSearch search = NeighbourSearch::kGrid)
+  {
+    widened_.resize(cloud.size());
+    for (std::size_t k = 0; k < cloud.size(); ++k)
+      widened_[k] = Eigen::Vector3d(cloud[k].x, cloud[k].y, cloud[k].z);
+    return run(widened_, eps, min_points, search);
+  }
+
 private:
   struct Workspace;
   std::unique_ptr<Workspace> ws_;
+  std::vector<Eigen::Vector3d> widened_;  ///< a PCL cloud's points in double, reused
 };
+
+/// dbscan() of a PCL cloud (Dbscan::run's PCL overload). @throw as dbscan()
+template <typename PointT>
+DbscanResult dbscan(const pcl::PointCloud<PointT>& cloud, double eps, std::size_t min_points,
+                    NeighbourSearch search = NeighbourSearch::kGrid)
+{
+  Dbscan d;
+  return d.run(cloud, eps, min_points, search);
+}
 
 }  // namespace sensors
 }  // namespace avsp

@@ -7,7 +7,8 @@
  *        sweep; beam divergence as N sub-rays per pulse whose returns are summed into echoes
  *        (strongest or last); intensity from reflectivity and incidence angle; range noise,
  *        dropout, a detection threshold, and weather (fog/rain/snow extinction, false returns
- *        from falling precipitation). Points are x, y, z, intensity, ring, time.
+ *        from falling precipitation). Points are x, y, z, intensity, ring, time, in a
+ *        pcl::PointCloud (LidarPoint, point_types.hpp).
  */
 #include <cstdint>
 #include <string>
@@ -16,6 +17,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "avsp_sensors/point_types.hpp"
 #include "avsp_sensors/primitives.hpp"
 #include "avsp_sensors/weather.hpp"
 
@@ -112,17 +114,6 @@ struct SensorMotion
 ///        or a pose whose rotation is not orthonormal
 void validateMotion(const SensorMotion& motion, const char* context);
 
-/// One point. Field order and types are the PointCloud2 fields (float32 x y z intensity,
-/// uint16 ring, float32 time).
-struct LidarPoint
-{
-  float x, y, z;     ///< m, in the frame the scan was asked for
-  float intensity;   ///< 100 x apparent reflectivity (rho cos(i) T^2 summed over sub-rays), like
-                     ///< Velodyne's calibrated reflectivity: 0-100 for diffuse targets
-  std::uint16_t ring;///< channel rank by elevation, 0 = lowest
-  float time;        ///< s after the sweep start
-};
-
 /// What to scan.
 struct LidarScanRequest
 {
@@ -137,7 +128,9 @@ struct LidarScanRequest
 /// One sweep's points and counts.
 struct LidarScan
 {
-  std::vector<LidarPoint> points;  ///< column by column, channels in firing order; pulses without a return omitted
+  /// Column by column, channels in firing order; pulses without a return omitted. A PCL cloud
+  /// (point_types.hpp): PCL's algorithms read it and pcl::toROSMsg publishes it as it is.
+  LidarCloud points;
   std::size_t pulses = 0;          ///< channels x columns
   std::size_t rays = 0;            ///< sub-rays cast
   std::size_t dropped = 0;         ///< pulses lost to `dropout`

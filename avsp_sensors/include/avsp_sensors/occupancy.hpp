@@ -48,12 +48,28 @@ struct OccupancyConfig
   /// centres instead of the exact returns, half the cost of a lidar sweep whose near-range
   /// returns crowd into few voxels (README.md, "OctoMap occupancy"). false: every return cast.
   bool discretize = true;
+  /// Replace the returns in each voxel by their centroid (pcl::VoxelGrid, leaf = resolution,
+  /// its cells on the map's voxel grid) before casting. With `discretize` the map is the same
+  /// (rays end at the voxel centres either way; a return exactly on a voxel face may fall in
+  /// the neighbouring voxel, PCL computing in float and OctoMap in double) at the filter's extra
+  /// cost; without it, one ray per voxel ending at the centroid instead of one per return. Off:
+  /// not better than `discretize` (figures: docs/benchmarks.md, "PCL").
+  bool voxel_filter = false;
   /// Threads that trace the rays of a scan (0 = all cores); the map does not depend on it.
   unsigned threads = 1;
 };
 
 /// @throw std::invalid_argument naming the field ("OccupancyConfig: resolution must be ...")
 void validateOccupancyConfig(const OccupancyConfig& config);
+
+/**
+ * @brief The centroid of the points in each cube [i leaf, (i + 1) leaf) x ... (pcl::VoxelGrid),
+ *        one per occupied cube, in PCL's cube order (deterministic). Points must be finite.
+ *        (PCL leaves the cloud unfiltered, with a warning on stderr, when the cubes of the
+ *        cloud's bounding box number more than 2^31 - 1, e.g. 1300 leaves along each axis.)
+ * @param leaf m, > 0
+ */
+std::vector<Eigen::Vector3f> voxelGridCentroids(const std::vector<Eigen::Vector3f>& points, double leaf);
 
 /// One occupied leaf of the octree: a cube.
 struct OccupiedCell

@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include "avsp_sensors/dbscan.hpp"
+#include "avsp_sensors/point_types.hpp"
 #include "avsp_sensors/primitives.hpp"
 #include "avsp_sensors/scene.hpp"
 
@@ -90,6 +91,14 @@ struct RadarScan
  */
 double rangeRate(const Eigen::Vector3d& sensor_origin, const Eigen::Vector3d& sensor_velocity,
                  const Eigen::Vector3d& point, const Eigen::Vector3d& point_velocity);
+
+/**
+ * @brief The scan's detections as a PCL cloud (what `radar/points` publishes): positions and
+ *        range rates rounded to float, each with its DBSCAN cluster (-1: noise), in ray order.
+ *        DBSCAN itself clusters the double positions (RadarScan::clusters): rounding them first
+ *        could move a pair at exactly eps across the threshold.
+ */
+RadarCloud radarCloud(const RadarScan& scan);
 
 /// Targets from clustered detections (one per cluster, in cluster order).
 std::vector<RadarTarget> clusterTargets(const std::vector<RadarDetection>& detections, const DbscanResult& clusters);

@@ -28,6 +28,7 @@
 #include "avsp_sensors/gps.hpp"
 #include "avsp_sensors/imu.hpp"
 #include "avsp_sensors/lidar.hpp"
+#include "avsp_sensors/lidar_clustering.hpp"
 #include "avsp_sensors/magnetometer.hpp"
 #include "avsp_sensors/occupancy.hpp"
 #include "avsp_sensors/radar.hpp"
@@ -97,6 +98,9 @@ struct LidarSetup
   LidarConfig config;
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
   bool registered = true;  ///< points in the map (each at its firing pose) or in the sensor frame
+  /// Objects in each sweep (lidar_clustering.hpp), on request (VehicleSensors::clusterSweep);
+  /// nullopt: none.
+  std::optional<LidarClusterConfig> clustering;
 };
 
 /// Radar of a suite.
@@ -224,6 +228,17 @@ public:
    */
   SuiteOutput update(const VehicleState& state, const Scene& scene, const Weather& weather, unsigned threads);
 
+  /// True when the lidar has a clustering configuration (LidarSetup::clustering).
+  bool clusters() const { return clusterer_ != nullptr; }
+
+  /**
+   * @brief The objects of a sweep this suite produced: ground removal against `terrain` and
+   *        Euclidean clustering (LidarClusterer), in the map frame. Not part of update(): a node
+   *        calls it only when someone reads the clusters.
+   * @throw std::logic_error without a clustering configuration
+   */
+  LidarClustering clusterSweep(const LidarSweep& sweep, const HeightField& terrain) const;
+
   /// The OctoMap (nullptr without occupancy).
   const OccupancyMap* occupancy() const { return occupancy_.get(); }
 
@@ -238,6 +253,7 @@ private:
   SuiteConfig config_;
   std::uint32_t body_id_;
   std::unique_ptr<Lidar> lidar_;
+  std::unique_ptr<LidarClusterer> clusterer_;
   std::unique_ptr<Radar> radar_;
   std::unique_ptr<Gps> gps_;
   std::unique_ptr<Imu> imu_;

@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
+#include <cstdio>
 #include <map>
 #include <stdexcept>
 
-#include <sensor_msgs/PointField.h>
+#include <pcl_conversions/pcl_conversions.h>
 
 namespace avsp
 {
@@ -17,22 +17,6 @@ namespace node
 {
 namespace
 {
-void addField(sensor_msgs::PointCloud2& cloud, const std::string& name, std::uint32_t offset, std::uint8_t type)
-{
-  sensor_msgs::PointField f;
-  f.name = name;
-  f.offset = offset;
-  f.datatype = type;
-  f.count = 1;
-  cloud.fields.push_back(f);
-}
-
-template <typename T>
-void put(std::uint8_t* at, T value)
-{
-  std::memcpy(at, &value, sizeof(T));
-}
-
 void fillCovariance(boost::array<double, 9>& out, const Eigen::Matrix3d& c)
 {
   for (int r = 0; r < 3; ++r)
@@ -43,6 +27,15 @@ void fillCovariance(boost::array<double, 9>& out, const Eigen::Matrix3d& c)
 geometry_msgs::Vector3 vector3(const Eigen::Vector3d& v)
 {
   geometry_msgs::Vector3 out;
+  out.x = v.x();
+  out.y = v.y();
+  out.z = v.z();
+  return out;
+}
+
+geometry_msgs::Point point(const Eigen::Vector3d& v)
+{
+  geometry_msgs::Point out;
   out.x = v.x();
   out.y = v.y();
   out.z = v.z();
@@ -141,62 +134,22 @@ bool weatherFromEnvironment(const avsp_msgs::Environment& msg, Weather& weather,
 
 sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::Header& header)
 {
+  // pcl::toROSMsg takes the fields from LidarPoint's registration and copies the points whole
+  // (point_types.hpp): x, y, z, intensity, ring, time at 0, 4, 8, 12, 16, 20, 24-byte steps.
   sensor_msgs::PointCloud2 cloud;
+  pcl::toROSMsg(scan.points, cloud);
+  // The PCL header keeps whole microseconds and no frame here: the message's header is ours.
   cloud.header = header;
-  cloud.height = 1;
-  cloud.width = static_cast<std::uint32_t>(scan.points.size());
-  addField(cloud, "x", 0, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "y", 4, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "z", 8, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "intensity", 12, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "ring", 16, sensor_msgs::PointField::UINT16);
-  addField(cloud, "time", 20, sensor_msgs::PointField::FLOAT32);
   cloud.is_bigendian = false;
-  cloud.point_step = 24;
-  cloud.row_step = cloud.point_step * cloud.width;
-  cloud.is_dense = true;
-  cloud.data.assign(static_cast<std::size_t>(cloud.row_step), 0);
-  std::uint8_t* out = cloud.data.data();
-  for (const LidarPoint& p : scan.points)
-  {
-    put(out + 0, p.x);
-    put(out + 4, p.y);
-    put(out + 8, p.z);
-    put(out + 12, p.intensity);
-    put(out + 16, p.ring);
-    put(out + 20, p.time);
-    out += 24;
-  }
   return cloud;
 }
 
 sensor_msgs::PointCloud2 radarPoints(const RadarScan& scan, const std_msgs::Header& header)
 {
   sensor_msgs::PointCloud2 cloud;
+  pcl::toROSMsg(radarCloud(scan), cloud);
   cloud.header = header;
-  cloud.height = 1;
-  cloud.width = static_cast<std::uint32_t>(scan.detections.size());
-  addField(cloud, "x", 0, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "y", 4, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "z", 8, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "range_rate", 12, sensor_msgs::PointField::FLOAT32);
-  addField(cloud, "cluster", 16, sensor_msgs::PointField::INT32);
   cloud.is_bigendian = false;
-  cloud.point_step = 20;
-  cloud.row_step = cloud.point_step * cloud.width;
-  cloud.is_dense = true;
-  cloud.data.assign(static_cast<std::size_t>(cloud.row_step), 0);
-  std::uint8_t* out = cloud.data.data();
-  for (std::size_t k = 0; k < scan.detections.size(); ++k)
-  {
-    const RadarDetection& d = scan.detections[k];
-    put(out + 0, static_cast<float>(d.position.x()));
-    put(out + 4, static_cast<float>(d.position.y()));
-    put(out + 8, static_cast<float>(d.position.z()));
-    put(out + 12, static_cast<float>(d.range_rate));
-    put(out + 16, static_cast<std::int32_t>(k < scan.clusters.labels.size() ? scan.clusters.labels[k] : -1));
-    out += 20;
-  }
   return cloud;
 }
 
@@ -262,6 +215,69 @@ visualization_msgs::MarkerArray radarMarkers(const RadarScan& scan, const std_ms
     text.color.a = 1.0f;
     char buffer[64];
     std::snprintf(buffer, sizeof(buffer), "%.1f m %+.1f m/s", t.range, t.range_rate);
+    text.text = buffer;
+    out.markers.push_back(text);
+  }
+  return out;
+}
+
+avsp_msgs::LidarClusterArray lidarClusters(const LidarClustering& clustering, const std_msgs::Header& header)
+{
+  avsp_msgs::LidarClusterArray out;
+  out.header = header;
+  out.clusters.reserve(clustering.clusters.size());
+  for (const LidarCluster& c : clustering.clusters)
+  {
+    avsp_msgs::LidarCluster m;
+    m.centroid = point(c.centroid);
+    m.min = point(c.min);
+    m.max = point(c.max);
+    m.extent = vector3(c.extent());
+    m.range = c.range;
+    m.point_count = static_cast<std::uint32_t>(c.size());
+    out.clusters.push_back(m);
+  }
+  return out;
+}
+
+visualization_msgs::MarkerArray lidarClusterMarkers(const LidarClustering& clustering, const std_msgs::Header& header)
+{
+  visualization_msgs::MarkerArray out;
+  visualization_msgs::Marker clear;
+  clear.header = header;
+  clear.ns = "lidar_clusters";
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  out.markers.push_back(clear);
+  int id = 0;
+  for (const LidarCluster& c : clustering.clusters)
+  {
+    visualization_msgs::Marker box;
+    box.header = header;
+    box.ns = "lidar_clusters";
+    box.id = id++;
+    box.type = visualization_msgs::Marker::CUBE;
+    box.action = visualization_msgs::Marker::ADD;
+    box.pose.position = point(0.5 * (c.min + c.max));
+    box.pose.orientation.w = 1.0;
+    // A flat or single-line cluster still shows as a box.
+    box.scale.x = std::max(0.1, c.extent().x());
+    box.scale.y = std::max(0.1, c.extent().y());
+    box.scale.z = std::max(0.1, c.extent().z());
+    box.color.r = 1.0f;
+    box.color.g = 0.6f;
+    box.color.b = 0.1f;
+    box.color.a = 0.5f;
+    out.markers.push_back(box);
+    visualization_msgs::Marker text = box;
+    text.id = id++;
+    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    text.pose.position.z += 0.5 * box.scale.z + 0.4;
+    text.scale.x = text.scale.y = 0.0;
+    text.scale.z = 0.5;
+    text.color.r = text.color.g = text.color.b = 1.0f;
+    text.color.a = 1.0f;
+    char buffer[64];
+    std::snprintf(buffer, sizeof(buffer), "%zu pts %.1f m", c.size(), c.range);
     text.text = buffer;
     out.markers.push_back(text);
   }

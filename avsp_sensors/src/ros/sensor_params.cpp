@@ -178,13 +178,41 @@ Section pick(const Section& vehicle, const Section& common, const std::string& n
   return Section(nullptr, common.key(name));
 }
 
+/// The lidar's `clustering` map (lidar_clustering.hpp): on by default, `enabled: false` removes it.
+std::optional<LidarClusterConfig> parseLidarClustering(const Section& lidar)
+{
+  std::optional<XmlRpcValue> value;
+  if (lidar.has("clustering"))
+    value = lidar.get("clustering");
+  const Section s(value ? &*value : nullptr, lidar.key("clustering"));
+  s.allowOnly({ "enabled", "cluster_tolerance", "min_points", "max_points", "ground_clearance", "use_height",
+                "cell_size", "ring_link_angle_deg", "ring_link_gap" });
+  if (!s.flag("enabled", true))
+    return std::nullopt;
+  LidarClusterConfig c;
+  c.cluster_tolerance = s.number("cluster_tolerance", c.cluster_tolerance);
+  c.min_points = s.count("min_points", c.min_points, 1, 100000000);
+  c.max_points = s.count("max_points", c.max_points, 1, 100000000);
+  c.ground_clearance = s.number("ground_clearance", c.ground_clearance);
+  c.use_height = s.flag("use_height", c.use_height);
+  c.cell_size = s.number("cell_size", c.cell_size);
+  const double link_deg = s.number("ring_link_angle_deg", c.ring_link_angle * 180.0 / M_PI);
+  if (!(link_deg > 0.0 && link_deg <= 90.0))
+    throw StartupError("parameter " + s.key("ring_link_angle_deg") +
+                       " must be in (0, 90] deg (90: no ring links), got " + std::to_string(link_deg));
+  c.ring_link_angle = link_deg == 90.0 ? 0.5 * M_PI : link_deg * M_PI / 180.0;
+  c.ring_link_gap = s.number("ring_link_gap", c.ring_link_gap);
+  checked(s, [&] { validateLidarClusterConfig(c); });
+  return c;
+}
+
 std::optional<LidarSetup> parseLidar(const Section& s)
 {
   s.allowOnly({ "enabled", "preset", "frame", "registered", "channels", "rotation_rate", "columns", "clockwise",
                 "start_azimuth", "min_range", "max_range", "reference_range", "reference_reflectivity",
                 "range_noise", "dropout", "divergence_horizontal", "divergence_vertical", "aperture_radius",
                 "target_scale", "sub_rays", "return_mode", "echo_separation", "wavelength", "clutter_max_range",
-                "clutter_efficiency", "clutter_reflectivity" });
+                "clutter_efficiency", "clutter_reflectivity", "clustering" });
   if (!s.flag("enabled", true))
     return std::nullopt;
   LidarSetup setup;
@@ -254,6 +282,7 @@ std::optional<LidarSetup> parseLidar(const Section& s)
   c.clutter_efficiency = s.number("clutter_efficiency", c.clutter_efficiency);
   c.clutter_reflectivity = static_cast<float>(s.number("clutter_reflectivity", c.clutter_reflectivity));
   checked(s, [&] { validateLidarConfig(c); });
+  setup.clustering = parseLidarClustering(s);
   // A sweep's rays are cast at once: bound the work of one sweep (HDL-64E: 133,312 pulses).
   if (static_cast<double>(c.columns) * static_cast<double>(c.channels.size()) > 4e6)
     throw StartupError("parameter " + s.key("columns") + ": columns x channels must be <= 4,000,000 pulses per sweep");
@@ -560,7 +589,7 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
 std::optional<OccupancySetup> parseOccupancy(const Section& s, bool has_lidar)
 {
   s.allowOnly({ "enabled", "resolution", "max_range", "prob_hit", "prob_miss", "clamping_min", "clamping_max",
-                "occupancy_threshold", "discretize", "slices", "publish_rate", "grid_size", "grid_resolution",
+                "occupancy_threshold", "discretize", "voxel_filter", "slices", "publish_rate", "grid_size", "grid_resolution",
                 "obstacle_height", "max_height", "min_height", "free_max_height" });
   // Without a lidar there is nothing to build the map from: off unless asked for explicitly.
   if (!s.flag("enabled", has_lidar))
@@ -577,6 +606,7 @@ std::optional<OccupancySetup> parseOccupancy(const Section& s, bool has_lidar)
   c.clamping_max = s.number("clamping_max", c.clamping_max);
   c.occupancy_threshold = s.number("occupancy_threshold", c.occupancy_threshold);
   c.discretize = s.flag("discretize", c.discretize);
+  c.voxel_filter = s.flag("voxel_filter", c.voxel_filter);
   o.slices = s.count("slices", o.slices, 1, 1000);
   o.publish_rate = s.number("publish_rate", o.publish_rate);
   o.grid_size = s.number("grid_size", o.grid_size);

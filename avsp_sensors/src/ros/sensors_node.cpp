@@ -31,6 +31,7 @@
 #include <vector>
 
 #include <avsp_msgs/Environment.h>
+#include <avsp_msgs/LidarClusterArray.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/StepDone.h>
@@ -136,6 +137,7 @@ struct VehicleIo
   ros::Subscriber odom_sub;
   ros::Publisher points_pub, targets_pub, radar_points_pub, radar_markers_pub, gps_pub, imu_pub, mag_pub;
   ros::Publisher cells_pub, grid_pub;
+  ros::Publisher clusters_pub, cluster_markers_pub;  ///< lidar/clusters, lidar/cluster_markers
   std::vector<ros::Publisher> range_pubs;
   ros::ServiceServer save_service;
 
@@ -144,6 +146,8 @@ struct VehicleIo
   {
     std::size_t sweeps = 0, radar_scans = 0, states = 0, maps = 0;
     double lidar = 0.0, occupancy = 0.0, cloud = 0.0, radar = 0.0, other = 0.0, map_products = 0.0;
+    std::size_t clusterings = 0;
+    double clustering = 0.0;  ///< ground removal + clustering + messages, per clustered sweep
   } costs;
 
   // Cameras (README, "Cameras"): the rig, and per camera its publishers and optical frame.
@@ -235,6 +239,9 @@ public:
                   v->name.c_str(), per(c.lidar, c.sweeps), per(c.occupancy, c.sweeps), per(c.cloud, c.sweeps),
                   c.sweeps, per(c.radar, c.radar_scans), c.radar_scans, per(c.other, c.states), c.states,
                   per(c.map_products, c.maps), c.maps);
+      if (c.clusterings > 0)
+        std::printf("sensors_node: %s lidar clustering (wall ms): %.2f per sweep (%zu sweeps)\n", v->name.c_str(),
+                    per(c.clustering, c.clusterings), c.clusterings);
       if (v->camera_rig)
         std::printf("sensors_node: %s cameras (wall ms): %.1f per frame (%zu frames)\n", v->name.c_str(),
                     per(v->camera_cost, v->camera_frames), v->camera_frames);
@@ -477,6 +484,7 @@ private:
           "avt_341/odometry", 2000, [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
       if (c.lidar)
         v.points_pub = vnh.advertise<sensor_msgs::PointCloud2>("avt_341/points", 5);
+      advertiseClusters(v, vnh);
       if (c.radar)
       {
         v.targets_pub = vnh.advertise<avsp_msgs::RadarTargetArray>("radar/targets", 10);
@@ -761,6 +769,7 @@ private:
       costs.cloud += (ros::WallTime::now() - start).toSec();
       ROS_DEBUG("sensors_node: %s sweep at %.3f s: %zu points, cast %.1f ms, OctoMap %.1f ms", v.name.c_str(),
                 out.lidar->start, out.lidar->scan.points.size(), 1e3 * out.cost.lidar, 1e3 * out.cost.occupancy);
+      publishClusters(v, *out.lidar, h.stamp);
     }
     if (out.radar)
     {
@@ -794,6 +803,49 @@ private:
       costs.map_products += (ros::WallTime::now() - start).toSec();
     }
     senseCameras(v, state);
+  }
+
+  // ---- lidar clustering (issue 23) -------------------------------------------------------
+  // Objects in each sweep: the core's LidarClusterer (lidar_clustering.hpp) through
+  // VehicleSensors::clusterSweep, parameters `lidar/clustering/...` (README, "Lidar
+  // clustering"). Clusters are in ~world_frame whatever the cloud's frame (the ground test needs
+  // the terrain's frame), stamped with the sweep start like the cloud. Computed only while
+  // someone listens to either topic: the clusters feed nothing else in the simulator.
+
+  void advertiseClusters(VehicleIo& v, ros::NodeHandle& vnh)
+  {
+    if (!v.sensors->clusters())
+      return;
+    v.clusters_pub = vnh.advertise<avsp_msgs::LidarClusterArray>("lidar/clusters", 5);
+    v.cluster_markers_pub = vnh.advertise<visualization_msgs::MarkerArray>("lidar/cluster_markers", 5);
+  }
+
+  void publishClusters(VehicleIo& v, const as::LidarSweep& sweep, const ros::Time& stamp)
+  {
+    if (!v.sensors->clusters())
+      return;
+    const bool markers = v.cluster_markers_pub.getNumSubscribers() > 0;
+    if (v.clusters_pub.getNumSubscribers() == 0 && !markers)
+      return;
+    const ros::WallTime start = ros::WallTime::now();
+    std_msgs::Header h;
+    h.stamp = stamp;
+    h.frame_id = world_frame_;
+    as::LidarClustering clustering;
+    try
+    {
+      clustering = v.sensors->clusterSweep(sweep, scene_->terrain());
+    }
+    catch (const std::exception& e)
+    {
+      warnThrottled(2.0, "sensors_node: %s lidar clustering at %.6f s: %s", v.name.c_str(), sweep.start, e.what());
+      return;
+    }
+    v.clusters_pub.publish(asn::lidarClusters(clustering, h));
+    if (markers)
+      v.cluster_markers_pub.publish(asn::lidarClusterMarkers(clustering, h));
+    ++v.costs.clusterings;
+    v.costs.clustering += (ros::WallTime::now() - start).toSec();
   }
 
   /// Renders and publishes the cameras due at this state (stamped with its time).

@@ -9,6 +9,7 @@
 #include <string>
 
 #include <avsp_msgs/Environment.h>
+#include <avsp_msgs/LidarClusterArray.h>
 #include <avsp_msgs/RadarTargetArray.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
@@ -55,15 +56,17 @@ bool stateFromOdometry(const nav_msgs::Odometry& msg, const std::string& frame, 
 bool weatherFromEnvironment(const avsp_msgs::Environment& msg, Weather& weather, std::string& why);
 
 /**
- * @brief A lidar scan as PointCloud2: float32 x, y, z, intensity at offsets 0, 4, 8, 12, uint16
- *        ring at 16, float32 time at 20 (s after header.stamp, the sweep start); 24-byte points,
- *        one row, dense, little-endian, padding zeroed.
+ * @brief A lidar scan as PointCloud2, its PCL cloud through pcl::toROSMsg: float32 x, y, z,
+ *        intensity at offsets 0, 4, 8, 12, uint16 ring at 16, float32 time at 20 (s after
+ *        header.stamp, the sweep start); 24-byte points, one row, dense, little-endian, padding
+ *        zeroed (LidarPoint, point_types.hpp).
  */
 sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::Header& header);
 
 /**
- * @brief A radar scan's detections as PointCloud2 in the radar frame: float32 x, y, z,
- *        range_rate (m/s, + receding) at 0, 4, 8, 12 and int32 cluster (-1: noise) at 16.
+ * @brief A radar scan's detections as PointCloud2 in the radar frame (radarCloud() through
+ *        pcl::toROSMsg): float32 x, y, z, range_rate (m/s, + receding) at 0, 4, 8, 12 and int32
+ *        cluster (-1: noise) at 16; 20-byte points, one row, dense, little-endian.
  */
 sensor_msgs::PointCloud2 radarPoints(const RadarScan& scan, const std_msgs::Header& header);
 
@@ -75,6 +78,20 @@ avsp_msgs::RadarTargetArray radarTargets(const RadarScan& scan, const std_msgs::
  *        of its extent (at least 0.2 m) and a TEXT_VIEW_FACING with its range and range rate.
  */
 visualization_msgs::MarkerArray radarMarkers(const RadarScan& scan, const std_msgs::Header& header);
+
+/**
+ * @brief A sweep's clusters as avsp_msgs/LidarClusterArray (order kept: largest first):
+ *        centroid, min, max, extent, range, point_count; header as given (frame: the world frame
+ *        the clusters are in).
+ */
+avsp_msgs::LidarClusterArray lidarClusters(const LidarClustering& clustering, const std_msgs::Header& header);
+
+/**
+ * @brief RViz markers of the clusters: DELETEALL, then per cluster (ns "lidar_clusters") a CUBE
+ *        filling its box (at least 0.1 m per side) and a TEXT_VIEW_FACING with its point count
+ *        and range above it.
+ */
+visualization_msgs::MarkerArray lidarClusterMarkers(const LidarClustering& clustering, const std_msgs::Header& header);
 
 /// A GPS fix as NavSatFix (STATUS_FIX, SERVICE_GPS, ENU covariance, DIAGONAL_KNOWN).
 sensor_msgs::NavSatFix toNavSatFix(const GpsFix& fix, const std_msgs::Header& header);
