@@ -22,7 +22,8 @@ import sys
 ADVERTISE = re.compile(r"advertise<\s*([a-z0-9_]+)::([A-Za-z0-9_]+)\s*>")
 THROUGH_LIBRARIES = {"tf2_msgs/TFMessage": "tf2_ros::TransformBroadcaster, StaticTransformBroadcaster",
                      "sensor_msgs/Image": "image_transport::Publisher",
-                     "rosgraph_msgs/Log": "roscpp's /rosout"}
+                     "rosgraph_msgs/Log": "roscpp's /rosout",
+                     "diagnostic_msgs/DiagnosticArray": "diagnostic_updater::Updater's /diagnostics"}
 SOURCE_DIRS = ["src", "include", "avsp_dynamics", "avsp_sensors", "avsp_terrain"]
 
 

@@ -20,6 +20,7 @@
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <geometry_msgs/Twist.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -74,7 +75,9 @@ struct Ego
   std::vector<avsp_msgs::TerrainPatch> ruts;
   std::vector<std::string> warnings;
   avsp_msgs::VehicleTelemetry telemetry;  ///< the latest
-  ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub;
+  std::vector<diagnostic_msgs::DiagnosticStatus> ego_reports, simulation_reports;  ///< node "dynamics"
+  std::size_t nan_sent = 0;               ///< NaN commands published on cmd_vel
+  ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub, diagnostics_sub;
   ros::Publisher cmd_pub, drive_pub;
 
   Ego()
@@ -94,6 +97,14 @@ struct Ego
     });
     telemetry_sub = nh.subscribe<avsp_msgs::VehicleTelemetry>(
         "/ego/telemetry", 100, [this](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { telemetry = *m; });
+    diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+        "/diagnostics", 100, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+          for (const auto& s : m->status)
+            if (s.name == "dynamics: ego")
+              ego_reports.push_back(s);
+            else if (s.name == "dynamics: simulation")
+              simulation_reports.push_back(s);
+        });
     cmd_pub = nh.advertise<geometry_msgs::Twist>("/ego/avt_341/cmd_vel", 10);
     drive_pub = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 10);
   }
@@ -109,7 +120,9 @@ struct Ego
       if (odom.size() > seen)
       {
         seen = odom.size();
-        cmd_pub.publish(every_other && sent % 2 == 1 ? *every_other : cmd);
+        const bool other = every_other && sent % 2 == 1;
+        cmd_pub.publish(other ? *every_other : cmd);
+        nan_sent += other && std::isnan(every_other->linear.x);
         ++sent;
       }
       return now() >= until;
@@ -237,6 +250,41 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
       lowest = std::min(lowest, h);
   }
   EXPECT_LT(lowest, -0.002) << "no rut below the flat gravel surface";
+
+  // /diagnostics ("dynamics: ego", every 1 s of sim time): every NaN command counted as
+  // refused, the report after them a warning, the last one (1.5 s of good commands) OK.
+  auto value = [](const diagnostic_msgs::DiagnosticStatus& s, const std::string& key) {
+    for (const auto& kv : s.values)
+      if (kv.key == key)
+        return kv.value;
+    return std::string("(absent)");
+  };
+  ASSERT_GT(ego.nan_sent, 10u);
+  ASSERT_TRUE(spinUntil([&] {
+    return !ego.ego_reports.empty() &&
+           value(ego.ego_reports.back(), "commands refused") == std::to_string(ego.nan_sent);
+  }, 30.0)) << "refused " << (ego.ego_reports.empty() ? "(no report)" : value(ego.ego_reports.back(), "commands refused"))
+            << ", NaN commands sent " << ego.nan_sent;
+  const diagnostic_msgs::DiagnosticStatus& last = ego.ego_reports.back();
+  EXPECT_EQ(last.level, diagnostic_msgs::DiagnosticStatus::OK) << last.message;
+  EXPECT_EQ(last.message, "commanded");
+  EXPECT_EQ(value(last, "stuck"), "False");
+  EXPECT_EQ(value(last, "parking brake"), "False");
+  EXPECT_EQ(last.hardware_id, "/dynamics");
+  bool warned = false;
+  for (const auto& r : ego.ego_reports)
+    warned = warned || (r.level == diagnostic_msgs::DiagnosticStatus::WARN &&
+                        r.message.find("command(s) refused since the last report") != std::string::npos);
+  EXPECT_TRUE(warned) << "no warning for the refused commands";
+  // "dynamics: simulation": the sim time is the steps at 1 ms; the target is ~real_time_factor.
+  ASSERT_FALSE(ego.simulation_reports.empty());
+  for (const auto& r : ego.simulation_reports)
+  {
+    const double sim = std::stod(value(r, "sim time (s)"));
+    EXPECT_NEAR(std::stod(value(r, "steps")) * 0.001, sim, 1e-6);
+    EXPECT_EQ(value(r, "real-time factor target"), "2");
+    EXPECT_GT(std::stod(value(r, "real-time factor")), 0.0);
+  }
 }
 
 TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)

@@ -28,6 +28,7 @@
 #include <avsp_msgs/RadarTargetArray.h>
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/TerrainPatch.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
@@ -62,6 +63,7 @@ namespace
 // The scenario (sensors_node.test and the placement below).
 constexpr double kStep = 0.01;                  // s, odometry period
 constexpr int kSteps = 650;                     // 0 .. 6.5 s of sim time
+constexpr double kLagJump = 5.0;                // s, /clock ahead of the last odometry at the end
 constexpr double kFrom = 1.0, kTo = 6.0;        // s, the window the rates are counted in
 constexpr double kEgoX = 30.0, kEgoY = 131.0;   // m, on the concrete pad, facing east
 constexpr double kOtherX0 = 45.0, kOtherSpeed = 2.0;  // m, m/s: other drives east from here
@@ -164,6 +166,9 @@ struct Scenario
   Topic<avsp_msgs::ClassTable> classes;
   std::vector<std::string> warnings;
   ros::Subscriber log_sub;
+  std::vector<diagnostic_msgs::DiagnosticStatus> diagnostics;  // sensors_node's, in arrival order
+  std::size_t diagnostics_in_lockstep = 0;  // how many came before the clock ran ahead
+  ros::Subscriber diagnostics_sub;
   bool completed = false;
   std::string failure;
 
@@ -225,6 +230,12 @@ void runScenario(Scenario& r)
     r.imus[p + "/imu/data"].subscribe(nh, p + "/imu/data");
     r.mags[p + "/mag"].subscribe(nh, p + "/mag");
   }
+  r.diagnostics_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&r](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        for (const auto& s : m->status)
+          if (s.name.rfind("sensors: ", 0) == 0)
+            r.diagnostics.push_back(s);
+      });
   r.markers["/ego/octomap/occupied_cells"].subscribe(nh, "/ego/octomap/occupied_cells");
   r.markers["/ego/lidar/cluster_markers"].subscribe(nh, "/ego/lidar/cluster_markers");
   r.clusters.subscribe(nh, "/ego/lidar/clusters");
@@ -318,6 +329,24 @@ void runScenario(Scenario& r)
   }
   // The last outputs of the last step (published after the IMU's) and the rosout backlog.
   spinUntil([] { return false; }, 1.0);
+  // The clock runs kLagJump past the last odometry: sensors_node's next /diagnostics report
+  // must say how far behind it the sensing is.
+  r.diagnostics_in_lockstep = r.diagnostics.size();
+  rosgraph_msgs::Clock ahead;
+  ahead.clock = ros::Time(kSteps * kStep + kLagJump);
+  clock_pub.publish(ahead);
+  if (!spinUntil(
+          [&] {
+            std::size_t seen = 0;
+            for (std::size_t k = r.diagnostics_in_lockstep; k < r.diagnostics.size(); ++k)
+              seen += r.diagnostics[k].name == "sensors: ego" || r.diagnostics[k].name == "sensors: other";
+            return seen >= 2;
+          },
+          30.0))
+  {
+    r.failure = "no /diagnostics report of both vehicles after the clock ran ahead";
+    return;
+  }
   r.completed = true;
   std::printf("[sensors_node test] %d lockstep steps (%.1f s of sim time) in %.1f s of wall time\n", kSteps,
               kSteps * kStep, (ros::WallTime::now() - wall_start).toSec());
@@ -852,6 +881,71 @@ TEST_F(SensorsNode, BadMessagesAreIgnoredWithAWarningNamingTheTopic)
   EXPECT_TRUE(warned({ "/terrain/toppled ignored", "999999" }));
   EXPECT_TRUE(warned({ "/environment ignored", "fog_visibility" }));
   // The node kept going: every IMU step was answered (the lockstep completed).
+}
+
+/// The value of `key` in a diagnostic status as a number (NaN when absent).
+double numberOf(const diagnostic_msgs::DiagnosticStatus& s, const std::string& key)
+{
+  for (const auto& kv : s.values)
+    if (kv.key == key)
+      return std::stod(kv.value);
+  return std::nan("");
+}
+
+TEST_F(SensorsNode, DiagnosticsSayHowFarBehindTheClockTheSensingIsAndWhatWasIgnored)
+{
+  // In the lockstep the sensing keeps up with the clock to one step (a state may even be
+  // sensed just before its clock tick arrives); one report per vehicle every 1 s of sim time.
+  std::map<std::string, int> lockstep_reports;
+  bool ego_warned = false, inputs_warned = false;
+  for (std::size_t k = 0; k < run->diagnostics_in_lockstep; ++k)
+  {
+    const diagnostic_msgs::DiagnosticStatus& s = run->diagnostics[k];
+    ++lockstep_reports[s.name];
+    if (s.name == "sensors: inputs")
+    {
+      inputs_warned = inputs_warned || s.level == diagnostic_msgs::DiagnosticStatus::WARN;
+      continue;
+    }
+    EXPECT_LE(std::abs(numberOf(s, "behind /clock (s)")), kStep + 1e-6) << s.name << ": " << s.message;
+    if (s.name == "sensors: ego" && s.level == diagnostic_msgs::DiagnosticStatus::WARN)
+      ego_warned = ego_warned || s.message.find("odometry message(s) ignored") != std::string::npos;
+  }
+  for (const char* name : { "sensors: ego", "sensors: other", "sensors: inputs" })
+  {
+    EXPECT_GE(lockstep_reports[name], static_cast<int>(kSteps * kStep) - 1) << name;
+    EXPECT_LE(lockstep_reports[name], static_cast<int>(kSteps * kStep) + 1) << name;
+  }
+  EXPECT_TRUE(ego_warned) << "the report after the NaN odometry must warn";
+  EXPECT_TRUE(inputs_warned) << "the report after the bad rut, topple and environment must warn";
+
+  // After the clock ran ahead: kLagJump behind, a warning (> ~max_lag, 1 s); every state sensed
+  // once; ego's NaN odometry the only one ignored.
+  std::map<std::string, diagnostic_msgs::DiagnosticStatus> last;
+  for (std::size_t k = run->diagnostics_in_lockstep; k < run->diagnostics.size(); ++k)
+    last[run->diagnostics[k].name] = run->diagnostics[k];
+  for (const char* name : { "sensors: ego", "sensors: other" })
+  {
+    ASSERT_EQ(last.count(name), 1u) << name;
+    const diagnostic_msgs::DiagnosticStatus& s = last[name];
+    EXPECT_NEAR(numberOf(s, "behind /clock (s)"), kLagJump, 1e-6) << name;
+    EXPECT_NEAR(numberOf(s, "sensed up to (s)"), kSteps * kStep, 1e-9) << name;
+    EXPECT_EQ(numberOf(s, "states sensed"), kSteps + 1) << name;
+    EXPECT_EQ(numberOf(s, "times waited out"), 0.0) << name;
+    EXPECT_EQ(s.level, diagnostic_msgs::DiagnosticStatus::WARN) << name;
+    EXPECT_NE(s.message.find("5.00 s behind /clock"), std::string::npos) << s.message;
+    EXPECT_EQ(s.hardware_id, "/sensors");
+  }
+  EXPECT_EQ(numberOf(last["sensors: ego"], "odometry ignored"), 1.0);
+  EXPECT_EQ(numberOf(last["sensors: other"], "odometry ignored"), 0.0);
+  ASSERT_GT(run->diagnostics_in_lockstep, 0u);
+  diagnostic_msgs::DiagnosticStatus inputs;
+  for (const auto& s : run->diagnostics)
+    if (s.name == "sensors: inputs")
+      inputs = s;
+  EXPECT_EQ(numberOf(inputs, "/terrain/ruts ignored"), 1.0);     // the patch at 0.3 m
+  EXPECT_EQ(numberOf(inputs, "/terrain/toppled ignored"), 1.0);  // object 999999
+  EXPECT_EQ(numberOf(inputs, "/environment ignored"), 1.0);      // fog_visibility -1
 }
 
 TEST_F(SensorsNode, CameraImagesAndInfoAtTheirRateInTheOpticalFrame)

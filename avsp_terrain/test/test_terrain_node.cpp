@@ -23,8 +23,10 @@
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/TerrainPatch.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "avsp_terrain/default_course.hpp"
@@ -442,6 +444,110 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
       EXPECT_NEAR(m.pose.orientation.y, 0.0, 1e-12) << "object " << m.id << " tipped";
     }
   }
+}
+
+/// The value of `key` in a diagnostic status ("" when absent).
+std::string valueOf(const diagnostic_msgs::DiagnosticStatus& s, const std::string& key)
+{
+  for (const auto& kv : s.values)
+    if (kv.key == key)
+      return kv.value;
+  return "";
+}
+
+// terrain_node's /diagnostics ("terrain: inputs", every ~diagnostic_period = 1 s of sim time):
+// the messages it ignored per input topic. The test is the clock here (nothing else publishes
+// /clock in this launch); it sends 3 bad patches, 2 bad topples and 1 bad /environment and
+// waits for the counts to grow by exactly that.
+TEST_F(Fixture, DiagnosticsCountTheMessagesIgnoredPerTopic)
+{
+  ros::NodeHandle nh;
+  std::vector<diagnostic_msgs::DiagnosticStatus> reports;
+  ros::Subscriber sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        for (const auto& s : m->status)
+          if (s.name == "terrain: inputs")
+            reports.push_back(s);
+      });
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ros::Publisher patch_pub = nh.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
+  ros::Publisher toppled_pub = nh.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 10);
+  ros::Publisher env_pub = nh.advertise<avsp_msgs::Environment>("/environment", 10);
+  ASSERT_TRUE(spinUntil([&] {
+    return clock_pub.getNumSubscribers() > 0 && patch_pub.getNumSubscribers() > 0 &&
+           toppled_pub.getNumSubscribers() > 0 && env_pub.getNumSubscribers() > 0 && sub.getNumPublishers() > 0;
+  })) << "terrain_node did not connect to /clock, its inputs and /diagnostics";
+  double t = 100.0;
+  // Moves the clock on by 2 s (more than the period) and waits for the report it gives.
+  auto nextReport = [&]() -> bool {
+    const std::size_t n = reports.size();
+    t += 2.0;
+    rosgraph_msgs::Clock c;
+    c.clock = ros::Time(t);
+    clock_pub.publish(c);
+    return spinUntil([&] { return reports.size() > n; }, 30.0);
+  };
+  ASSERT_TRUE(nextReport()) << "no terrain: inputs status on /diagnostics";
+  const diagnostic_msgs::DiagnosticStatus before = reports.back();
+  for (const char* key : { "/terrain/ruts ignored", "/terrain/toppled ignored", "/environment ignored",
+                           "/terrain/ruts applied", "mesh chunks waiting" })
+    EXPECT_FALSE(valueOf(before, key).empty()) << key;
+  auto grown = [&](const diagnostic_msgs::DiagnosticStatus& s, const std::string& key) {
+    return std::stoull(valueOf(s, key)) - std::stoull(valueOf(before, key));
+  };
+
+  const at::ElevationGrid& g = course->heights;
+  avsp_msgs::TerrainPatch bad;
+  bad.header.frame_id = "map";
+  bad.origin.x = g.originX() + 100 * g.dx();
+  bad.origin.y = g.originY() + 100 * g.dy();
+  bad.resolution = 0.25;  // the course's cells are 0.5 m
+  bad.width = 2;
+  bad.height = 2;
+  bad.heights.assign(4, 0.0f);
+  patch_pub.publish(bad);
+  bad.resolution = g.dx();
+  bad.heights.pop_back();  // 3 heights for 2 x 2
+  patch_pub.publish(bad);
+  bad.heights.assign(4, 0.0f);
+  bad.header.frame_id = "odom";
+  patch_pub.publish(bad);
+  avsp_msgs::ObjectToppled topple;
+  topple.header.frame_id = "map";
+  topple.id = static_cast<std::uint32_t>(course->objects.size());  // no such object
+  toppled_pub.publish(topple);
+  topple.id = 0;
+  topple.header.frame_id = "odom";
+  toppled_pub.publish(topple);
+  avsp_msgs::Environment env;
+  env.header.stamp = ros::Time(t);
+  env.rain_rate_mm_h = std::nan("");
+  env_pub.publish(env);
+
+  // Reports until all six are counted (they may arrive over more than one report).
+  bool counted = false;
+  bool warned = false;
+  for (int k = 0; k < 15 && !counted; ++k)
+  {
+    ASSERT_TRUE(nextReport());
+    const diagnostic_msgs::DiagnosticStatus& r = reports.back();
+    warned = warned || (r.level == diagnostic_msgs::DiagnosticStatus::WARN &&
+                        r.message.find("ignored since the last report") != std::string::npos);
+    counted = grown(r, "/terrain/ruts ignored") == 3 && grown(r, "/terrain/toppled ignored") == 2 &&
+              grown(r, "/environment ignored") == 1;
+  }
+  ASSERT_TRUE(counted) << "last report: ruts " << valueOf(reports.back(), "/terrain/ruts ignored") << ", toppled "
+                       << valueOf(reports.back(), "/terrain/toppled ignored") << ", environment "
+                       << valueOf(reports.back(), "/environment ignored") << " (before: "
+                       << valueOf(before, "/terrain/ruts ignored") << ", "
+                       << valueOf(before, "/terrain/toppled ignored") << ", "
+                       << valueOf(before, "/environment ignored") << ")";
+  EXPECT_TRUE(warned) << "a report that counts new ignored messages is a warning";
+  EXPECT_EQ(grown(reports.back(), "/terrain/ruts applied"), 0u);
+  // Nothing new: the next report is OK again.
+  ASSERT_TRUE(nextReport());
+  EXPECT_EQ(reports.back().level, diagnostic_msgs::DiagnosticStatus::OK) << reports.back().message;
+  EXPECT_EQ(reports.back().hardware_id, "/terrain");
 }
 
 /// Runs terrain_node with bad parameters: it must exit 1 and say which parameter or file.

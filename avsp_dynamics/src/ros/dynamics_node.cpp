@@ -50,6 +50,7 @@
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>
@@ -71,6 +72,7 @@
 #include "avsp_dynamics/collision_counter.hpp"
 #include "avsp_dynamics/partition_reach.hpp"
 #include "avsp_dynamics/partition_runner.hpp"
+#include "avsp_dynamics/real_time_factor.hpp"
 #include "avsp_dynamics/ros/conversions.hpp"
 #include "avsp_dynamics/ros/exchange_transport.hpp"
 #include "avsp_dynamics/stuck_detector.hpp"
@@ -188,6 +190,10 @@ struct VehicleIo
   std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
   double rut_margin = 0.0;                  ///< m, a contact's reach beyond its centre
   ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
+  // Commands from either topic, for /diagnostics: received, rejected (NaN, unknown gear),
+  // clamped, and superseded (another came before a step took it: never applied).
+  std::uint64_t commands = 0, refused = 0, clamped = 0, superseded = 0;
+  std::uint64_t refused_reported = 0;       ///< `refused` at the last diagnostics publication
   ad::CollisionCounter collisions;          ///< VehicleTelemetry.collisions
   sensor_msgs::JointState joints;           ///< names fixed at start-up, values per publication
   // Area the wheels ran over since the last rut publication (map x, y, m).
@@ -233,6 +239,7 @@ public:
       done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
       tick_sub_ = nh_.subscribe("/clock", 100, &Impl::onTick, this, ros::TransportHints().tcpNoDelay());
     }
+    setUpDiagnostics();
     ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
              source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
              real_time_factor_);
@@ -902,13 +909,20 @@ private:
   void accept(VehicleIo& v, const std::string& topic, ad::CommandCheck check,
               const avsp_msgs::DriveCommand& cmd, const std::string& why)
   {
+    ++v.commands;
     if (check == ad::CommandCheck::kRejected)
     {
+      ++v.refused;
       ROS_WARN_THROTTLE(2.0, "dynamics_node: %s rejected: %s", topic.c_str(), why.c_str());
       return;
     }
     if (check == ad::CommandCheck::kClamped)
+    {
+      ++v.clamped;
       ROS_WARN_THROTTLE(2.0, "dynamics_node: %s clamped: %s", topic.c_str(), why.c_str());
+    }
+    if (v.pending)
+      ++v.superseded;
     v.pending = ad::node::toDriveCommand(cmd);
   }
 
@@ -1035,6 +1049,75 @@ private:
         publishTelemetry(*v, s, t);
     }
     tf_.sendTransform(transforms_);
+    rtf_.add(world_->time(), ros::WallTime::now().toSec());
+    diagnostics_->update();
+  }
+
+  // ---- /diagnostics (diagnostic_updater) ---------------------------------------------------
+  // Published every ~diagnostic_period of sim time, checked at every odometry publication:
+  // "<node>: simulation" (sim time, the real-time factor achieved over the last 5 s of wall
+  // time, behind an external clock) and "<node>: <vehicle>" (stuck, commands refused).
+
+  void setUpDiagnostics()
+  {
+    // Validated here; diagnostic_updater reads the same parameter itself.
+    boundedParam(pnh_, "diagnostic_period", 1.0, 0.01, 3600.0);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+    diagnostics_->setHardwareID(ros::this_node::getName());
+    diagnostics_->add("simulation", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { simulationStatus(s); });
+    for (const auto& v : vehicles_)
+    {
+      VehicleIo* raw = v.get();
+      diagnostics_->add(v->name, [this, raw](diagnostic_updater::DiagnosticStatusWrapper& s) {
+        vehicleStatus(*raw, s);
+      });
+    }
+  }
+
+  void simulationStatus(diagnostic_updater::DiagnosticStatusWrapper& s) const
+  {
+    const std::optional<double> rtf = rtf_.factor();
+    s.add("sim time (s)", world_->time());
+    s.add("steps", world_->stepCount());
+    s.add("real-time factor", rtf ? *rtf : 0.0);
+    s.add("real-time factor window (wall s)", rtf_.span());
+    s.add("real-time factor target", real_time_factor_);  // 0: as fast as it can
+    if (!publish_clock_)
+      s.add("behind /clock (s)", (ros::Time::now() - stamp()).toSec());
+    if (real_time_factor_ > 0.0 && rtf && *rtf < kRealTimeFactorShare * real_time_factor_)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "running at %.2fx, below %.0f %% of the target %.2fx", *rtf,
+                 100.0 * kRealTimeFactorShare, real_time_factor_);
+    else if (rtf)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "running at %.2fx", *rtf);
+    else
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "starting");
+  }
+
+  void vehicleStatus(VehicleIo& v, diagnostic_updater::DiagnosticStatusWrapper& s)
+  {
+    const double now = world_->time();
+    s.add("stuck", v.stuck.stuck());
+    s.add("stuck for (s)", v.stuck.heldFor(now));
+    s.add("collisions", v.collisions.count());
+    s.add("commands received", v.commands);
+    s.add("commands refused", v.refused);
+    s.add("commands clamped", v.clamped);
+    s.add("commands superseded", v.superseded);
+    s.add("command age (s)", v.last ? now - v.last_time : std::numeric_limits<double>::infinity());
+    s.add("parking brake", hold_until_throttle_ && !v.released);
+    const std::uint64_t new_refused = v.refused - v.refused_reported;
+    v.refused_reported = v.refused;
+    if (v.stuck.stuck())
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "stuck for %.1f s", v.stuck.heldFor(now));
+    else if (new_refused > 0)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu command(s) refused since the last report",
+                 static_cast<unsigned long long>(new_refused));
+    else if (!v.last)
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "braked: no command yet");
+    else if (now - v.last_time > command_timeout_)
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "braked: the last command is stale");
+    else
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "commanded");
   }
 
   /// URDF joint names (robot_state_publisher in the vehicle's namespace prefixes frames), in
@@ -1209,6 +1292,10 @@ private:
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_;
+  /// Below this share of ~real_time_factor the simulation status is a warning.
+  static constexpr double kRealTimeFactorShare = 0.9;
+  ad::RealTimeFactorWindow rtf_{ 5.0 };  ///< sim over wall time, the last 5 s of wall time
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
 };
 
 DynamicsNode::DynamicsNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : impl_(std::make_unique<Impl>(nh, pnh))

@@ -18,6 +18,7 @@
 // callbacks only queue states, the main loop senses the times that are complete.
 #include "avsp_sensors/ros/sensors_node.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdint>
@@ -36,6 +37,7 @@
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/TerrainPatch.h>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <image_transport/image_transport.h>
 #include <ros/callback_queue.h>
@@ -132,6 +134,11 @@ struct VehicleIo
   std::vector<as::BodyBox> boxes;
   std::string odom_topic, base_frame;
   double last_stamp = -1.0;  ///< s, the last state queued (an equal stamp is a re-send)
+  double sensed = 0.0;       ///< s, the time of the last state sensed (/diagnostics' lag)
+  std::uint64_t states_sensed = 0;
+  std::uint64_t odometry_ignored = 0;  ///< bad, repeated-back or late odometry messages
+  std::uint64_t ignored_reported = 0;  ///< `odometry_ignored` at the last diagnostics publication
+  std::uint64_t waited_out = 0;        ///< times the others went on without it (~odometry_timeout)
   std::string lidar_frame, radar_frame, gps_frame, imu_frame, mag_frame;
   std::vector<std::string> range_frames;
   ros::Subscriber odom_sub;
@@ -153,7 +160,7 @@ struct VehicleIo
   // Cameras (README, "Cameras"): the rig, and per camera its publishers and optical frame.
   struct CameraIo
   {
-    std::string frame;  ///< <vehicle>/<camera>_optical
+    std::string frame;  ///< <vehicle>/<camera>_optical (a stereo half: <vehicle>/<pair>_left_optical)
     image_transport::Publisher rgb, depth, semantic, thermal;
     ros::Publisher info;
   };
@@ -184,6 +191,9 @@ public:
     const int seed = boundedIntParam(pnh_, "seed", 0, 0, 2147483647);
     threads_ = static_cast<unsigned>(boundedIntParam(pnh_, "threads", 0, 0, 256));
     const double timeout = boundedParam(pnh_, "odometry_timeout", 1.0, 0.0, 3600.0);
+    max_lag_ = boundedParam(pnh_, "max_lag", 1.0, 0.0, 3600.0);
+    // Validated here; diagnostic_updater reads the same parameter itself.
+    boundedParam(pnh_, "diagnostic_period", 1.0, 0.01, 3600.0);
     const float body_reflectivity = static_cast<float>(boundedParam(pnh_, "body_reflectivity", 0.5, 0.0, 1.0));
     body_reflectivity_ = body_reflectivity;
     const std::optional<as::EnuFrame> origin = readOrigin(asn::needsOrigin(specs));
@@ -203,6 +213,7 @@ public:
     loadScene(soils_file);
     sync_ = std::make_unique<as::StateSynchronizer>(vehicles_.size(), timeout);
     advertise();
+    setUpDiagnostics();
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &Impl::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &Impl::onToppled, this);
     environment_sub_ = nh_.subscribe("/environment", 10, &Impl::onEnvironment, this);
@@ -378,7 +389,10 @@ private:
     for (std::size_t k = 0; k < cameras.size(); ++k)
     {
       VehicleIo::CameraIo io;
-      io.frame = v.name + "/" + cameras[k].name + "_optical";
+      // A stereo half's name is <pair>/left: its frame <v>/<pair>_left_optical (one level).
+      std::string flat = cameras[k].name;
+      std::replace(flat.begin(), flat.end(), '/', '_');
+      io.frame = v.name + "/" + flat + "_optical";
       staticFrame(v.base_frame, io.frame, v.camera_rig->opticalMount(k));
       v.camera_io.push_back(io);
     }
@@ -555,6 +569,7 @@ private:
     std::string why;
     if (!asn::stateFromOdometry(msg, world_frame_, v.base_frame, state, why))
     {
+      ++v.odometry_ignored;
       warnThrottled(2.0, "sensors_node: %s ignored: %s; the vehicle keeps its last good state",
                         v.odom_topic.c_str(), why.c_str());
       return;
@@ -567,10 +582,12 @@ private:
         v.last_stamp = state.time;
         break;
       case as::StateSynchronizer::Push::kNotAfterLast:
+        ++v.odometry_ignored;
         warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s is not after the previous one",
                           v.odom_topic.c_str(), state.time);
         return;
       case as::StateSynchronizer::Push::kLate:
+        ++v.odometry_ignored;
         warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s arrived after the sensors moved past it "
                                "(the vehicle was silent longer than ~odometry_timeout)",
                           v.odom_topic.c_str(), state.time);
@@ -592,6 +609,7 @@ private:
     const std::string publisher = event.getPublisherName();
     if (!msg->header.frame_id.empty() && msg->header.frame_id != "map" && msg->header.frame_id != world_frame_)
     {
+      ++ignored_["/terrain/ruts"];
       warnThrottled(5.0, "sensors_node: /terrain/ruts from %s in frame '%s', expected 'map'; ignored",
                         publisher.c_str(), msg->header.frame_id.c_str());
       return;
@@ -603,6 +621,7 @@ private:
       }
       catch (const std::invalid_argument& e)
       {
+        ++ignored_["/terrain/ruts"];
         warnThrottled(5.0, "sensors_node: /terrain/ruts from %s rejected: %s", publisher.c_str(), e.what());
       }
     });
@@ -612,6 +631,7 @@ private:
   {
     if (!msg->header.frame_id.empty() && msg->header.frame_id != "map" && msg->header.frame_id != world_frame_)
     {
+      ++ignored_["/terrain/toppled"];
       warnThrottled(5.0, "sensors_node: /terrain/toppled ignored: frame '%s', expected 'map'",
                         msg->header.frame_id.c_str());
       return;
@@ -621,7 +641,10 @@ private:
       if (objects_.applyToppled(msg->id, msg->fall_direction, why))
         scene_->setObjects(objects_);
       else
+      {
+        ++ignored_["/terrain/toppled"];
         warnThrottled(5.0, "sensors_node: /terrain/toppled ignored: %s", why.c_str());
+      }
     });
   }
 
@@ -631,6 +654,7 @@ private:
     std::string why;
     if (!asn::weatherFromEnvironment(*msg, weather, why))
     {
+      ++ignored_["/environment"];
       warnThrottled(5.0, "sensors_node: /environment ignored: %s; the lidar keeps the last good weather",
                         why.c_str());
       return;
@@ -672,6 +696,65 @@ private:
     return true;
   }
 
+  // ---- /diagnostics (diagnostic_updater) ---------------------------------------------------
+  // Every ~diagnostic_period of sim time: "<node>: <vehicle>" (how far its sensing is behind
+  // /clock, states sensed, odometry ignored) and "<node>: inputs" (world messages ignored).
+public:
+  void setUpDiagnostics()
+  {
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+    diagnostics_->setHardwareID(ros::this_node::getName());
+    for (const auto& v : vehicles_)
+    {
+      VehicleIo* raw = v.get();
+      diagnostics_->add(v->name, [this, raw](diagnostic_updater::DiagnosticStatusWrapper& s) {
+        vehicleStatus(*raw, s);
+      });
+    }
+    diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { inputStatus(s); });
+  }
+
+  void updateDiagnostics() { diagnostics_->update(); }
+
+private:
+  void vehicleStatus(VehicleIo& v, diagnostic_updater::DiagnosticStatusWrapper& s)
+  {
+    const double lag = ros::Time::now().toSec() - v.sensed;
+    s.add("behind /clock (s)", lag);
+    s.add("sensed up to (s)", v.sensed);
+    s.add("states sensed", v.states_sensed);
+    s.add("odometry ignored", v.odometry_ignored);
+    s.add("times waited out", v.waited_out);
+    const std::uint64_t new_ignored = v.odometry_ignored - v.ignored_reported;
+    v.ignored_reported = v.odometry_ignored;
+    if (lag > max_lag_)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "sensing %.2f s behind /clock (~max_lag %.2f s)", lag,
+                 max_lag_);
+    else if (new_ignored > 0)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu odometry message(s) ignored since the last report",
+                 static_cast<unsigned long long>(new_ignored));
+    else
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "sensing %.2f s behind /clock", lag);
+  }
+
+  void inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s)
+  {
+    std::uint64_t total = 0;
+    for (const char* topic : { "/terrain/ruts", "/terrain/toppled", "/environment" })
+    {
+      const std::uint64_t n = ignored_[topic];
+      s.add(std::string(topic) + " ignored", n);
+      total += n;
+    }
+    s.add("world changes pending", events_.size());
+    if (total > ignored_reported_)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu message(s) ignored since the last report",
+                 static_cast<unsigned long long>(total - ignored_reported_));
+    else
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "no input ignored since the last report");
+    ignored_reported_ = total;
+  }
+
   // ---- sensing ---------------------------------------------------------------------------
 public:
   /// Runs every time whose states are complete, in time order (after the callbacks that were
@@ -685,6 +768,8 @@ public:
       std::optional<as::StateSynchronizer::Batch> batch = sync_->next();
       if (!batch)
         break;
+      for (std::size_t k : sync_->waitedOut())
+        ++vehicles_[k]->waited_out;
       for (std::size_t k : sync_->waitedOut())
         warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going on "
                            "without it",
@@ -705,7 +790,13 @@ public:
       appendAgentBodies(bodies, batch->time);
       scene_->setBodies(std::move(bodies));
       for (std::size_t k = 0; k < batch->vehicles.size(); ++k)
-        sense(*vehicles_[batch->vehicles[k]], batch->states[k]);
+      {
+        VehicleIo& v = *vehicles_[batch->vehicles[k]];
+        sense(v, batch->states[k]);
+        v.sensed = batch->states[k].time;
+        ++v.states_sensed;
+      }
+      diagnostics_->update();
       if (!lockstep_partition_.empty())
       {
         // Every interval end up to this time is sensed.
@@ -906,6 +997,10 @@ private:
   std::vector<geometry_msgs::TransformStamped> static_frames_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Subscriber ruts_sub_, toppled_sub_, environment_sub_;
+  double max_lag_ = 1.0;  ///< s, ~max_lag: sensing further behind /clock is a warning
+  std::map<std::string, std::uint64_t> ignored_;  ///< messages ignored per input topic
+  std::uint64_t ignored_reported_ = 0;            ///< their sum at the last diagnostics publication
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   std::string lockstep_partition_;   ///< ~lockstep_partition ("" = not in the lockstep)
   double lockstep_interval_ = 0.01;  ///< s, lockstep_clock's ~sync_interval
   std::optional<double> reported_;   ///< last interval end reported sensed, s
@@ -935,6 +1030,7 @@ int SensorsNode::spin()
   {
     queue->callAvailable(ros::WallDuration(0.01));
     impl_->drain();
+    impl_->updateDiagnostics();
   }
   impl_->reportCosts();  // after shutdown: rosconsole no longer prints, so plain stdout
   return 0;

@@ -24,6 +24,7 @@
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_terrain/ros/node_params.hpp>
 #include <ros/package.h>
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -153,6 +154,7 @@ public:
     environment_sub_ = nh_.subscribe("/environment", 10, &Impl::onEnvironment, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &Impl::onToppled, this);
     save_service_ = pnh_.advertiseService("save_map", &Impl::onSaveMap, this);
+    setUpDiagnostics();
 
     publishObjects();
     mesh_markers_.resize(mesher_->chunkCount());
@@ -380,9 +382,11 @@ private:
       why = "frame '" + msg.header.frame_id + "', expected '" + frame_id_ + "'";
     else if (objects_.applyToppled(msg.id, msg.fall_direction, why))
     {
+      ++toppled_.applied;
       publishObjects();
       return;
     }
+    ++toppled_.ignored;
     ROS_WARN_THROTTLE(5.0, "terrain_node: /terrain/toppled ignored: %s", why.c_str());
   }
 
@@ -393,6 +397,7 @@ private:
     const avsp_msgs::TerrainPatch& msg = *event.getMessage();
     if (!msg.header.frame_id.empty() && msg.header.frame_id != frame_id_)
     {
+      ++ruts_.ignored;
       ROS_WARN_THROTTLE(5.0, "terrain_node: /terrain/ruts from %s in frame '%s', expected '%s'; ignored",
                         event.getPublisherName().c_str(), msg.header.frame_id.c_str(), frame_id_.c_str());
       return;
@@ -400,6 +405,7 @@ private:
     try
     {
       const std::optional<at::PointRange> range = at::applyPatch(*terrain_, at::node::heightPatchFromMessage(msg));
+      ++ruts_.applied;
       if (!range)
         return;
       for (std::size_t id : mesher_->chunksTouching(*range))
@@ -407,6 +413,7 @@ private:
     }
     catch (const at::PatchError& e)
     {
+      ++ruts_.ignored;
       ROS_WARN_THROTTLE(5.0, "terrain_node: /terrain/ruts from %s rejected: %s", event.getPublisherName().c_str(),
                         e.what());
     }
@@ -417,11 +424,13 @@ private:
     const double rain = msg.rain_rate_mm_h, snow = msg.snow_rate_mm_h;
     if (!std::isfinite(rain) || rain < 0.0 || !std::isfinite(snow) || snow < 0.0)
     {
+      ++environment_.ignored;
       ROS_WARN_THROTTLE(5.0, "terrain_node: /environment rain_rate_mm_h %g / snow_rate_mm_h %g must be finite and "
                              ">= 0; message ignored, soil kept as it was",
                         rain, snow);
       return;
     }
+    ++environment_.applied;
     const ros::Time stamp = msg.header.stamp;
     if (last_environment_.isZero())
     {
@@ -529,6 +538,51 @@ private:
   ros::Publisher mesh_pub_, rut_markers_pub_, objects_pub_, ruts_pub_;
   ros::Subscriber ruts_sub_, environment_sub_, toppled_sub_;
   ros::ServiceServer save_service_;
+
+  // ---- /diagnostics (diagnostic_updater): "<node>: inputs" every ~diagnostic_period of sim
+  // time, the messages applied and ignored per input topic.
+public:
+  void setUpDiagnostics()
+  {
+    // Validated here; diagnostic_updater reads the same parameter itself.
+    avsp::node::boundedParam(pnh_, "diagnostic_period", 1.0, 0.01, 3600.0);
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+    diagnostics_->setHardwareID(ros::this_node::getName());
+    diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { inputStatus(s); });
+  }
+
+  void updateDiagnostics() { diagnostics_->update(); }
+
+private:
+  struct InputCount
+  {
+    std::uint64_t applied = 0, ignored = 0;
+  };
+
+  void inputStatus(diagnostic_updater::DiagnosticStatusWrapper& s)
+  {
+    const std::pair<const char*, const InputCount*> inputs[] = { { "/terrain/ruts", &ruts_ },
+                                                                 { "/terrain/toppled", &toppled_ },
+                                                                 { "/environment", &environment_ } };
+    std::uint64_t ignored = 0;
+    for (const auto& [topic, count] : inputs)
+    {
+      s.add(std::string(topic) + " applied", count->applied);
+      s.add(std::string(topic) + " ignored", count->ignored);
+      ignored += count->ignored;
+    }
+    s.add("mesh chunks waiting", dirty_chunks_.size());
+    if (ignored > ignored_reported_)
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu message(s) ignored since the last report",
+                 static_cast<unsigned long long>(ignored - ignored_reported_));
+    else
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "no input ignored since the last report");
+    ignored_reported_ = ignored;
+  }
+
+  InputCount ruts_, toppled_, environment_;
+  std::uint64_t ignored_reported_ = 0;  ///< ignored messages at the last diagnostics publication
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
 };
 TerrainNode::TerrainNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : impl_(std::make_unique<Impl>(nh, pnh))
 {
@@ -549,6 +603,7 @@ int TerrainNode::spin()
   {
     ros::spinOnce();
     impl_->publishDirtyChunks();
+    impl_->updateDiagnostics();
     rate.sleep();
   }
   return 0;

@@ -1,0 +1,74 @@
+// RealTimeFactorWindow: sim time over wall time on a sliding wall-time window.
+#include <cmath>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "avsp_dynamics/real_time_factor.hpp"
+
+using avsp::dynamics::RealTimeFactorWindow;
+
+TEST(RealTimeFactorWindow, NothingUntilTwoSamplesApartInWallTime)
+{
+  RealTimeFactorWindow w(5.0);
+  EXPECT_FALSE(w.factor());
+  w.add(0.0, 10.0);
+  EXPECT_FALSE(w.factor());
+  w.add(0.01, 10.0);  // same wall instant: no span yet
+  EXPECT_FALSE(w.factor());
+  EXPECT_EQ(w.span(), 0.0);
+  w.add(1.01, 10.5);
+  ASSERT_TRUE(w.factor());
+  EXPECT_DOUBLE_EQ(*w.factor(), 1.01 / 0.5);
+  EXPECT_DOUBLE_EQ(w.span(), 0.5);
+}
+
+TEST(RealTimeFactorWindow, ASlowdownShowsOnceTheFastPartLeavesTheWindow)
+{
+  // 10 s of wall at 2x, then 10 s at 0.5x, sampled every 0.1 s of wall.
+  RealTimeFactorWindow w(4.0);
+  double sim = 0.0;
+  for (int k = 0; k <= 100; ++k)
+  {
+    w.add(sim, 0.1 * k);
+    sim += 0.2;
+  }
+  sim -= 0.2;
+  ASSERT_TRUE(w.factor());
+  EXPECT_NEAR(*w.factor(), 2.0, 1e-9);
+  EXPECT_NEAR(w.span(), 4.0, 1e-9);
+  for (int k = 101; k <= 200; ++k)
+  {
+    sim += 0.05;
+    w.add(sim, 0.1 * k);
+    if (k == 120)  // 2 s into the slow part: half the window each
+      EXPECT_NEAR(*w.factor(), (2.0 * 2.0 + 2.0 * 0.5) / 4.0, 1e-9);
+  }
+  EXPECT_NEAR(*w.factor(), 0.5, 1e-9);
+  EXPECT_NEAR(w.span(), 4.0, 1e-9);
+}
+
+TEST(RealTimeFactorWindow, SparseSamplesKeepTheLastOneBeyondTheWindow)
+{
+  // A sample every 3 s of wall with a 2 s window: the factor spans the last interval.
+  RealTimeFactorWindow w(2.0);
+  w.add(0.0, 0.0);
+  w.add(6.0, 3.0);
+  w.add(9.0, 6.0);
+  EXPECT_DOUBLE_EQ(*w.factor(), 1.0);
+  EXPECT_DOUBLE_EQ(w.span(), 3.0);
+}
+
+TEST(RealTimeFactorWindow, BadInputsAreRefused)
+{
+  EXPECT_THROW(RealTimeFactorWindow(0.0), std::invalid_argument);
+  EXPECT_THROW(RealTimeFactorWindow(-1.0), std::invalid_argument);
+  EXPECT_THROW(RealTimeFactorWindow(std::nan("")), std::invalid_argument);
+  RealTimeFactorWindow w;
+  w.add(1.0, 1.0);
+  EXPECT_THROW(w.add(0.5, 2.0), std::invalid_argument);
+  EXPECT_THROW(w.add(2.0, 0.5), std::invalid_argument);
+  EXPECT_THROW(w.add(std::nan(""), 2.0), std::invalid_argument);
+  EXPECT_THROW(w.add(2.0, INFINITY), std::invalid_argument);
+  EXPECT_DOUBLE_EQ(w.span(), 0.0);  // the refused samples changed nothing
+}
