@@ -85,6 +85,22 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
     EXPECT_EQ(m.rfind("t.yaml: vehicles[1].sensors (as sensors_node reads it for 'bravo'): ", 0), 0u) << m;
     EXPECT_NE(m.find("~vehicle_sensors/bravo/lidar/colour is not a known key"), std::string::npos) << m;
   }
+  // Cameras in a scenario are read by sensors_node's parser too: a good one passes, a bad key is
+  // named as the node would name it.
+  s.vehicles[1].sensors = YAML::Load("{cameras: [{name: front, width: 64, height: 48, rate: 2.0}]}");
+  EXPECT_NO_THROW(checkSensorsAsTheNodeWill(s, vehicles));
+  s.vehicles[1].sensors = YAML::Load("{cameras: [{name: front, lens: wide}]}");
+  try
+  {
+    checkSensorsAsTheNodeWill(s, vehicles);
+    FAIL() << "an unknown camera key passed";
+  }
+  catch (const as::ScenarioError& e)
+  {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind("t.yaml: vehicles[1].sensors (as sensors_node reads it for 'bravo'): ", 0), 0u) << m;
+    EXPECT_NE(m.find("~vehicle_sensors/bravo/cameras[0]/lens is not a known key"), std::string::npos) << m;
+  }
   s.vehicles[1].sensors = YAML::Node();
   s.sensors = YAML::Load("{lidar: {channels: sixteen}}");  // a wrong type in the shared section
   EXPECT_THROW(checkSensorsAsTheNodeWill(s, vehicles), as::ScenarioError);

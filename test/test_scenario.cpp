@@ -39,7 +39,7 @@ vehicles:
   - name: third
     model: tracer_x
     start: {x: -24, y: 0}
-    sensors: {lidar: {enabled: true, preset: VLP-16}}
+    sensors: {lidar: {enabled: true, preset: VLP-16}, cameras: [{name: front, width: 32, height: 24, rate: 2.0}]}
     controller: {type: leader_follower, params: {track_width_factor: 1.5}}
   - {name: ext, model: m113, start: {x: 0, y: 30, yaw: 1.5}, controller: {type: external}}
 v2v: {range: 250, latency: 0.02, loss_probability: 0.05}
@@ -210,6 +210,9 @@ TEST(Scenario, UnknownKeysAreNamed)
   n = base();
   n["vehicles"][2]["sensors"]["sonar"]["enabled"] = true;
   EXPECT_ERROR(errorOf(n), "vehicles[2].sensors.sonar: unknown key");
+  n = base();
+  n["vehicles"][2]["sensors"]["cameras"] = YAML::Load("{name: front}");  // one map, not a list
+  EXPECT_ERROR(errorOf(n), "vehicles[2].sensors.cameras: must be a list of sensors");
   n = base();
   n["terrain"]["flat"]["slope"] = 3;
   EXPECT_ERROR(errorOf(n), "terrain.flat.slope: unknown key");
@@ -597,6 +600,13 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   // sensors: shared sections, per-vehicle ones, geodetic reference.
   EXPECT_EQ(rosparamOf(xml, "sensors", "sensors")["lidar"]["enabled"].as<bool>(), false);
   EXPECT_EQ(rosparamOf(xml, "sensors", "vehicle_sensors/third")["lidar"]["preset"].as<std::string>(), "VLP-16");
+  // Cameras from the scenario file reach sensors_node as they were written.
+  const YAML::Node cameras = rosparamOf(xml, "sensors", "vehicle_sensors/third")["cameras"];
+  ASSERT_TRUE(cameras.IsSequence());
+  ASSERT_EQ(cameras.size(), 1u);
+  EXPECT_EQ(cameras[0]["name"].as<std::string>(), "front");
+  EXPECT_EQ(cameras[0]["width"].as<int>(), 32);
+  EXPECT_EQ(cameras[0]["rate"].as<double>(), 2.0);
   EXPECT_TRUE(rosparamOf(xml, "sensors", "vehicle_sensors/lead").IsNull());
   EXPECT_EQ(paramOf(xml, "sensors", "latitude"), "39.74");
   EXPECT_EQ(paramOf(xml, "sensors", "date"), "2025-06-21");  // the magnetometer's model date

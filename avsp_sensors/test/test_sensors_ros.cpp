@@ -230,8 +230,8 @@ TEST(SensorParams, CamerasParseWithTheirMountOutputsAndStereoPairs)
   EXPECT_FALSE(f.rgb || f.semantic);
   EXPECT_TRUE(f.depth && f.thermal);
   // The pair: left at the mount, right 0.4 m to its right, P's Tx = -B.
-  EXPECT_EQ(s.cameras[1].name, "stereo_left");
-  EXPECT_EQ(s.cameras[2].name, "stereo_right");
+  EXPECT_EQ(s.cameras[1].name, "stereo/left");
+  EXPECT_EQ(s.cameras[2].name, "stereo/right");
   EXPECT_TRUE(s.cameras[1].mount.translation().isApprox(Eigen::Vector3d(0, 0.2, 0)));
   EXPECT_TRUE(s.cameras[2].mount.translation().isApprox(Eigen::Vector3d(0, -0.2, 0)));
   EXPECT_DOUBLE_EQ(s.cameras[1].stereo_tx, 0.0);

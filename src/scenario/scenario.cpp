@@ -364,7 +364,7 @@ TerrainSpec readTerrain(const Context& ctx, const YAML::Node& node, const LoadOp
 
 /// Known sensor sections of sensors_node (~sensors, ~vehicle_sensors/<v>).
 const std::vector<std::string> kSensorSections = { "lidar", "radar", "gps", "imu", "magnetometer", "ultrasonic",
-                                                    "occupancy" };
+                                                    "cameras", "occupancy" };
 
 YAML::Node readSensors(const Context& ctx, const YAML::Node& node, const std::string& path)
 {
@@ -374,8 +374,9 @@ YAML::Node readSensors(const Context& ctx, const YAML::Node& node, const std::st
     const YAML::Node section = m.get(s);
     if (!section.IsDefined())
       continue;
-    if (s == "ultrasonic" ? !section.IsSequence() : !section.IsMap())
-      ctx.fail(m.key(s), s == "ultrasonic" ? "must be a list of sensors" : "must be a map of the section's keys");
+    const bool list = s == "ultrasonic" || s == "cameras";
+    if (list ? !section.IsSequence() : !section.IsMap())
+      ctx.fail(m.key(s), list ? "must be a list of sensors" : "must be a map of the section's keys");
   }
   m.finish();
   return YAML::Clone(node);

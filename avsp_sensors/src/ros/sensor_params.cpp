@@ -566,10 +566,11 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
     std::vector<CameraConfig> made;
     if (baseline > 0.0)
     {
-      // A pair: <name>_left at the mount, <name>_right baseline to its right (camera -y).
+      // A pair: <name>/left at the mount, <name>/right baseline to its right (camera -y); the
+      // topics <name>/left/image_raw ... are what stereo_image_proc in namespace <name> reads.
       CameraConfig left = c, right = c;
-      left.name = c.name + "_left";
-      right.name = c.name + "_right";
+      left.name = c.name + "/left";
+      right.name = c.name + "/right";
       right.mount.translation() = c.mount * Eigen::Vector3d(0.0, -baseline, 0.0);
       right.stereo_tx = -baseline;
       made = { left, right };
