@@ -5,6 +5,7 @@ description can serve several vehicles of the same model and TF frames read
 
 usage: python3 prefix_urdf.py URDF_FILE VEHICLE_NAME
 """
+import os
 import re
 import sys
 import xml.etree.ElementTree as ET
@@ -20,6 +21,14 @@ def main(argv):
     if not NAME.match(vehicle):
         sys.stderr.write("prefix_urdf: vehicle name '%s' must be a ROS name (letters, digits, _)\n" % vehicle)
         return 2
+    if not os.path.isfile(path):
+        # avt_341.launch model:=<m> reads urdf/<m>.urdf: an unknown model, said in one line.
+        folder = os.path.dirname(os.path.abspath(path))
+        known = sorted(f[:-5] for f in os.listdir(folder) if f.endswith(".urdf")) if os.path.isdir(folder) else []
+        model = os.path.basename(path)[:-5] if path.endswith(".urdf") else os.path.basename(path)
+        sys.stderr.write("prefix_urdf: unknown model '%s' (no %s); known models: %s\n"
+                         % (model, path, ", ".join(known) if known else "none in " + folder))
+        return 1
     try:
         tree = ET.parse(path)
     except (OSError, ET.ParseError) as err:
