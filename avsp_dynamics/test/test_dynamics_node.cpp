@@ -21,6 +21,7 @@
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <geometry_msgs/Twist.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <tf2_msgs/TFMessage.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -77,7 +78,8 @@ struct Ego
   avsp_msgs::VehicleTelemetry telemetry;  ///< the latest
   std::vector<diagnostic_msgs::DiagnosticStatus> ego_reports, simulation_reports;  ///< node "dynamics"
   std::size_t nan_sent = 0;               ///< NaN commands published on cmd_vel
-  ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub, diagnostics_sub;
+  std::vector<nav_msgs::Odometry> wheel_odom, truth;
+  ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub, diagnostics_sub, wheel_sub, truth_sub;
   ros::Publisher cmd_pub, drive_pub;
 
   Ego()
@@ -105,6 +107,10 @@ struct Ego
             else if (s.name == "dynamics: simulation")
               simulation_reports.push_back(s);
         });
+    wheel_sub = nh.subscribe<nav_msgs::Odometry>("/ego/wheel_odometry", 1000,
+                                                 [this](const nav_msgs::Odometry::ConstPtr& m) { wheel_odom.push_back(*m); });
+    truth_sub = nh.subscribe<nav_msgs::Odometry>("/ego/ground_truth/odometry", 1000,
+                                                 [this](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); });
     cmd_pub = nh.advertise<geometry_msgs::Twist>("/ego/avt_341/cmd_vel", 10);
     drive_pub = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 10);
   }
@@ -251,6 +257,41 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
   }
   EXPECT_LT(lowest, -0.002) << "no rut below the flat gravel surface";
 
+  // ground_truth/odometry is avt_341/odometry; wheel_odometry (gyro + running gear on gravel)
+  // follows it to within 5 % of the distance driven, its position variance growing with it.
+  ASSERT_FALSE(ego.truth.empty());
+  ASSERT_FALSE(ego.wheel_odom.empty());
+  {
+    const nav_msgs::Odometry& t = ego.truth.back();
+    const nav_msgs::Odometry* same = nullptr;
+    for (const auto& o : ego.odom)
+      if (o.header.stamp == t.header.stamp)
+        same = &o;
+    ASSERT_NE(same, nullptr);
+    EXPECT_EQ(same->pose.pose.position.x, t.pose.pose.position.x);
+    EXPECT_EQ(same->twist.twist.linear.x, t.twist.twist.linear.x);
+    const nav_msgs::Odometry& w0 = ego.wheel_odom.front();
+    const nav_msgs::Odometry& w = ego.wheel_odom.back();
+    const nav_msgs::Odometry* at = nullptr;
+    for (const auto& o : ego.odom)
+      if (o.header.stamp == w.header.stamp)
+        at = &o;
+    ASSERT_NE(at, nullptr);
+    EXPECT_EQ(w.header.frame_id, "odom");
+    EXPECT_EQ(w.child_frame_id, "ego/base_link");
+    double driven = 0.0;
+    for (std::size_t k = 1; k < ego.odom.size(); ++k)
+      driven += std::hypot(ego.odom[k].pose.pose.position.x - ego.odom[k - 1].pose.pose.position.x,
+                           ego.odom[k].pose.pose.position.y - ego.odom[k - 1].pose.pose.position.y);
+    ASSERT_GT(driven, 5.0);
+    const double error = std::hypot(w.pose.pose.position.x - at->pose.pose.position.x,
+                                    w.pose.pose.position.y - at->pose.pose.position.y);
+    EXPECT_LT(error, 0.05 * driven) << "wheel odometry " << error << " m off after " << driven << " m";
+    EXPECT_GT(error, 0.0) << "wheel odometry is not the ground truth";
+    EXPECT_GT(w.pose.covariance[0], w0.pose.covariance[0]);
+    EXPECT_EQ(w.pose.covariance[0], w.pose.covariance[7]);
+  }
+
   // /diagnostics ("dynamics: ego", every 1 s of sim time): every NaN command counted as
   // refused, the report after them a warning, the last one (1.5 s of good commands) OK.
   auto value = [](const diagnostic_msgs::DiagnosticStatus& s, const std::string& key) {
@@ -297,6 +338,20 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
                                                         [&](const nav_msgs::Odometry::ConstPtr& m) { a.push_back(*m); });
   ros::Subscriber sb = nh.subscribe<nav_msgs::Odometry>("/det_b/avt_341/odometry", 1000,
                                                         [&](const nav_msgs::Odometry::ConstPtr& m) { b.push_back(*m); });
+  // det_b's node runs with ~publish_odom_tf false: no odom -> det_b/base_link on /tf (a
+  // localisation stack owns it), while det_a's comes with each odometry message.
+  std::size_t tf_a = 0, tf_b = 0;
+  ros::Subscriber tf_sub = nh.subscribe<tf2_msgs::TFMessage>("/tf", 1000, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+    for (const auto& t : m->transforms)
+    {
+      tf_a += t.child_frame_id == "det_a/base_link";
+      tf_b += t.child_frame_id == "det_b/base_link";
+    }
+  });
+  // The nodes step from their first command on: connected to both odometry streams (and /tf)
+  // first, or the first messages go by unseen.
+  ASSERT_TRUE(spinUntil([&] { return sa.getNumPublishers() > 0 && sb.getNumPublishers() > 0 && tf_sub.getNumPublishers() > 0; }))
+      << "no det_a / det_b odometry publisher";
   ros::Publisher pa = nh.advertise<geometry_msgs::Twist>("/det_a/avt_341/cmd_vel", 1, true);
   ros::Publisher pb = nh.advertise<geometry_msgs::Twist>("/det_b/avt_341/cmd_vel", 1, true);
   pa.publish(twist(0.6, 0.0, 0.4));
@@ -318,6 +373,8 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
     // Following /clock, stamps are world time from where the node started: 100 Hz exactly.
     ASSERT_NEAR((a[k].header.stamp - a[0].header.stamp).toSec(), 0.01 * k, 1e-6) << "message " << k;
   }
+  EXPECT_GT(tf_a, n / 2) << "det_a's odom -> base_link must be on /tf";
+  EXPECT_EQ(tf_b, 0u) << "det_b's node has ~publish_odom_tf false";
   // Not trivially equal: the vehicles moved and turned.
   EXPECT_GT(std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
                        a[n - 1].pose.pose.position.y - a[0].pose.pose.position.y),

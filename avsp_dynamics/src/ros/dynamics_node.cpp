@@ -78,6 +78,7 @@
 #include "avsp_dynamics/stuck_detector.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
+#include "avsp_dynamics/wheel_odometry.hpp"
 
 namespace avsp
 {
@@ -180,6 +181,9 @@ struct VehicleIo
   std::string cmd_topic, drive_topic;
   ros::Subscriber cmd_sub, drive_sub;
   ros::Publisher odom_pub, joint_pub, telemetry_pub;
+  ros::Publisher truth_pub;       ///< ground_truth/odometry: the same as avt_341/odometry
+  ros::Publisher wheel_odom_pub;  ///< wheel_odometry: dead reckoning from the running gear and a gyro
+  ad::WheelOdometry wheel_odom;   ///< integrated every step from the start pose
   std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
@@ -487,6 +491,7 @@ private:
     const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
     real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
     publish_clock_ = avsp::node::boolParam(pnh_, "publish_clock", true);
+    publish_odom_tf_ = avsp::node::boolParam(pnh_, "publish_odom_tf", true);
     wait_for_command_ = avsp::node::boolParam(pnh_, "wait_for_command", false);
     start_topic_ = avsp::node::stringParam(pnh_, "start_topic", "");
     {
@@ -559,6 +564,7 @@ private:
                          "): " + e.what());
     }
     v->model_name = s.model;
+    v->wheel_odom = ad::WheelOdometry(world_->state(v->id).pose);
     v->spin_angle.assign(v->model.wheels.size(), 0.0);
     for (const ad::WheelSpec& w : v->model.wheels)
     {
@@ -602,6 +608,8 @@ private:
     v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", kStateQueue);
     v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", kStateQueue);
     v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
+    v->truth_pub = vnh.advertise<nav_msgs::Odometry>("ground_truth/odometry", kStateQueue);
+    v->wheel_odom_pub = vnh.advertise<nav_msgs::Odometry>("wheel_odometry", kStateQueue);
     vehicles_.push_back(std::move(v));
   }
 
@@ -965,6 +973,7 @@ private:
     {
       const ad::VehicleState& s = world_->state(v->id);
       v->stuck.update(v->model, s, world_->time());
+      v->wheel_odom.step(ad::runningGearSpeed(v->model, s), ad::bodyYawRate(s), h);
       v->collisions.update(s, world_->time());  // every step: a short impact is not missed
       for (std::size_t w = 0; w < s.wheels.size(); ++w)
       {
@@ -1034,6 +1043,10 @@ private:
       odom.twist.twist.angular = toVector3(s.pose.linear().transpose() * s.angular_velocity);
       v->odom_pub.publish(odom);
       v->last_odom = odom;
+      if (v->truth_pub.getNumSubscribers() > 0)
+        v->truth_pub.publish(odom);
+      if (v->wheel_odom_pub.getNumSubscribers() > 0)
+        v->wheel_odom_pub.publish(wheelOdometry(*v, s, t));
 
       geometry_msgs::TransformStamped& tf = transforms_[k];
       tf.header = odom.header;
@@ -1048,7 +1061,8 @@ private:
       if (v->telemetry_pub.getNumSubscribers() > 0)
         publishTelemetry(*v, s, t);
     }
-    tf_.sendTransform(transforms_);
+    if (publish_odom_tf_)
+      tf_.sendTransform(transforms_);
     rtf_.add(world_->time(), ros::WallTime::now().toSec());
     diagnostics_->update();
   }
@@ -1118,6 +1132,33 @@ private:
       s.summary(diagnostic_msgs::DiagnosticStatus::OK, "braked: the last command is stale");
     else
       s.summary(diagnostic_msgs::DiagnosticStatus::OK, "commanded");
+  }
+
+  /// `<v>/wheel_odometry`: the dead reckoning in `odom` (from the start pose), its twist the
+  /// running gear's speed and the gyro's yaw rate; covariances of WheelOdometryCovariance.
+  nav_msgs::Odometry wheelOdometry(const VehicleIo& v, const ad::VehicleState& s, const ros::Time& t) const
+  {
+    using C = ad::WheelOdometryCovariance;
+    nav_msgs::Odometry o;
+    o.header.stamp = t;
+    o.header.frame_id = "odom";
+    o.child_frame_id = v.name + "/base_link";
+    o.pose.pose = toPose(v.wheel_odom.pose());
+    const double speed = ad::runningGearSpeed(v.model, s);
+    o.twist.twist.linear.x = speed;
+    o.twist.twist.angular.z = ad::bodyYawRate(s);
+    auto sq = [](double x) { return x * x; };
+    const double position = sq(C::kPositionShare * v.wheel_odom.distance()) + sq(C::kSpeedFloor);
+    o.pose.covariance = {};
+    o.pose.covariance[0] = o.pose.covariance[7] = position;
+    o.pose.covariance[14] = o.pose.covariance[21] = o.pose.covariance[28] = C::kUnmeasured;
+    o.pose.covariance[35] = sq(C::kHeadingShare * v.wheel_odom.turned()) + sq(C::kYawRate);
+    o.twist.covariance = {};
+    o.twist.covariance[0] = sq(C::kSpeedShare * std::abs(speed) + C::kSpeedFloor);
+    o.twist.covariance[7] = sq(C::kLateralSpeed);
+    o.twist.covariance[14] = o.twist.covariance[21] = o.twist.covariance[28] = C::kUnmeasured;
+    o.twist.covariance[35] = sq(C::kYawRate);
+    return o;
   }
 
   /// URDF joint names (robot_state_publisher in the vehicle's namespace prefixes frames), in
@@ -1270,6 +1311,7 @@ private:
   bool hold_until_throttle_ = true;  ///< ~hold_until_throttle: the parking brake
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
+  bool publish_odom_tf_ = true;  ///< ~publish_odom_tf: broadcast odom -> <v>/base_link
   bool wait_for_command_ = false;
   std::string start_topic_;        ///< ~start_topic: physics waits for a message there ("" = no wait)
   bool start_signalled_ = false;   ///< a message came on ~start_topic
