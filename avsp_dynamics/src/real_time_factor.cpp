@@ -42,5 +42,34 @@ double RealTimeFactorWindow::span() const
   return samples_.size() < 2 ? 0.0 : samples_.back().wall - samples_.front().wall;
 }
 
+Pacer::Pacer(double factor, double max_lag) : factor_(factor), max_lag_(max_lag)
+{
+  if (!std::isfinite(factor) || factor <= 0.0 || !std::isfinite(max_lag) || max_lag < 0.0)
+    throw std::invalid_argument("Pacer: factor must be finite and > 0, max_lag finite and >= 0 (got " +
+                                std::to_string(factor) + ", " + std::to_string(max_lag) + ")");
+}
+
+double Pacer::wait(double sim, double wall)
+{
+  if (!std::isfinite(sim) || !std::isfinite(wall))
+    throw std::invalid_argument("Pacer::wait: sim and wall time must be finite");
+  if (!anchor_sim_)
+  {
+    anchor_sim_ = sim;
+    anchor_wall_ = wall;
+    return 0.0;
+  }
+  const double due = anchor_wall_ + (sim - *anchor_sim_) / factor_;
+  if (wall - due > max_lag_)
+  {
+    ++restarts_;
+    lost_ += wall - due;
+    anchor_sim_ = sim;
+    anchor_wall_ = wall;
+    return 0.0;
+  }
+  return due > wall ? due - wall : 0.0;
+}
+
 }  // namespace dynamics
 }  // namespace avsp

@@ -6,6 +6,7 @@
 
 #include "avsp_dynamics/real_time_factor.hpp"
 
+using avsp::dynamics::Pacer;
 using avsp::dynamics::RealTimeFactorWindow;
 
 TEST(RealTimeFactorWindow, NothingUntilTwoSamplesApartInWallTime)
@@ -71,4 +72,31 @@ TEST(RealTimeFactorWindow, BadInputsAreRefused)
   EXPECT_THROW(w.add(std::nan(""), 2.0), std::invalid_argument);
   EXPECT_THROW(w.add(2.0, INFINITY), std::invalid_argument);
   EXPECT_DOUBLE_EQ(w.span(), 0.0);  // the refused samples changed nothing
+}
+
+TEST(Pacer, PacesAndRestartsAfterAStallInsteadOfSprinting)
+{
+  Pacer p(2.0, 0.1);  // 2x real time
+  EXPECT_EQ(p.wait(10.0, 100.0), 0.0);  // anchors: sim 10 s at wall 100 s
+  EXPECT_NEAR(p.wait(11.0, 100.1), 0.4, 1e-9);  // sim 11 due at wall 100.5
+  EXPECT_DOUBLE_EQ(p.wait(12.0, 101.05), 0.0);  // 0.05 s late: within max_lag, caught up
+  EXPECT_EQ(p.restarts(), 0u);
+  // A stall: sim 13 (due at 101.5) comes at wall 105: the pace restarts there ...
+  EXPECT_EQ(p.wait(13.0, 105.0), 0.0);
+  EXPECT_EQ(p.restarts(), 1u);
+  EXPECT_NEAR(p.lost(), 3.5, 1e-9);
+  // ... and sim 14 is due 0.5 s after it, not at once (the old pace had it at 102.0).
+  EXPECT_NEAR(p.wait(14.0, 105.0), 0.5, 1e-9);
+  EXPECT_NEAR(p.wait(14.5, 105.5), 0.25, 1e-9);
+}
+
+TEST(Pacer, BadInputsAreRefused)
+{
+  EXPECT_THROW(Pacer(0.0), std::invalid_argument);
+  EXPECT_THROW(Pacer(-1.0), std::invalid_argument);
+  EXPECT_THROW(Pacer(1.0, -0.1), std::invalid_argument);
+  EXPECT_THROW(Pacer{ INFINITY }, std::invalid_argument);
+  Pacer p(1.0);
+  EXPECT_THROW(p.wait(std::nan(""), 0.0), std::invalid_argument);
+  EXPECT_THROW(p.wait(0.0, INFINITY), std::invalid_argument);
 }

@@ -5,6 +5,7 @@
  *        window of wall time (dynamics_node's /diagnostics). A window, not the whole run: a run
  *        that slows down under load must show it while it lasts.
  */
+#include <cstdint>
 #include <deque>
 #include <optional>
 
@@ -43,6 +44,39 @@ private:
   };
   double window_;
   std::deque<Sample> samples_;
+};
+
+/**
+ * @brief Paces sim time to r x wall time without catch-up bursts. While the host keeps up, sim
+ *        time t is due at wall time anchor + (t - t_anchor) / r. When it falls more than
+ *        `max_lag` wall seconds behind that pace (a slow step, a stall, a loaded host), the pace
+ *        restarts from where the run is: sim time slows down instead of sprinting later to make
+ *        up, which would run the sensors and controllers behind the clock for that long.
+ */
+class Pacer
+{
+public:
+  /// @throw std::invalid_argument unless factor > 0 and max_lag >= 0 (both finite)
+  explicit Pacer(double factor, double max_lag = 0.1);
+
+  /**
+   * @brief Wall seconds to wait before sim time `sim` may be published at wall time `wall`.
+   *        The first call anchors the pace (and returns 0).
+   * @throw std::invalid_argument if either is not finite
+   */
+  double wait(double sim, double wall);
+
+  /// How often the pace restarted because the run was more than max_lag behind it.
+  std::uint64_t restarts() const { return restarts_; }
+  /// Wall seconds given up by those restarts (how far behind the run was, summed).
+  double lost() const { return lost_; }
+
+private:
+  double factor_, max_lag_;
+  std::optional<double> anchor_sim_;
+  double anchor_wall_ = 0.0;
+  std::uint64_t restarts_ = 0;
+  double lost_ = 0.0;
 };
 
 }  // namespace dynamics

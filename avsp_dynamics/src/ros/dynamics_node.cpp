@@ -280,7 +280,6 @@ public:
       if (!waitForLockstep([](const VehicleIo& v) { return v.answered >= 0.0; }, "command", 0.2))
         return false;
     }
-    const ros::WallTime wall_start = ros::WallTime::now();
     while (ros::ok())
     {
       ros::spinOnce();
@@ -292,12 +291,13 @@ public:
         publishClock();
         if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
           return false;
-        if (real_time_factor_ > 0.0)
+        if (pacer_)
         {
-          const ros::WallTime due = wall_start + ros::WallDuration(world_->time() / real_time_factor_);
-          const ros::WallDuration wait = due - ros::WallTime::now();
-          if (wait > ros::WallDuration(0))
-            wait.sleep();
+          // Behind the pace by more than 0.1 s (wall), the pace restarts: sim time slows down
+          // rather than sprinting later with every subscriber behind the clock.
+          const double wait = pacer_->wait(world_->time(), ros::WallTime::now().toSec());
+          if (wait > 0.0)
+            ros::WallDuration(wait).sleep();
         }
       }
       else
@@ -490,6 +490,8 @@ private:
     const double clock_rate = boundedParam(pnh_, "clock_rate", 500.0, 1.0, 1.0 / options.step);
     const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
     real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
+    if (real_time_factor_ > 0.0)
+      pacer_.emplace(real_time_factor_, kPaceMaxLag);
     publish_clock_ = avsp::node::boolParam(pnh_, "publish_clock", true);
     publish_odom_tf_ = avsp::node::boolParam(pnh_, "publish_odom_tf", true);
     wait_for_command_ = avsp::node::boolParam(pnh_, "wait_for_command", false);
@@ -1096,6 +1098,11 @@ private:
     s.add("real-time factor", rtf ? *rtf : 0.0);
     s.add("real-time factor window (wall s)", rtf_.span());
     s.add("real-time factor target", real_time_factor_);  // 0: as fast as it can
+    if (pacer_)
+    {
+      s.add("pace restarts", pacer_->restarts());  // the host fell > 0.1 s behind the pace
+      s.add("pace given up (wall s)", pacer_->lost());
+    }
     if (!publish_clock_)
       s.add("behind /clock (s)", (ros::Time::now() - stamp()).toSec());
     if (real_time_factor_ > 0.0 && rtf && *rtf < kRealTimeFactorShare * real_time_factor_)
@@ -1334,6 +1341,9 @@ private:
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_;
+  /// Wall s behind the ~real_time_factor pace after which the pace restarts (ad::Pacer).
+  static constexpr double kPaceMaxLag = 0.1;
+  std::optional<ad::Pacer> pacer_;  ///< with ~real_time_factor > 0 and ~publish_clock
   /// Below this share of ~real_time_factor the simulation status is a warning.
   static constexpr double kRealTimeFactorShare = 0.9;
   ad::RealTimeFactorWindow rtf_{ 5.0 };  ///< sim over wall time, the last 5 s of wall time
