@@ -8,8 +8,9 @@ of bad scenario files. Writes a JUnit XML result with one test case per check:
   vehicle file with a negative mass) exits 1 and its message names the file and the key path;
 - generated_launch: reference_traverse.launch (scenario_node) wrote the run's launch file into the
   results folder;
-- run_ends: the run ends by itself (run_recorder, required, exits at `duration` s of sim time)
-  within the wall-clock limit;
+- run_ends: the run ends by itself (run_recorder exits at `duration` s of sim time) within the
+  wall-clock limit, and cleanly: run_recorder and scenario_node end their roslaunch with a
+  SIGINT, so no "REQUIRED process [...] has died" banner is printed;
 - results: summary.json, trajectories.png, ruts.png and gaps.png exist, written by this run,
   and summary.json has every vehicle of the scenario, is not aborted and counts no anomalies
   (overspeed, airborne, non-finite samples);
@@ -373,16 +374,27 @@ def main(argv):
         # By path: with both the source tree and install/ on ROS_PACKAGE_PATH the name is ambiguous.
         launch_file = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "launch",
                                    "reference_traverse.launch")
+        log_path = os.path.join(tmp, "run.log")
+        log = open(log_path, "w")
         launch = subprocess.Popen(["roslaunch", "-p", str(port), launch_file,
                                    "scenario:=" + scenario, "duration:=%g" % duration, "real_time_factor:=0",
-                                   "output_dir:=" + out], env=env, preexec_fn=os.setsid)
+                                   "output_dir:=" + out], env=env, preexec_fn=os.setsid, stdout=log,
+                                  stderr=subprocess.STDOUT)
         recorder = find_node("run_recorder")
         generated = os.path.join(out, name + ".launch")
         try:
             if recorder:
                 try:
                     rc = launch.wait(timeout=limit)
-                    cases.append(("run_ends", [] if rc == 0 else ["roslaunch exited with %d" % rc]))
+                    msgs = [] if rc == 0 else ["roslaunch exited with %d" % rc]
+                    # A run that finished ends both launches cleanly (run_recorder's and
+                    # scenario_node's SIGINT): no "REQUIRED process [...] has died" banner.
+                    with open(log_path) as f:
+                        text = f.read()
+                    if "has died" in text:
+                        msgs.append("a finished run printed roslaunch's 'has died' banner: " +
+                                    " | ".join(l for l in text.splitlines() if "has died" in l))
+                    cases.append(("run_ends", msgs))
                 except subprocess.TimeoutExpired:
                     cases.append(("run_ends", ["the run did not end within %g s (wall)" % limit]))
             else:
@@ -391,6 +403,9 @@ def main(argv):
                 cases.append(("clock_reaches_duration", [] if ok else ["/clock did not reach %g s" % duration]))
         finally:
             stop_launch(launch)
+            log.close()
+            with open(log_path) as f:
+                sys.stdout.write(f.read())
         print("run_main_job: %.1f s wall for %g s of sim time" % (time.time() - start, duration))
         cases.append(("generated_launch", [] if os.path.isfile(generated) else ["no " + generated]))
         if recorder:

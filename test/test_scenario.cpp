@@ -665,6 +665,7 @@ TEST(LaunchGenerator, EveryNodeGetsTheScenariosParameters)
   EXPECT_DOUBLE_EQ(rec[2]["rest_height"].as<double>(), rec[2]["wheel_radius"].as<double>());
   EXPECT_DOUBLE_EQ(rec[3]["max_speed"].as<double>(), 18.0) << "the m113";
   EXPECT_EQ(paramOf(xml, "run_recorder", "duration"), "30.0");
+  EXPECT_EQ(paramOf(xml, "run_recorder", "end_launch"), "true");  // a finished run ends its roslaunch
   EXPECT_EQ(paramOf(xml, "run_recorder", "output_dir"), "/tmp/results/base");
   // Every node holding the terrain gets the same point budget.
   EXPECT_EQ(paramOf(xml, "terrain", "max_cells"), "250000000");
@@ -717,6 +718,8 @@ TEST(LaunchGenerator, CommandLine)
   EXPECT_FALSE(c.options.rviz);
   EXPECT_EQ(c.out, "-");
   EXPECT_TRUE(as::parseLaunchCommand({ "s.yaml", "--rviz" }).options.rviz);
+  EXPECT_TRUE(as::parseLaunchCommand({ "s.yaml", "--end-launch" }).end_launch);
+  EXPECT_FALSE(as::parseLaunchCommand({ "s.yaml" }).end_launch);
   EXPECT_THROW(as::parseLaunchCommand({ "s.yaml", "--duration", "-1" }), std::invalid_argument);
   EXPECT_THROW(as::parseLaunchCommand({ "s.yaml", "--duration" }), std::invalid_argument);
   EXPECT_THROW(as::parseLaunchCommand({ "s.yaml", "--speed", "2" }), std::invalid_argument);

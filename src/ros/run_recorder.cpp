@@ -256,6 +256,7 @@ public:
       throw StartupError("parameter ~duration is required (s of sim time)");
     duration_ = avsp::node::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);
     progress_period_ = avsp::node::boundedParam(pnh, "progress_period", 1.0, 0.01, 3600.0);
+    end_launch_ = avsp::node::boolParam(pnh, "end_launch", false);
     watch_period_ = avsp::node::boundedParam(pnh, "watch_period", 0.25, 0.05, 10.0);
     // Watching starts before the terrain loads: a node that dies meanwhile is seen at the first poll.
     supervisor_ = std::make_unique<RunSupervisor>(nh_, watchList(pnh));
@@ -796,6 +797,11 @@ private:
   ros::NodeHandle& nh_;
   std::string output_dir_, scenario_, plot_script_, terrain_description_;
   double duration_ = 0.0, progress_period_ = 1.0, watch_period_ = 0.25;
+
+public:
+  bool end_launch_ = false;  ///< ~end_launch: a finished run SIGINTs the roslaunch that started us
+
+private:
   std::unique_ptr<RunSupervisor> supervisor_;
   std::optional<ar::Abort> aborted_;  // set when the run stopped early
   ar::AnomalyMonitor anomalies_;
@@ -832,7 +838,21 @@ void RunRecorder::handleInterrupts()
 
 int RunRecorder::spin()
 {
-  return impl_->run();
+  const int rc = impl_->run();
+  if (rc == 0 && impl_->end_launch_)
+  {
+    // A required node that exits makes roslaunch print "REQUIRED process [...] has died!" even
+    // when it finished cleanly: the finished run ends the launch itself, with the SIGINT of a
+    // Ctrl-C, and exits when roslaunch's own SIGINT reaches it (30 s at most).
+    const pid_t launcher = getppid();
+    if (launcher > 1 && kill(launcher, SIGINT) == 0)
+    {
+      const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(30.0);
+      while (g_interrupt == 0 && ros::ok() && ros::WallTime::now() < deadline)
+        ros::WallDuration(0.05).sleep();
+    }
+  }
+  return rc;
 }
 
 }  // namespace node

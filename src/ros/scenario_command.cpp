@@ -160,6 +160,7 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
     return 2;
   }
   out.output_dir = dir;
+  out.end_launch = cmd.end_launch;
   std::string file = cmd.out;
   if (file.empty())
     file = default_to_stdout ? "-" : dir + "/" + out.scenario.name + ".launch";
@@ -226,11 +227,26 @@ int runScenario(const std::vector<std::string>& args)
       std::perror("scenario_node: waitpid");
       return 4;
     }
+  g_child = 0;  // reaped: its pid may be reused
+  int verdict_rc = 0;
   if (!WIFEXITED(status))
-    return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  if (WEXITSTATUS(status) != 0)
-    return WEXITSTATUS(status);
-  return verdict(g.output_dir, started, 0);
+    verdict_rc = 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  else if (WEXITSTATUS(status) != 0)
+    verdict_rc = WEXITSTATUS(status);
+  else
+    verdict_rc = verdict(g.output_dir, started, 0);
+  if (g.end_launch && g_signal == 0)
+  {
+    // --end-launch (reference_traverse.launch): end the roslaunch that started us as a Ctrl-C
+    // would, and exit when its SIGINT comes back (20 s at most), so that it does not print
+    // "REQUIRED process [scenario] has died" for a run that ended. (Debian's roslaunch exits 0
+    // whatever we return: ros/ros_comm#919; scenario_node's own exit code is the verdict.)
+    const pid_t launcher = getppid();
+    if (launcher > 1 && kill(launcher, SIGINT) == 0)
+      for (int k = 0; k < 400 && g_signal == 0; ++k)
+        usleep(50000);
+  }
+  return verdict_rc;
 }
 
 }  // namespace node

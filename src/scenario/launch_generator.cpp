@@ -496,6 +496,8 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     w.param("scenario_name", s.name);
     w.param("duration", duration);
     w.param("progress_period", options.progress_period);
+    // A finished run ends its roslaunch with a SIGINT (no "REQUIRED process has died" banner).
+    w.paramBool("end_launch", true);
     w.params(terrain);
     // Every node that must live for the whole run: if one exits, the recorder stops the run,
     // writes what it has and names the node (README, "Run recorder").
@@ -593,6 +595,8 @@ LaunchCommand parseLaunchCommand(const std::vector<std::string>& args)
     }
     else if (a == "--check")
       c.check_only = true;
+    else if (a == "--end-launch")
+      c.end_launch = true;
     else if (a == "--no-start-gate")
       c.options.start_gate = false;
     else if (!a.empty() && a[0] == '-')
@@ -621,7 +625,8 @@ std::string launchCommandUsage(const std::string& program)
          "  --config-dir DIR      folder with vehicles/ and soils.yaml (default the avsp package's config)\n"
          "  --progress-period S   wall s between run_recorder's progress lines (default 1)\n"
          "  --check               validate only\n"
-         "  --no-start-gate       start the physics at once instead of when every node is up\n";
+         "  --no-start-gate       start the physics at once instead of when every node is up\n"
+         "  --end-launch          (scenario_node) when the run ends, end the roslaunch that started it\n";
 }
 
 }  // namespace scenario

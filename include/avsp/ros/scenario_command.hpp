@@ -20,6 +20,7 @@ struct Generated
   std::string launch_file;  ///< written file ("-" when printed)
   std::string output_dir;
   scenario::Scenario scenario;
+  bool end_launch = false;  ///< --end-launch
 };
 
 /**

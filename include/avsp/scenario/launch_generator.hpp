@@ -50,6 +50,9 @@ struct LaunchCommand
   std::string out;       ///< generated file; "-" = stdout; empty = <output_dir>/<name>.launch
   std::string config_dir;  ///< folder with vehicles/ and soils.yaml; empty = the package's config
   bool check_only = false;  ///< validate only, write nothing
+  /// --end-launch (scenario_node): when the run ends, end the roslaunch that started this node
+  /// with a SIGINT (a clean end, without roslaunch's "REQUIRED process has died" banner)
+  bool end_launch = false;
   bool help = false;
 };
 
