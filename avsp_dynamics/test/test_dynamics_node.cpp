@@ -262,20 +262,20 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
   ASSERT_FALSE(ego.truth.empty());
   ASSERT_FALSE(ego.wheel_odom.empty());
   {
+    auto odometryAt = [&](const ros::Time& stamp) -> const nav_msgs::Odometry* {
+      for (const auto& o : ego.odom)
+        if (o.header.stamp == stamp)
+          return &o;
+      return nullptr;
+    };
     const nav_msgs::Odometry& t = ego.truth.back();
-    const nav_msgs::Odometry* same = nullptr;
-    for (const auto& o : ego.odom)
-      if (o.header.stamp == t.header.stamp)
-        same = &o;
+    const nav_msgs::Odometry* same = odometryAt(t.header.stamp);
     ASSERT_NE(same, nullptr);
     EXPECT_EQ(same->pose.pose.position.x, t.pose.pose.position.x);
     EXPECT_EQ(same->twist.twist.linear.x, t.twist.twist.linear.x);
     const nav_msgs::Odometry& w0 = ego.wheel_odom.front();
     const nav_msgs::Odometry& w = ego.wheel_odom.back();
-    const nav_msgs::Odometry* at = nullptr;
-    for (const auto& o : ego.odom)
-      if (o.header.stamp == w.header.stamp)
-        at = &o;
+    const nav_msgs::Odometry* at = odometryAt(w.header.stamp);
     ASSERT_NE(at, nullptr);
     EXPECT_EQ(w.header.frame_id, "odom");
     EXPECT_EQ(w.child_frame_id, "ego/base_link");

@@ -46,6 +46,47 @@ bool finite(const geometry_msgs::Vector3& v)
 {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
+
+/// A DELETEALL in `ns`: an array of boxes replaces the last one whole.
+visualization_msgs::Marker deleteAll(const std_msgs::Header& header, const std::string& ns)
+{
+  visualization_msgs::Marker clear;
+  clear.header = header;
+  clear.ns = ns;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  return clear;
+}
+
+/// A CUBE of `size` at `centre` in `colour`, then a white label 0.4 m above it (ids id, id + 1).
+void appendLabelledBox(visualization_msgs::MarkerArray& out, const std_msgs::Header& header, const std::string& ns,
+                       int& id, const Eigen::Vector3d& centre, const Eigen::Vector3d& size, float r, float g, float b,
+                       float a, const std::string& label)
+{
+  visualization_msgs::Marker box;
+  box.header = header;
+  box.ns = ns;
+  box.id = id++;
+  box.type = visualization_msgs::Marker::CUBE;
+  box.action = visualization_msgs::Marker::ADD;
+  box.pose.position = point(centre);
+  box.pose.orientation.w = 1.0;
+  box.scale = vector3(size);
+  box.color.r = r;
+  box.color.g = g;
+  box.color.b = b;
+  box.color.a = a;
+  out.markers.push_back(box);
+  visualization_msgs::Marker text = box;
+  text.id = id++;
+  text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+  text.pose.position.z += 0.5 * box.scale.z + 0.4;
+  text.scale.x = text.scale.y = 0.0;
+  text.scale.z = 0.5;
+  text.color.r = text.color.g = text.color.b = 1.0f;
+  text.color.a = 1.0f;
+  text.text = label;
+  out.markers.push_back(text);
+}
 }  // namespace
 
 double stampSeconds(const ros::Time& stamp)
@@ -177,46 +218,17 @@ avsp_msgs::RadarTargetArray radarTargets(const RadarScan& scan, const std_msgs::
 visualization_msgs::MarkerArray radarMarkers(const RadarScan& scan, const std_msgs::Header& header)
 {
   visualization_msgs::MarkerArray out;
-  visualization_msgs::Marker clear;
-  clear.header = header;
-  clear.ns = "radar_targets";
-  clear.action = visualization_msgs::Marker::DELETEALL;
-  out.markers.push_back(clear);
+  out.markers.push_back(deleteAll(header, "radar_targets"));
   int id = 0;
   for (const RadarTarget& t : scan.targets)
   {
-    visualization_msgs::Marker box;
-    box.header = header;
-    box.ns = "radar_targets";
-    box.id = id++;
-    box.type = visualization_msgs::Marker::CUBE;
-    box.action = visualization_msgs::Marker::ADD;
-    box.pose.position.x = t.centroid.x();
-    box.pose.position.y = t.centroid.y();
-    box.pose.position.z = t.centroid.z();
-    box.pose.orientation.w = 1.0;
-    box.scale.x = std::max(0.2, t.extent.x());
-    box.scale.y = std::max(0.2, t.extent.y());
-    box.scale.z = std::max(0.2, t.extent.z());
     // Receding targets green, approaching ones red, by up to 10 m/s.
     const double s = std::clamp(t.range_rate / 10.0, -1.0, 1.0);
-    box.color.r = static_cast<float>(0.5 - 0.5 * s);
-    box.color.g = static_cast<float>(0.5 + 0.5 * s);
-    box.color.b = 0.2f;
-    box.color.a = 0.6f;
-    out.markers.push_back(box);
-    visualization_msgs::Marker text = box;
-    text.id = id++;
-    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-    text.pose.position.z += 0.5 * box.scale.z + 0.4;
-    text.scale.x = text.scale.y = 0.0;
-    text.scale.z = 0.5;
-    text.color.r = text.color.g = text.color.b = 1.0f;
-    text.color.a = 1.0f;
-    char buffer[64];
-    std::snprintf(buffer, sizeof(buffer), "%.1f m %+.1f m/s", t.range, t.range_rate);
-    text.text = buffer;
-    out.markers.push_back(text);
+    char label[64];
+    std::snprintf(label, sizeof(label), "%.1f m %+.1f m/s", t.range, t.range_rate);
+    appendLabelledBox(out, header, "radar_targets", id, t.centroid,
+                      t.extent.cwiseMax(0.2), static_cast<float>(0.5 - 0.5 * s),
+                      static_cast<float>(0.5 + 0.5 * s), 0.2f, 0.6f, label);
   }
   return out;
 }
@@ -243,43 +255,15 @@ avsp_msgs::LidarClusterArray lidarClusters(const LidarClustering& clustering, co
 visualization_msgs::MarkerArray lidarClusterMarkers(const LidarClustering& clustering, const std_msgs::Header& header)
 {
   visualization_msgs::MarkerArray out;
-  visualization_msgs::Marker clear;
-  clear.header = header;
-  clear.ns = "lidar_clusters";
-  clear.action = visualization_msgs::Marker::DELETEALL;
-  out.markers.push_back(clear);
+  out.markers.push_back(deleteAll(header, "lidar_clusters"));
   int id = 0;
   for (const LidarCluster& c : clustering.clusters)
   {
-    visualization_msgs::Marker box;
-    box.header = header;
-    box.ns = "lidar_clusters";
-    box.id = id++;
-    box.type = visualization_msgs::Marker::CUBE;
-    box.action = visualization_msgs::Marker::ADD;
-    box.pose.position = point(0.5 * (c.min + c.max));
-    box.pose.orientation.w = 1.0;
-    // A flat or single-line cluster still shows as a box.
-    box.scale.x = std::max(0.1, c.extent().x());
-    box.scale.y = std::max(0.1, c.extent().y());
-    box.scale.z = std::max(0.1, c.extent().z());
-    box.color.r = 1.0f;
-    box.color.g = 0.6f;
-    box.color.b = 0.1f;
-    box.color.a = 0.5f;
-    out.markers.push_back(box);
-    visualization_msgs::Marker text = box;
-    text.id = id++;
-    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-    text.pose.position.z += 0.5 * box.scale.z + 0.4;
-    text.scale.x = text.scale.y = 0.0;
-    text.scale.z = 0.5;
-    text.color.r = text.color.g = text.color.b = 1.0f;
-    text.color.a = 1.0f;
-    char buffer[64];
-    std::snprintf(buffer, sizeof(buffer), "%zu pts %.1f m", c.size(), c.range);
-    text.text = buffer;
-    out.markers.push_back(text);
+    char label[64];
+    std::snprintf(label, sizeof(label), "%zu pts %.1f m", c.size(), c.range);
+    // The box's middle, not the centroid; a flat or single-line cluster still shows as a box.
+    appendLabelledBox(out, header, "lidar_clusters", id, 0.5 * (c.min + c.max), c.extent().cwiseMax(0.1), 1.0f, 0.6f,
+                      0.1f, 0.5f, label);
   }
   return out;
 }

@@ -49,6 +49,7 @@
 #include <avsp_terrain/ros/node_params.hpp>
 #include <avsp_terrain/ros/agent_params.hpp>
 #include <avsp_terrain/ros/conversions.hpp>
+#include <avsp_terrain/ros/input_diagnostics.hpp>
 #include <avsp_terrain/ros/output_folder_params.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/ros/terrain_source_params.hpp>
@@ -747,12 +748,7 @@ private:
       total += n;
     }
     s.add("world changes pending", events_.size());
-    if (total > ignored_reported_)
-      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu message(s) ignored since the last report",
-                 static_cast<unsigned long long>(total - ignored_reported_));
-    else
-      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "no input ignored since the last report");
-    ignored_reported_ = total;
+    avsp::node::summarizeIgnoredInputs(s, total, ignored_reported_);
   }
 
   // ---- sensing ---------------------------------------------------------------------------

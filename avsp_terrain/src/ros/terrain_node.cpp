@@ -33,6 +33,7 @@
 #include "avsp_terrain/dynamic_soil.hpp"
 #include "avsp_terrain/height_patch.hpp"
 #include "avsp_terrain/ros/conversions.hpp"
+#include "avsp_terrain/ros/input_diagnostics.hpp"
 #include "avsp_terrain/ros/output_folder_params.hpp"
 #include "avsp_terrain/terrain_file.hpp"
 #include "avsp_terrain/ros/terrain_source_params.hpp"
@@ -572,12 +573,7 @@ private:
       ignored += count->ignored;
     }
     s.add("mesh chunks waiting", dirty_chunks_.size());
-    if (ignored > ignored_reported_)
-      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu message(s) ignored since the last report",
-                 static_cast<unsigned long long>(ignored - ignored_reported_));
-    else
-      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "no input ignored since the last report");
-    ignored_reported_ = ignored;
+    avsp::node::summarizeIgnoredInputs(s, ignored, ignored_reported_);
   }
 
   InputCount ruts_, toppled_, environment_;
