@@ -140,8 +140,12 @@ int main(int argc, char** argv)
       }
       ++found;
     }
-    const bool world = buffer.canTransform("map", prefix + "base_link", ros::Time(0), ros::Duration(0.0));
-    if (!world)
+    // map -> odom comes from another process (world_frames.launch) than the vehicle's frames:
+    // it may arrive after them, so it is waited for within the same deadline.
+    while (!buffer.canTransform("map", prefix + "base_link", ros::Time(0)) && ros::ok() &&
+           ros::WallTime::now() < deadline)
+      ros::WallDuration(0.05).sleep();
+    if (!buffer.canTransform("map", prefix + "base_link", ros::Time(0)))
     {
       ROS_ERROR("team_check: no TF map -> %sbase_link", prefix.c_str());
       ok = false;
