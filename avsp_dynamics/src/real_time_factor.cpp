@@ -1,6 +1,7 @@
 #include "avsp_dynamics/real_time_factor.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -47,6 +48,11 @@ Pacer::Pacer(double factor, double max_lag) : factor_(factor), max_lag_(max_lag)
   if (!std::isfinite(factor) || factor <= 0.0 || !std::isfinite(max_lag) || max_lag < 0.0)
     throw std::invalid_argument("Pacer: factor must be finite and > 0, max_lag finite and >= 0 (got " +
                                 std::to_string(factor) + ", " + std::to_string(max_lag) + ")");
+}
+
+double Pacer::due(double sim) const
+{
+  return anchor_sim_ ? anchor_wall_ + (sim - *anchor_sim_) / factor_ : -std::numeric_limits<double>::infinity();
 }
 
 double Pacer::wait(double sim, double wall)

@@ -77,7 +77,9 @@ TEST(RealTimeFactorWindow, BadInputsAreRefused)
 TEST(Pacer, PacesAndRestartsAfterAStallInsteadOfSprinting)
 {
   Pacer p(2.0, 0.1);  // 2x real time
+  EXPECT_EQ(p.due(10.0), -INFINITY);  // no pace yet
   EXPECT_EQ(p.wait(10.0, 100.0), 0.0);  // anchors: sim 10 s at wall 100 s
+  EXPECT_DOUBLE_EQ(p.due(11.0), 100.5);
   EXPECT_NEAR(p.wait(11.0, 100.1), 0.4, 1e-9);  // sim 11 due at wall 100.5
   EXPECT_DOUBLE_EQ(p.wait(12.0, 101.05), 0.0);  // 0.05 s late: within max_lag, caught up
   EXPECT_EQ(p.restarts(), 0u);
@@ -86,6 +88,7 @@ TEST(Pacer, PacesAndRestartsAfterAStallInsteadOfSprinting)
   EXPECT_EQ(p.restarts(), 1u);
   EXPECT_NEAR(p.lost(), 3.5, 1e-9);
   // ... and sim 14 is due 0.5 s after it, not at once (the old pace had it at 102.0).
+  EXPECT_DOUBLE_EQ(p.due(14.0), 105.5);
   EXPECT_NEAR(p.wait(14.0, 105.0), 0.5, 1e-9);
   EXPECT_NEAR(p.wait(14.5, 105.5), 0.25, 1e-9);
 }

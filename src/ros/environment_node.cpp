@@ -1,10 +1,14 @@
 // environment_node's class (the node's main is ../environment_node.cpp): the simulated world's
 // clock, Sun, Moon, light and weather on /environment (avsp_msgs/Environment) at ~rate on sim
-// time, changed at run time through ~set_environment (avsp_msgs/SetEnvironment). The model is
+// time, changed at run time through ~set_environment (avsp_msgs/SetEnvironment). On sim time a
+// message goes out for every multiple of 1/~rate that /clock reaches, stamped with that
+// multiple, in order and none skipped (sensors_node ~environment_period waits for them), so
+// what a run's sensors see of the weather does not depend on how fast the clock moves. The model is
 // avsp_environment (include/avsp/environment/); this file only converts parameters and messages.
 #include "avsp/ros/environment_node.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <optional>
@@ -15,6 +19,7 @@
 #include <avsp_msgs/SetEnvironment.h>
 #include <avsp_terrain/ros/node_params.hpp>
 #include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
 
 #include "avsp/environment/environment_model.hpp"
 
@@ -127,9 +132,14 @@ public:
 
     // On sim time the model's clock is /clock itself; on wall time it starts with the node.
     origin_ = ros::Time::isSimTime() ? 0.0 : ros::Time::now().toSec();
-    pub_ = nh.advertise<avsp_msgs::Environment>("/environment", 10);
+    // Latched: a node that subscribes late still gets the weather now.
+    pub_ = nh.advertise<avsp_msgs::Environment>("/environment", 1000, true);
     service_ = pnh.advertiseService("set_environment", &Impl::onSetEnvironment, this);
-    timer_ = nh.createTimer(ros::Duration(1.0 / rate), &Impl::onTimer, this);
+    period_ = 1.0 / rate;
+    if (ros::Time::isSimTime())
+      clock_sub_ = nh.subscribe("/clock", 100, &Impl::onClock, this, ros::TransportHints().tcpNoDelay());
+    else
+      timer_ = nh.createTimer(ros::Duration(period_), &Impl::onTimer, this);
     ROS_INFO("environment_node: site %.6f, %.6f, %.0f m; world time %s at sim 0, x%g; %zu weather events; "
              "/environment at %g Hz",
              config.site.latitude_deg, config.site.longitude_deg, config.site.altitude_m,
@@ -137,9 +147,21 @@ public:
   }
 
 private:
-  void onTimer(const ros::TimerEvent&)
+  void onTimer(const ros::TimerEvent&) { publishAt(ros::Time::now()); }
+
+  /// Every multiple of the period the clock has reached, in order. A clock that went back (a
+  /// new run on the same master) starts the sequence again from there.
+  void onClock(const rosgraph_msgs::Clock::ConstPtr& c)
   {
-    const ros::Time now = ros::Time::now();
+    const double t = c->clock.toSec();
+    if (next_ > 0 && t < static_cast<double>(next_ - 1) * period_ - 1e-9)
+      next_ = static_cast<std::uint64_t>(std::ceil(t / period_ - 1e-9));
+    while (ros::ok() && static_cast<double>(next_) * period_ <= t + 1e-9)
+      publishAt(ros::Time(static_cast<double>(next_++) * period_));
+  }
+
+  void publishAt(const ros::Time& now)
+  {
     const ae::EnvironmentState s = model_->at(now.toSec() - origin_);
     avsp_msgs::Environment msg;
     msg.header.stamp = now;
@@ -220,7 +242,10 @@ private:
   std::string frame_id_;
   ros::Publisher pub_;
   ros::ServiceServer service_;
-  ros::Timer timer_;
+  ros::Timer timer_;              ///< wall time: at ~rate
+  ros::Subscriber clock_sub_;     ///< sim time: every multiple of the period /clock reaches
+  double period_ = 1.0;           ///< s, 1 / ~rate
+  std::uint64_t next_ = 0;        ///< the next multiple of the period to publish
 };
 
 EnvironmentNode::EnvironmentNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : impl_(std::make_unique<Impl>(nh, pnh))

@@ -38,6 +38,7 @@
 #include <avsp_terrain/ros/node_params.hpp>
 #include <avsp_terrain/ros/terrain_source_params.hpp>
 #include <avsp_terrain/soil.hpp>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/package.h>
 #include <ros/ros.h>
@@ -256,6 +257,7 @@ public:
       throw StartupError("parameter ~duration is required (s of sim time)");
     duration_ = avsp::node::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);
     progress_period_ = avsp::node::boundedParam(pnh, "progress_period", 1.0, 0.01, 3600.0);
+    requested_rtf_ = avsp::node::boundedParam(pnh, "real_time_factor", 0.0, 0.0, 1000.0);
     end_launch_ = avsp::node::boolParam(pnh, "end_launch", false);
     watch_period_ = avsp::node::boundedParam(pnh, "watch_period", 0.25, 0.05, 10.0);
     // Watching starts before the terrain loads: a node that dies meanwhile is seen at the first poll.
@@ -327,6 +329,7 @@ public:
       }
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 200, &Impl::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 200, &Impl::onToppled, this);
+    diagnostics_sub_ = nh_.subscribe("/diagnostics", 100, &Impl::onDiagnostics, this);
     // Subscribed first: loading a large course takes seconds, while which the simulation may
     // already run; its messages wait in the queues (callbacks run only once this returns).
     try
@@ -534,15 +537,52 @@ private:
     toppled_.insert(m->id);
   }
 
+  /// dynamics_node's "<node>: simulation" status: the wall time its clock waited for each of
+  /// its ~clock_followers ("clock waited for <name> (wall s)"), running totals.
+  void onDiagnostics(const diagnostic_msgs::DiagnosticArray::ConstPtr& m)
+  {
+    static const std::string kPrefix = "clock waited for ", kSuffix = " (wall s)";
+    for (const auto& status : m->status)
+      for (const auto& kv : status.values)
+        if (kv.key.size() > kPrefix.size() + kSuffix.size() && kv.key.compare(0, kPrefix.size(), kPrefix) == 0 &&
+            kv.key.compare(kv.key.size() - kSuffix.size(), kSuffix.size(), kSuffix) == 0)
+        {
+          char* end = nullptr;
+          const double waited = std::strtod(kv.value.c_str(), &end);
+          if (end != kv.value.c_str() && std::isfinite(waited))
+            clock_waited_[kv.key.substr(kPrefix.size(), kv.key.size() - kPrefix.size() - kSuffix.size())] = waited;
+        }
+  }
+
   void progress(double now, const ros::WallTime& wall)
   {
     const double rtf = (now - sim_last_) / std::max(1e-9, (wall - wall_last_).toSec());
     const double run_rtf = (now - sim_start_) / std::max(1e-9, (wall - wall_start_).toSec());
     std::string line;
     char buffer[160];
-    std::snprintf(buffer, sizeof buffer, "[run_recorder] sim %.1f / %.1f s | RTF %.2f (run %.2f)", now, duration_,
-                  rtf, run_rtf);
+    std::snprintf(buffer, sizeof buffer, "[run_recorder] sim %.1f / %.1f s | RTF %.2f (run %.2f, requested ", now,
+                  duration_, rtf, run_rtf);
     line += buffer;
+    if (requested_rtf_ > 0.0)
+      std::snprintf(buffer, sizeof buffer, "%.2f)", requested_rtf_);
+    else
+      std::snprintf(buffer, sizeof buffer, "max)");
+    line += buffer;
+    // The slowest node: the clock's follower it waited for most since the last line.
+    std::string slowest;
+    double most = 0.0;
+    for (const auto& [name, waited] : clock_waited_)
+    {
+      const double since = waited - clock_waited_printed_[name];
+      if (since > most)
+        most = since, slowest = name;
+      clock_waited_printed_[name] = waited;
+    }
+    if (!slowest.empty())
+    {
+      std::snprintf(buffer, sizeof buffer, " | clock held by %s %.2f s", slowest.c_str(), most);
+      line += buffer;
+    }
     for (const auto& v : vehicles_)
     {
       std::snprintf(buffer, sizeof buffer, " | %s %.1f m %.2f m/s", v->spec.name.c_str(), v->record.distance(),
@@ -797,6 +837,10 @@ private:
   ros::NodeHandle& nh_;
   std::string output_dir_, scenario_, plot_script_, terrain_description_;
   double duration_ = 0.0, progress_period_ = 1.0, watch_period_ = 0.25;
+  double requested_rtf_ = 0.0;  ///< ~real_time_factor: the run's target, for the progress line (0 = max)
+  std::map<std::string, double> clock_waited_;          ///< follower -> wall s the clock waited for it
+  std::map<std::string, double> clock_waited_printed_;  ///< the same at the last progress line
+  ros::Subscriber diagnostics_sub_;
 
 public:
   bool end_launch_ = false;  ///< ~end_launch: a finished run SIGINTs the roslaunch that started us

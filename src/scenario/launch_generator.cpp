@@ -18,6 +18,13 @@ constexpr double kSyncInterval = 0.01;
 const std::string kSensorsPartition = "sensors";
 /// start_gate's ~open (node start_gate at the root): dynamics_node's ~start_topic.
 const std::string kStartGateTopic = "/start_gate/open";
+/// s: how far /clock may run ahead of sensors_node (dynamics_node ~follower_lag; lockstep_clock's
+/// lookahead of 5 intervals with partitions).
+constexpr double kSensorLag = 0.05;
+/// s: environment_node's period (10 Hz, a lidar sweep): sensors_node senses a time only once the
+/// /environment of its last multiple has come, so a weather change at t reaches the first sweep
+/// after t in every run.
+constexpr double kEnvironmentPeriod = 0.1;
 /// s (wall): a partition or peer silent this long stops the run.
 constexpr double kPartitionTimeout = 30.0;
 /// s: the controllers' period (20 Hz), the dynamics' barrier and the radio's batches.
@@ -311,6 +318,10 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     {
       w.param("real_time_factor", options.real_time_factor);
       w.param("clock_rate", options.clock_rate);
+      // The sensors hold the clock: it never runs more than kSensorLag ahead of them.
+      w.rosparam("clock_followers", "[" + quoted(kSensorsPartition) + "]");
+      w.param("follower_lag", kSensorLag);
+      w.param("lockstep_timeout", kPartitionTimeout);
     }
     // The start gate opens once all nodes are up: the physics starts then, so every node sees
     // the run from sim time 0. Until their first commands the vehicles stand braked.
@@ -363,11 +374,11 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
       w.rosparam("vehicle_sensors/" + v.name, flowYaml(v.sensors, false));
   if (has_agents)
     w.rosparam("agents", agents);
-  if (!s.partitions.empty())
-  {
-    w.param("lockstep_partition", kSensorsPartition);
-    w.param("lockstep_interval", kSyncInterval);
-  }
+  // In the lockstep in every run: the clock waits for the sensors (lockstep_clock with
+  // partitions, dynamics_node's ~clock_followers without), and the sensors for /environment.
+  w.param("lockstep_partition", kSensorsPartition);
+  w.param("lockstep_interval", kSyncInterval);
+  w.param("environment_period", kEnvironmentPeriod);
   w.close();
 
   // Sky and weather.
@@ -377,6 +388,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   w.param("altitude", s.altitude);
   w.param("start_utc", s.start_utc);
   w.param("time_acceleration", s.time_acceleration);
+  w.param("rate", 1.0 / kEnvironmentPeriod);
   if (s.weather.IsDefined() && !s.weather.IsNull() && s.weather.size() > 0)
     w.rosparam("weather", flowYaml(s.weather, true));
   w.close();
@@ -495,6 +507,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     w.param("output_dir", options.output_dir);
     w.param("scenario_name", s.name);
     w.param("duration", duration);
+    w.param("real_time_factor", options.real_time_factor);  // the progress line shows it
     w.param("progress_period", options.progress_period);
     // A finished run ends its roslaunch with a SIGINT (no "REQUIRED process has died" banner).
     w.paramBool("end_launch", true);

@@ -66,6 +66,10 @@ public:
    */
   double wait(double sim, double wall);
 
+  /// The wall time at which sim time `sim` is due on the current pace; -inf before the first
+  /// wait() (nothing is due yet). Changes nothing.
+  double due(double sim) const;
+
   /// How often the pace restarted because the run was more than max_lag behind it.
   std::uint64_t restarts() const { return restarts_; }
   /// Wall seconds given up by those restarts (how far behind the run was, summed).

@@ -20,6 +20,12 @@
 // and the run does not depend on how the processes are scheduled. A vehicle that does not
 // answer within ~lockstep_timeout (wall) stops the run with an error naming it.
 //
+// Clock followers (~clock_followers, with ~publish_clock): nodes that report on /lockstep/done
+// the sim time they have processed (sensors_node ~lockstep_partition). The node publishes a
+// clock time T only once each has reported T - ~follower_lag: /clock never runs further ahead
+// of the sensors than that, whatever the real-time factor or the load (ad::ClockFollowers). A
+// follower silent for ~lockstep_timeout (wall) stops the run with an error naming it.
+//
 // Partition (~partition): one of several dynamics processes of a run, each with its own
 // vehicles in its own world. lockstep_clock publishes /clock; on each tick the node steps its
 // world to that time (with its controllers' barriers on the way) and reports it on
@@ -69,6 +75,7 @@
 #include <avsp_terrain/ros/terrain_source_params.hpp>
 #include <avsp_terrain/soil.hpp>
 
+#include "avsp_dynamics/clock_followers.hpp"
 #include "avsp_dynamics/collision_counter.hpp"
 #include "avsp_dynamics/partition_reach.hpp"
 #include "avsp_dynamics/partition_runner.hpp"
@@ -243,6 +250,9 @@ public:
       done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
       tick_sub_ = nh_.subscribe("/clock", 100, &Impl::onTick, this, ros::TransportHints().tcpNoDelay());
     }
+    if (followers_)
+      followers_sub_ = nh_.subscribe("/lockstep/done", 1000, &Impl::onFollowerDone, this,
+                                     ros::TransportHints().tcpNoDelay());
     setUpDiagnostics();
     ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
              source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
@@ -270,6 +280,8 @@ public:
         idle.sleep();
       }
     }
+    if (followers_ && lockstep_every_ == 0)
+      publishStates();  // the followers' first report answers the odometry of time 0
     if (lockstep_every_ > 0)
     {
       // The controllers' first step answers the odometry of time 0. A controller (or a V2V
@@ -288,6 +300,8 @@ public:
         // One clock period of physics per loop, commands taken at its start.
         for (std::uint64_t k = 0; k < clock_every_ && ros::ok(); ++k)
           step();
+        if (followers_ && !waitForFollowers())
+          return false;
         publishClock();
         if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
           return false;
@@ -519,6 +533,7 @@ private:
     }
     // Publication periods in whole steps, so they fall on the same steps in every run.
     odom_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (odom_rate * options.step)));
+    readFollowers(static_cast<double>(odom_every_) * options.step);
     clock_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (clock_rate * options.step)));
     ruts_every_ = ruts_rate > 0.0 ? std::max<std::uint64_t>(1, std::llround(1.0 / (ruts_rate * options.step))) : 0;
     lockstep_names = lockstepVehicles(specs, options.step, odom_rate);
@@ -781,6 +796,104 @@ private:
     done_pub_.publish(d);
   }
 
+  /// ~clock_followers and ~follower_lag (s). The lag must cover one odometry period: a
+  /// follower reports time t once it has the odometry of t, which goes out before /clock does.
+  void readFollowers(double odom_period)
+  {
+    if (!pnh_.hasParam("clock_followers"))
+      return;
+    XmlRpc::XmlRpcValue list;
+    pnh_.getParam("clock_followers", list);
+    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+      throw StartupError("parameter ~clock_followers must be a list of names (the followers' ~lockstep_partition)");
+    std::vector<std::string> names;
+    for (int k = 0; k < list.size(); ++k)
+    {
+      std::string why;
+      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString || !ros::names::validate(list[k], why) ||
+          static_cast<std::string>(list[k]).find('/') != std::string::npos)
+        throw StartupError("parameter ~clock_followers[" + std::to_string(k) + "] must be a plain name (string, no '/')");
+      names.push_back(static_cast<std::string>(list[k]));
+    }
+    if (names.empty())
+      return;
+    if (!publish_clock_ || !partition_.empty())
+      throw StartupError("parameter ~clock_followers needs ~publish_clock true and no ~partition (with partitions "
+                         "lockstep_clock waits for the sensors)");
+    const double lag = boundedParam(pnh_, "follower_lag", 0.05, 0.0, 10.0);
+    if (lag < odom_period - 1e-9)
+      throw StartupError("parameter ~follower_lag " + shortNumber(lag) + " s must be at least the odometry period (" +
+                         shortNumber(odom_period) + " s): a follower reports a time once it has its odometry");
+    try
+    {
+      followers_.emplace(names, lag);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw StartupError("parameter ~" + std::string(e.what()));
+    }
+    follower_waited_.assign(names.size(), 0.0);
+  }
+
+  void onFollowerDone(const avsp_msgs::StepDone::ConstPtr& msg)
+  {
+    if (followers_->done(msg->partition, msg->header.stamp.toSec()) == ad::ClockFollowers::Report::kUnknown)
+      ROS_WARN_THROTTLE(5.0, "dynamics_node: /lockstep/done from '%s' ignored: not in ~clock_followers (%s)",
+                        msg->partition.c_str(), joined(followers_->names()).c_str());
+  }
+
+  /// Before /clock goes to the world's time: callbacks run until every follower is within
+  /// ~follower_lag of it. While waiting, the last clock time and odometry go out again every
+  /// 0.2 s (wall): a follower that connected after they did would otherwise never answer.
+  /// False (after an error naming the silent followers) after ~lockstep_timeout (wall).
+  bool waitForFollowers()
+  {
+    const double t = world_->time();
+    if (followers_->allows(t))
+      return true;
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    ros::WallTime last = ros::WallTime::now();
+    ros::WallTime resend = last + ros::WallDuration(0.2);
+    const ros::WallTime deadline = last + ros::WallDuration(lockstep_timeout_);
+    while (ros::ok() && !followers_->allows(t))
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      const ros::WallTime now = ros::WallTime::now();
+      // The wait is charged to every follower that held the clock back, from when the pace
+      // (if any) would have let the clock go: waiting that the pace would have spent sleeping
+      // held nothing back.
+      const double from = std::max(last.toSec(), pacer_ ? pacer_->due(t) : last.toSec());
+      const std::vector<std::string>& names = followers_->names();
+      for (std::size_t k = 0; k < names.size(); ++k)
+        if (followers_->reached(names[k]) < t - followers_->lag() - 1e-9 && now.toSec() > from)
+          follower_waited_[k] += now.toSec() - from;
+      last = now;
+      if (now > resend)
+      {
+        rosgraph_msgs::Clock c;
+        c.clock = ros::Time(clock_published_);
+        clock_pub_.publish(c);
+        for (const auto& v : vehicles_)
+          v->odom_pub.publish(v->last_odom);
+        resend = now + ros::WallDuration(0.2);
+      }
+      if (now > deadline && !followers_->allows(t))
+      {
+        std::string silent;
+        for (const std::string& n : followers_->holding(t))
+        {
+          const double r = followers_->reached(n);
+          silent += (silent.empty() ? "" : ", ") + n +
+                    (std::isfinite(r) ? " (at " + shortNumber(r) + " s)" : std::string(" (no report yet)"));
+        }
+        fatal("clock followers: " + silent + " did not reach t = " + shortNumber(t - followers_->lag()) +
+             " s within ~lockstep_timeout " + shortNumber(lockstep_timeout_) + " s (wall)");
+        return false;
+      }
+    }
+    return ros::ok();
+  }
+
   /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
   std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
   {
@@ -1026,6 +1139,7 @@ private:
   {
     rosgraph_msgs::Clock c;
     c.clock = ros::Time(world_->time());
+    clock_published_ = world_->time();
     clock_pub_.publish(c);
   }
 
@@ -1105,6 +1219,18 @@ private:
     }
     if (!publish_clock_)
       s.add("behind /clock (s)", (ros::Time::now() - stamp()).toSec());
+    if (followers_)
+    {
+      // Who holds the clock back: each follower's lag behind the world and the wall time the
+      // clock waited for it (the slowest node is the one with the most).
+      const std::vector<std::string>& names = followers_->names();
+      for (std::size_t k = 0; k < names.size(); ++k)
+      {
+        const double r = followers_->reached(names[k]);
+        s.add("follower " + names[k] + " behind (s)", std::isfinite(r) ? world_->time() - r : world_->time());
+        s.add("clock waited for " + names[k] + " (wall s)", follower_waited_[k]);
+      }
+    }
     if (real_time_factor_ > 0.0 && rtf && *rtf < kRealTimeFactorShare * real_time_factor_)
       s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "running at %.2fx, below %.0f %% of the target %.2fx", *rtf,
                  100.0 * kRealTimeFactorShare, real_time_factor_);
@@ -1330,6 +1456,10 @@ private:
   bool tick_repeated_ = false;        ///< the clock re-sent a tick already reached
   ros::Publisher done_pub_;
   ros::Subscriber tick_sub_;
+  std::optional<ad::ClockFollowers> followers_;  ///< ~clock_followers (none: the clock runs free)
+  std::vector<double> follower_waited_;         ///< wall s the clock waited for each follower
+  ros::Subscriber followers_sub_;
+  double clock_published_ = 0.0;                ///< s, the last time sent on /clock
   // With ~peers: the exchanges' transport and the protocol (declared after world_, objects_ and
   // the transport they refer to: destroyed before them).
   std::unique_ptr<RosExchangeTransport> transport_;

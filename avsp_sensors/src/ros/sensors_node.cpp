@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdarg>
 #include <cstdint>
 #include <cstdio>
@@ -217,7 +218,11 @@ public:
     setUpDiagnostics();
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &Impl::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &Impl::onToppled, this);
-    environment_sub_ = nh_.subscribe("/environment", 10, &Impl::onEnvironment, this);
+    // Every message is kept (a weather change must not be dropped by a full queue).
+    environment_sub_ = nh_.subscribe("/environment", 1000, &Impl::onEnvironment, this);
+    // In the lockstep environment_node publishes at every multiple of its period; a time is
+    // sensed only once its message has come (environmentCovers).
+    environment_period_ = boundedParam(pnh_, "environment_period", 0.0, 0.0, 3600.0);
     // Lockstep with a partitioned run: report each clock interval sensed, so lockstep_clock
     // waits for the sensors as for the dynamics partitions (the sensors never fall behind by
     // more than one interval, however costly a sweep or frame).
@@ -651,6 +656,8 @@ private:
 
   void onEnvironment(const avsp_msgs::Environment::ConstPtr& msg)
   {
+    // Its time has come, even when the message is refused (the lidar keeps the last good weather).
+    environment_reached_ = std::max(environment_reached_, asn::stampSeconds(msg->header.stamp));
     as::Weather weather;
     std::string why;
     if (!asn::weatherFromEnvironment(*msg, weather, why))
@@ -748,6 +755,8 @@ private:
       total += n;
     }
     s.add("world changes pending", events_.size());
+    if (environment_period_ > 0.0)
+      s.add("/environment reached (s)", environment_reached_);  // a held time waits for it
     avsp::node::summarizeIgnoredInputs(s, total, ignored_reported_);
   }
 
@@ -761,15 +770,26 @@ public:
     // waited for all of it (roslaunch's SIGTERM after 15 s ended some runs).
     while (ros::ok())
     {
-      std::optional<as::StateSynchronizer::Batch> batch = sync_->next();
-      if (!batch)
+      std::optional<as::StateSynchronizer::Batch> batch;
+      if (held_)
+        batch.swap(held_);
+      else
+      {
+        batch = sync_->next();
+        if (!batch)
+          break;
+        for (std::size_t k : sync_->waitedOut())
+          ++vehicles_[k]->waited_out;
+        for (std::size_t k : sync_->waitedOut())
+          warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going "
+                             "on without it",
+                        vehicles_[k]->odom_topic.c_str(), batch->time);
+      }
+      if (!environmentCovers(batch->time))
+      {
+        held_.swap(batch);  // sensed once /environment has reached its time
         break;
-      for (std::size_t k : sync_->waitedOut())
-        ++vehicles_[k]->waited_out;
-      for (std::size_t k : sync_->waitedOut())
-        warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going on "
-                           "without it",
-                      vehicles_[k]->odom_topic.c_str(), batch->time);
+      }
       for (auto it = events_.begin(); it != events_.end() && it->first <= batch->time;)
       {
         it->second();
@@ -807,6 +827,16 @@ public:
   }
 
 private:
+  /// With ~environment_period p: the /environment message of every multiple of p up to `time`
+  /// has come, so the weather and sky at `time` are known whatever the message interleaving.
+  bool environmentCovers(double time) const
+  {
+    if (environment_period_ <= 0.0)
+      return true;
+    const double due = std::floor(time / environment_period_ + 1e-9) * environment_period_;
+    return environment_reached_ >= due - 1e-9;
+  }
+
   void reportDone()
   {
     avsp_msgs::StepDone d;
@@ -998,6 +1028,9 @@ private:
   std::uint64_t ignored_reported_ = 0;            ///< their sum at the last diagnostics publication
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
   std::string lockstep_partition_;   ///< ~lockstep_partition ("" = not in the lockstep)
+  double environment_period_ = 0.0;  ///< s, ~environment_period (0: sense without waiting for it)
+  double environment_reached_ = -std::numeric_limits<double>::infinity();  ///< s, latest /environment stamp
+  std::optional<as::StateSynchronizer::Batch> held_;  ///< popped, waiting for /environment
   double lockstep_interval_ = 0.01;  ///< s, lockstep_clock's ~sync_interval
   std::optional<double> reported_;   ///< last interval end reported sensed, s
   ros::Publisher done_pub_;
