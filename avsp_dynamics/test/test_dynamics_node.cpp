@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <geometry_msgs/Twist.h>
@@ -28,6 +29,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/JointState.h>
+#include <std_srvs/Trigger.h>
 
 #include <Eigen/Core>
 
@@ -663,6 +665,113 @@ TEST(DynamicsNodeLockstep, ABarrierThatWaitsSendsTheClockAgain)
   EXPECT_TRUE(went_on) << "the answer did not release the barrier";
 }
 }  // namespace
+
+// Run control (run_control.test): dynamics_node (the clock, as fast as it can) paused, stepped
+// and resumed through ~pause, ~step and ~resume, beside a twin vehicle in a node that follows
+// that clock without any of it. The clock holds while paused, ~step advances it by exactly its
+// steps (and the odometry instants they cross), the refusals change nothing, and the paused
+// vehicle's odometry equals the twin's, message for message: run control takes or skips no step.
+TEST(RunControl, PauseStepResumeKeepThePhysics)
+{
+  ros::NodeHandle nh;
+  std::vector<nav_msgs::Odometry> ego, twin;
+  double clock = 0.0;
+  std::size_t clocks = 0;
+  ros::Subscriber se = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 10000,
+                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { ego.push_back(*m); });
+  ros::Subscriber st = nh.subscribe<nav_msgs::Odometry>("/twin/avt_341/odometry", 10000,
+                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { twin.push_back(*m); });
+  ros::Subscriber sc = nh.subscribe<rosgraph_msgs::Clock>("/clock", 10000, [&](const rosgraph_msgs::Clock::ConstPtr& c) {
+    clock = c->clock.toSec();
+    ++clocks;
+  });
+  ASSERT_TRUE(spinUntil([&] { return se.getNumPublishers() > 0 && st.getNumPublishers() > 0; }, 60.0));
+  ros::ServiceClient pause = nh.serviceClient<std_srvs::Trigger>("/dynamics/pause");
+  ros::ServiceClient resume = nh.serviceClient<std_srvs::Trigger>("/dynamics/resume");
+  ros::ServiceClient step = nh.serviceClient<avsp_msgs::StepPhysics>("/dynamics/step");
+  ASSERT_TRUE(pause.waitForExistence(ros::Duration(60.0)));
+  ASSERT_TRUE(resume.waitForExistence(ros::Duration(10.0)));
+  ASSERT_TRUE(step.waitForExistence(ros::Duration(10.0)));
+  // Both nodes wait for their first command (latched, kept: ~command_timeout 3600 s).
+  ros::Publisher pe = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 1, true);
+  ros::Publisher pt = nh.advertise<avsp_msgs::DriveCommand>("/twin/cmd_drive", 1, true);
+  avsp_msgs::DriveCommand cmd;
+  cmd.throttle = 0.5;
+  cmd.steering = 0.3;
+  pe.publish(cmd);
+  pt.publish(cmd);
+  ASSERT_TRUE(spinUntil([&] { return clock >= 0.3; }, 60.0)) << "clock at " << clock;
+
+  // Refusals while running: nothing changes.
+  std_srvs::Trigger trig;
+  avsp_msgs::StepPhysics sp;
+  sp.request.steps = 10;
+  ASSERT_TRUE(step.call(sp));
+  EXPECT_FALSE(sp.response.success);
+  EXPECT_NE(sp.response.message.find("not paused"), std::string::npos) << sp.response.message;
+  ASSERT_TRUE(resume.call(trig));
+  EXPECT_FALSE(trig.response.success);
+
+  ASSERT_TRUE(pause.call(trig));
+  EXPECT_TRUE(trig.response.success) << trig.response.message;
+  ASSERT_TRUE(pause.call(trig));
+  EXPECT_FALSE(trig.response.success) << "a second pause: " << trig.response.message;
+  // Held: the clock's last message comes at most one clock period after the pause answered;
+  // then 1 s of wall time passes with no new clock time and no odometry.
+  ros::WallDuration(0.2).sleep();
+  ros::spinOnce();
+  const double held = clock;
+  const std::size_t ego_held = ego.size(), clocks_held = clocks;
+  ros::WallDuration(1.0).sleep();
+  ros::spinOnce();
+  EXPECT_EQ(clock, held);
+  EXPECT_EQ(clocks, clocks_held);
+  EXPECT_EQ(ego.size(), ego_held);
+
+  sp.request.steps = 0;
+  ASSERT_TRUE(step.call(sp));
+  EXPECT_FALSE(sp.response.success);
+  // 25 steps of 1 ms: the clock goes to held + 0.025 s, never beyond, and the odometry
+  // (100 Hz) of every multiple of 0.01 s in between comes. (The clock goes out after every
+  // step, but its publisher keeps 10 messages: a subscriber may see fewer, never other ones.)
+  sp.request.steps = 25;
+  ASSERT_TRUE(step.call(sp));
+  ASSERT_TRUE(sp.response.success) << sp.response.message;
+  EXPECT_NEAR(sp.response.until, held + 0.025, 1e-9);
+  ASSERT_TRUE(spinUntil([&] { return clock >= sp.response.until - 1e-9; }, 30.0)) << "clock at " << clock;
+  ros::WallDuration(0.5).sleep();
+  ros::spinOnce();
+  EXPECT_NEAR(clock, held + 0.025, 1e-9);
+  EXPECT_LE(clocks - clocks_held, 25u);
+  std::size_t crossed = 0;
+  for (int k = 1; k <= 25; ++k)
+  {
+    const long step_index = std::lround(held * 1000.0) + k;
+    crossed += step_index % 10 == 0;
+  }
+  EXPECT_EQ(ego.size() - ego_held, crossed);
+
+  ASSERT_TRUE(resume.call(trig));
+  EXPECT_TRUE(trig.response.success) << trig.response.message;
+  ASSERT_TRUE(spinUntil([&] { return ego.size() >= 150 && twin.size() >= 150; }, 60.0))
+      << "ego " << ego.size() << ", twin " << twin.size();
+  // The same physics as the twin's uninterrupted stepping, message for message (the twin's
+  // world starts at the first clock tick it saw: compare by sequence).
+  for (std::size_t k = 0; k < 150; ++k)
+  {
+    const auto& a = ego[k].pose.pose;
+    const auto& b = twin[k].pose.pose;
+    ASSERT_EQ(a.position.x, b.position.x) << k;
+    ASSERT_EQ(a.position.y, b.position.y) << k;
+    ASSERT_EQ(a.position.z, b.position.z) << k;
+    ASSERT_EQ(a.orientation.z, b.orientation.z) << k;
+  }
+  EXPECT_GT(std::hypot(ego[149].pose.pose.position.x - ego[0].pose.pose.position.x,
+                       ego[149].pose.pose.position.y - ego[0].pose.pose.position.y),
+            0.5);  // it drove
+  std::printf("[run control] paused at %.3f s, 25 steps to %.3f s, %zu odometry messages crossed, 150 equal to the twin\n",
+              held, clock >= held + 0.025 ? held + 0.025 : clock, crossed);
+}
 
 int main(int argc, char** argv)
 {

@@ -91,6 +91,12 @@ TEST(Pacer, PacesAndRestartsAfterAStallInsteadOfSprinting)
   EXPECT_DOUBLE_EQ(p.due(14.0), 105.5);
   EXPECT_NEAR(p.wait(14.0, 105.0), 0.5, 1e-9);
   EXPECT_NEAR(p.wait(14.5, 105.5), 0.25, 1e-9);
+  // A pause of 60 s (wall): after reanchor() the pace starts again where the run resumes.
+  p.reanchor();
+  EXPECT_EQ(p.due(14.6), -INFINITY);
+  EXPECT_EQ(p.wait(14.6, 165.5), 0.0);
+  EXPECT_NEAR(p.wait(15.6, 165.5), 0.5, 1e-9);
+  EXPECT_EQ(p.restarts(), 1u);
 }
 
 TEST(Pacer, BadInputsAreRefused)

@@ -70,6 +70,10 @@ public:
   /// wait() (nothing is due yet). Changes nothing.
   double due(double sim) const;
 
+  /// Forgets the pace: the next wait() anchors it again (after a pause, the time paused is
+  /// neither caught up nor counted as a restart).
+  void reanchor() { anchor_sim_.reset(); }
+
   /// How often the pace restarted because the run was more than max_lag behind it.
   std::uint64_t restarts() const { return restarts_; }
   /// Wall seconds given up by those restarts (how far behind the run was, summed).

@@ -54,6 +54,7 @@
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/StepDone.h>
+#include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -66,6 +67,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/Empty.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <avsp_terrain/height_patch.hpp>
@@ -253,6 +255,13 @@ public:
     if (followers_)
       followers_sub_ = nh_.subscribe("/lockstep/done", 1000, &Impl::onFollowerDone, this,
                                      ros::TransportHints().tcpNoDelay());
+    if (publish_clock_ && partition_.empty())
+    {
+      // Run control (the node is the clock): pause, single steps, resume.
+      pause_srv_ = pnh_.advertiseService("pause", &Impl::onPause, this);
+      resume_srv_ = pnh_.advertiseService("resume", &Impl::onResume, this);
+      step_srv_ = pnh_.advertiseService("step", &Impl::onStep, this);
+    }
     setUpDiagnostics();
     ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
              source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
@@ -297,15 +306,27 @@ public:
       ros::spinOnce();
       if (publish_clock_)
       {
-        // One clock period of physics per loop, commands taken at its start.
-        for (std::uint64_t k = 0; k < clock_every_ && ros::ok(); ++k)
+        if (paused_ && pending_steps_ == 0)
+        {
+          ros::WallDuration(0.001).sleep();  // paused (~pause): the services and nothing else
+          continue;
+        }
+        // One clock period of physics per loop, commands taken at its start; paused, one step
+        // of ~step per loop, each with its clock. Clock publications stay on the same steps
+        // as without a pause, so the barriers below fall where they always do.
+        const bool single = paused_;
+        do
+        {
           step();
+          if (single)
+            --pending_steps_;
+        } while (ros::ok() && !single && world_->stepCount() % clock_every_ != 0);
         if (followers_ && !waitForFollowers())
           return false;
         publishClock();
         if (lockstep_every_ > 0 && world_->stepCount() % lockstep_every_ == 0 && !waitForCommands())
           return false;
-        if (pacer_)
+        if (pacer_ && !single)
         {
           // Behind the pace by more than 0.1 s (wall), the pace restarts: sim time slows down
           // rather than sprinting later with every subscriber behind the clock.
@@ -894,6 +915,60 @@ private:
     return ros::ok();
   }
 
+  // ---- run control (~pause, ~resume, ~step) ---------------------------------------------
+  // The services only set what the loop reads between clock periods: a pause takes effect
+  // after the current one, and no step is taken or skipped because of when a call came.
+
+  bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res)
+  {
+    res.success = !paused_;
+    res.message = (paused_ ? "already paused at t = " : "paused at t = ") + shortNumber(world_->time()) + " s";
+    paused_ = true;
+    ROS_INFO("dynamics_node: ~pause: %s", res.message.c_str());
+    return true;
+  }
+
+  bool onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res)
+  {
+    if (!paused_)
+    {
+      res.success = false;
+      res.message = "not paused (t = " + shortNumber(world_->time()) + " s); nothing changed";
+      return true;
+    }
+    paused_ = false;
+    pending_steps_ = 0;
+    if (pacer_)
+      pacer_->reanchor();  // the pace starts again here: no catch-up for the time paused
+    res.success = true;
+    res.message = "resumed at t = " + shortNumber(world_->time()) + " s";
+    ROS_INFO("dynamics_node: ~resume: %s", res.message.c_str());
+    return true;
+  }
+
+  bool onStep(avsp_msgs::StepPhysics::Request& req, avsp_msgs::StepPhysics::Response& res)
+  {
+    res.until = world_->time();
+    res.success = false;
+    if (!paused_)
+      res.message = "refused: not paused (call ~pause first); nothing changed";
+    else if (req.steps == 0)
+      res.message = "refused: steps must be at least 1";
+    else if (pending_steps_ + req.steps > kMaxPendingSteps)
+      res.message = "refused: more than " + std::to_string(kMaxPendingSteps) + " steps pending";
+    else
+    {
+      pending_steps_ += req.steps;
+      res.success = true;
+      res.until = static_cast<double>(world_->stepCount() + pending_steps_) * world_->options().step;
+      res.message = std::to_string(req.steps) + " step(s) queued; /clock reaches " + shortNumber(res.until) +
+                    " s, then stays paused";
+    }
+    if (!res.success)
+      ROS_WARN("dynamics_node: ~step: %s", res.message.c_str());
+    return true;
+  }
+
   /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
   std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
   {
@@ -1212,6 +1287,7 @@ private:
     s.add("real-time factor", rtf ? *rtf : 0.0);
     s.add("real-time factor window (wall s)", rtf_.span());
     s.add("real-time factor target", real_time_factor_);  // 0: as fast as it can
+    s.add("paused", paused_);
     if (pacer_)
     {
       s.add("pace restarts", pacer_->restarts());  // the host fell > 0.1 s behind the pace
@@ -1460,6 +1536,10 @@ private:
   std::vector<double> follower_waited_;         ///< wall s the clock waited for each follower
   ros::Subscriber followers_sub_;
   double clock_published_ = 0.0;                ///< s, the last time sent on /clock
+  bool paused_ = false;                         ///< ~pause came (and no ~resume since)
+  std::uint64_t pending_steps_ = 0;             ///< ~step's steps not yet taken
+  static constexpr std::uint64_t kMaxPendingSteps = 100000000;  ///< 1e8 (a day at 1 ms)
+  ros::ServiceServer pause_srv_, resume_srv_, step_srv_;
   // With ~peers: the exchanges' transport and the protocol (declared after world_, objects_ and
   // the transport they refer to: destroyed before them).
   std::unique_ptr<RosExchangeTransport> transport_;
