@@ -258,6 +258,20 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
       lowest = std::min(lowest, h);
   }
   EXPECT_LT(lowest, -0.002) << "no rut below the flat gravel surface";
+  // Each rut instant (2 Hz) ends with its marker (width = height = 0), after its patches.
+  std::size_t markers = 0;
+  for (std::size_t k = 0; k < ego.ruts.size(); ++k)
+  {
+    const auto& p = ego.ruts[k];
+    if (p.width != 0 || p.height != 0)
+      continue;
+    ++markers;
+    const double t = p.header.stamp.toSec();
+    EXPECT_NEAR(t * 2.0, std::round(t * 2.0), 1e-9) << "marker at " << t << " s";
+    if (k > 0)
+      EXPECT_LE(ego.ruts[k - 1].header.stamp.toSec(), t + 1e-9);
+  }
+  EXPECT_GE(markers, 3u);
 
   // ground_truth/odometry is avt_341/odometry; wheel_odometry (gyro + running gear on gravel)
   // follows it to within 5 % of the distance driven, its position variance growing with it.

@@ -512,6 +512,8 @@ private:
   void onPatch(const ros::MessageEvent<const avsp_msgs::TerrainPatch>& event)
   {
     const avsp_msgs::TerrainPatch& m = *event.getMessage();
+    if (m.width == 0 && m.height == 0 && m.heights.empty())
+      return;  // an end-of-instant marker (TerrainPatch.msg): no heights
     if (!m.header.frame_id.empty() && m.header.frame_id != "map")
     {
       ++patches_rejected_;

@@ -25,6 +25,9 @@ constexpr double kSensorLag = 0.05;
 /// /environment of its last multiple has come, so a weather change at t reaches the first sweep
 /// after t in every run.
 constexpr double kEnvironmentPeriod = 0.1;
+/// s: dynamics_node's rut instants (its ~ruts_rate 2 Hz); sensors_node waits for each one's
+/// end-of-patches marker (single process; partitions' markers are not waited for).
+constexpr double kRutsPeriod = 0.5;
 /// s (wall): a partition or peer silent this long stops the run.
 constexpr double kPartitionTimeout = 30.0;
 /// s: the controllers' period (20 Hz), the dynamics' barrier and the radio's batches.
@@ -318,6 +321,7 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     {
       w.param("real_time_factor", options.real_time_factor);
       w.param("clock_rate", options.clock_rate);
+      w.param("ruts_rate", 1.0 / kRutsPeriod);
       // The sensors hold the clock: it never runs more than kSensorLag ahead of them.
       w.rosparam("clock_followers", "[" + quoted(kSensorsPartition) + "]");
       w.param("follower_lag", kSensorLag);
@@ -379,6 +383,8 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   w.param("lockstep_partition", kSensorsPartition);
   w.param("lockstep_interval", kSyncInterval);
   w.param("environment_period", kEnvironmentPeriod);
+  if (s.partitions.empty())
+    w.param("ruts_period", kRutsPeriod);  // a rut reaches the same sweep in every run
   w.close();
 
   // Sky and weather.

@@ -239,7 +239,8 @@ public:
       addVehicle(s, lockstep_names.count(s.name) > 0);
     transforms_.resize(vehicles_.size());
     toppled_pub_ = nh_.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 100);
-    ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 10);
+    // Every patch reaches every subscriber (a dropped one would be a rut a sensor never sees).
+    ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 1000);
     if (publish_clock_)
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
     loadPeers();
@@ -1504,6 +1505,13 @@ private:
       header.frame_id = "map";
       ruts_pub_.publish(at::node::toTerrainPatch(at::extractPatch(*terrain_, r), header));
     }
+    // The instant's end-of-patches marker (TerrainPatch.msg): sensors_node ~ruts_period waits
+    // for it, so a rut reaches the same sweep in every run.
+    avsp_msgs::TerrainPatch marker;
+    marker.header.stamp = stamp();
+    marker.header.frame_id = "map";
+    marker.resolution = g.dx();
+    ruts_pub_.publish(marker);
   }
 
   ros::NodeHandle& nh_;

@@ -223,6 +223,8 @@ public:
     // In the lockstep environment_node publishes at every multiple of its period; a time is
     // sensed only once its message has come (environmentCovers).
     environment_period_ = boundedParam(pnh_, "environment_period", 0.0, 0.0, 3600.0);
+    // The same for the ruts: dynamics_node marks the end of each rut instant (1 / its ~ruts_rate).
+    ruts_period_ = boundedParam(pnh_, "ruts_period", 0.0, 0.0, 3600.0);
     // Lockstep with a partitioned run: report each clock interval sensed, so lockstep_clock
     // waits for the sensors as for the dynamics partitions (the sensors never fall behind by
     // more than one interval, however costly a sweep or frame).
@@ -613,6 +615,12 @@ private:
   {
     const avsp_msgs::TerrainPatch::ConstPtr msg = event.getMessage();
     const std::string publisher = event.getPublisherName();
+    if (msg->width == 0 && msg->height == 0 && msg->heights.empty())
+    {
+      // dynamics_node's end-of-instant marker: every patch up to its stamp has come.
+      ruts_reached_ = std::max(ruts_reached_, asn::stampSeconds(msg->header.stamp));
+      return;
+    }
     if (!msg->header.frame_id.empty() && msg->header.frame_id != "map" && msg->header.frame_id != world_frame_)
     {
       ++ignored_["/terrain/ruts"];
@@ -757,6 +765,8 @@ private:
     s.add("world changes pending", events_.size());
     if (environment_period_ > 0.0)
       s.add("/environment reached (s)", environment_reached_);  // a held time waits for it
+    if (ruts_period_ > 0.0)
+      s.add("/terrain/ruts reached (s)", ruts_reached_);
     avsp::node::summarizeIgnoredInputs(s, total, ignored_reported_);
   }
 
@@ -785,9 +795,9 @@ public:
                              "on without it",
                         vehicles_[k]->odom_topic.c_str(), batch->time);
       }
-      if (!environmentCovers(batch->time))
+      if (!worldKnownAt(batch->time))
       {
-        held_.swap(batch);  // sensed once /environment has reached its time
+        held_.swap(batch);  // sensed once /environment and the ruts have reached its time
         break;
       }
       for (auto it = events_.begin(); it != events_.end() && it->first <= batch->time;)
@@ -827,14 +837,22 @@ public:
   }
 
 private:
-  /// With ~environment_period p: the /environment message of every multiple of p up to `time`
-  /// has come, so the weather and sky at `time` are known whatever the message interleaving.
-  bool environmentCovers(double time) const
+  /// Whether the world at `time` is known whatever the message interleaving: with
+  /// ~environment_period p, the /environment message of the last multiple of p up to `time`
+  /// has come; with ~ruts_period q, dynamics_node's end-of-patches marker of the last multiple
+  /// of q up to `time` (from q on: there is no rut instant at 0).
+  bool worldKnownAt(double time) const
   {
-    if (environment_period_ <= 0.0)
-      return true;
-    const double due = std::floor(time / environment_period_ + 1e-9) * environment_period_;
-    return environment_reached_ >= due - 1e-9;
+    const auto due = [time](double period) { return std::floor(time / period + 1e-9) * period; };
+    if (environment_period_ > 0.0 && environment_reached_ < due(environment_period_) - 1e-9)
+      return false;
+    if (ruts_period_ > 0.0)
+    {
+      const double r = due(ruts_period_);
+      if (r > 0.5 * ruts_period_ && ruts_reached_ < r - 1e-9)
+        return false;
+    }
+    return true;
   }
 
   void reportDone()
@@ -1030,7 +1048,9 @@ private:
   std::string lockstep_partition_;   ///< ~lockstep_partition ("" = not in the lockstep)
   double environment_period_ = 0.0;  ///< s, ~environment_period (0: sense without waiting for it)
   double environment_reached_ = -std::numeric_limits<double>::infinity();  ///< s, latest /environment stamp
-  std::optional<as::StateSynchronizer::Batch> held_;  ///< popped, waiting for /environment
+  double ruts_period_ = 0.0;  ///< s, ~ruts_period (0: sense without waiting for the ruts)
+  double ruts_reached_ = -std::numeric_limits<double>::infinity();  ///< s, latest end-of-ruts marker
+  std::optional<as::StateSynchronizer::Batch> held_;  ///< popped, waiting for /environment or the ruts
   double lockstep_interval_ = 0.01;  ///< s, lockstep_clock's ~sync_interval
   std::optional<double> reported_;   ///< last interval end reported sensed, s
   ros::Publisher done_pub_;
