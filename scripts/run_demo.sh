@@ -13,21 +13,8 @@ share="$(rospack find avsp)" || { echo "run_demo: rospack cannot find package av
 scenario="${AVSP_SCENARIO:-$share/config/scenarios/reference_traverse.yaml}"
 name="$(basename "${scenario%.*}")"
 out="$PWD/results/$name"
-# A port for the private master below Linux's ephemeral range (32768-60999, which any outgoing
-# connection may hold) that nothing is bound to now.
-port="$(/usr/bin/python3 -c '
-import random, socket
-for _ in range(200):
-    p = random.randint(20000, 32000)
-    with socket.socket() as s:
-        try:
-            s.bind(("0.0.0.0", p))
-        except OSError:
-            continue
-    print(p)
-    break
-')"
-[ -n "$port" ] || { echo "$(basename "$0"): no free TCP port in 20000-32000" >&2; exit 1; }
+# The private master's port: free, below the ephemeral range (scripts/free_port.py).
+port="$(/usr/bin/python3 "$(dirname "${BASH_SOURCE[0]}")/free_port.py")" || exit 1
 export ROS_MASTER_URI="http://127.0.0.1:${port}"
 export ROS_IP=127.0.0.1
 gui=false; rtf=0

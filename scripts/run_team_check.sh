@@ -5,21 +5,8 @@
 # Environment: AVSP_GUI=1 also starts RViz; AVSP_DEMO_TIMEOUT (s, default 30).
 set -euo pipefail
 export PATH="/usr/bin:/bin:${PATH}"
-# A port for the private master below Linux's ephemeral range (32768-60999, which any outgoing
-# connection may hold) that nothing is bound to now.
-port="$(/usr/bin/python3 -c '
-import random, socket
-for _ in range(200):
-    p = random.randint(20000, 32000)
-    with socket.socket() as s:
-        try:
-            s.bind(("0.0.0.0", p))
-        except OSError:
-            continue
-    print(p)
-    break
-')"
-[ -n "$port" ] || { echo "$(basename "$0"): no free TCP port in 20000-32000" >&2; exit 1; }
+# The private master's port: free, below the ephemeral range (scripts/free_port.py).
+port="$(/usr/bin/python3 "$(dirname "${BASH_SOURCE[0]}")/free_port.py")" || exit 1
 export ROS_MASTER_URI="http://127.0.0.1:${port}"
 export ROS_IP=127.0.0.1
 gui=false; [ "${AVSP_GUI:-0}" = 1 ] && gui=true

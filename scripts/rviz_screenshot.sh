@@ -14,21 +14,8 @@ done
 mkdir -p "$(dirname "$out")"
 share="$(rospack find avsp)" || { echo "rviz_screenshot: rospack cannot find package avsp (source install/setup.sh)" >&2; exit 1; }
 display_num=$(( 90 + RANDOM % 9 ))
-# A port for the private master below Linux's ephemeral range (32768-60999, which any outgoing
-# connection may hold) that nothing is bound to now.
-port="$(/usr/bin/python3 -c '
-import random, socket
-for _ in range(200):
-    p = random.randint(20000, 32000)
-    with socket.socket() as s:
-        try:
-            s.bind(("0.0.0.0", p))
-        except OSError:
-            continue
-    print(p)
-    break
-')"
-[ -n "$port" ] || { echo "$(basename "$0"): no free TCP port in 20000-32000" >&2; exit 1; }
+# The private master's port: free, below the ephemeral range (scripts/free_port.py).
+port="$(/usr/bin/python3 "$(dirname "${BASH_SOURCE[0]}")/free_port.py")" || exit 1
 export DISPLAY=":${display_num}" ROS_MASTER_URI="http://127.0.0.1:${port}" ROS_IP=127.0.0.1
 export LIBGL_ALWAYS_SOFTWARE=1
 

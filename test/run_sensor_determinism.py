@@ -16,7 +16,6 @@ usage: run_sensor_determinism.py SCENARIO LAUNCH_FILE RESULT_XML [DURATION_S] [W
 import hashlib
 import os
 import shutil
-import signal
 import struct
 import subprocess
 import sys
@@ -76,13 +75,8 @@ def run(name, scenario, launch_file, tmp, duration, limit, hog):
             h.wait()
         if launch is not None:
             stop_launch(launch)
-        if recorder is not None and recorder.poll() is None:
-            os.killpg(recorder.pid, signal.SIGINT)
-            try:
-                recorder.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                os.killpg(recorder.pid, signal.SIGKILL)
-                recorder.wait()
+        if recorder is not None:
+            stop_launch(recorder)  # SIGINT: rosbag closes the bag
         stop_launch(core)
         log.close()
 

@@ -1266,28 +1266,52 @@ TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
 }
 }  // namespace
 
+/// The ego's IMU stamps in arrival order and how far /clock got ahead of the last one.
+struct ImuBehindClock
+{
+  std::vector<double> imu;  ///< stamps, s
+  double lead = 0.0;        ///< s, the most /clock was ahead of the last IMU state received
+  double last_clock = 0.0;
+  ros::Subscriber imu_sub, clock_sub;
+
+  explicit ImuBehindClock(ros::NodeHandle& nh)
+  {
+    imu_sub = nh.subscribe<sensor_msgs::Imu>(
+        "/ego/imu/data", 1000, [this](const sensor_msgs::Imu::ConstPtr& m) { imu.push_back(m->header.stamp.toSec()); },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+    clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
+        "/clock", 1000,
+        [this](const rosgraph_msgs::Clock::ConstPtr& c) {
+          last_clock = c->clock.toSec();
+          if (!imu.empty())
+            lead = std::max(lead, last_clock - imu.back());
+        },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  }
+
+  /// Every state from the first received to `until` once, in order, 10 ms apart (100 Hz).
+  void expectEveryState(double until) const
+  {
+    ASSERT_FALSE(imu.empty());
+    std::size_t n = 0;
+    for (double t : imu)
+      if (t <= until + 1e-9)
+        ++n;
+    EXPECT_EQ(n, static_cast<std::size_t>(std::llround((until - imu.front()) * 100.0)) + 1);
+    for (std::size_t k = 1; k < imu.size(); ++k)
+      ASSERT_NEAR(imu[k] - imu[k - 1], 0.01, 1e-6) << k;
+  }
+};
+
 TEST(Lockstep, TheClockWaitsForTheSensors)
 {
   ros::NodeHandle nh, pnh("~");
   double until = 3.0;
   pnh.param("until", until, 3.0);
-  std::vector<double> imu;  // stamps, s, in arrival order
-  double lead = 0.0;        // s, how far /clock got ahead of the last IMU state
-  double last_clock = 0.0;
-  ros::Subscriber imu_sub = nh.subscribe<sensor_msgs::Imu>(
-      "/ego/imu/data", 1000, [&](const sensor_msgs::Imu::ConstPtr& m) { imu.push_back(m->header.stamp.toSec()); },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
-  ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
-      "/clock", 1000,
-      [&](const rosgraph_msgs::Clock::ConstPtr& c) {
-        last_clock = c->clock.toSec();
-        if (!imu.empty())
-          lead = std::max(lead, last_clock - imu.back());
-      },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  ImuBehindClock w(nh);
   const ros::WallTime start = ros::WallTime::now();
-  ASSERT_TRUE(spinUntil([&] { return !imu.empty() && imu.back() >= until; }, 100.0))
-      << "the IMU did not reach " << until << " s (clock at " << last_clock << " s)";
+  ASSERT_TRUE(spinUntil([&] { return !w.imu.empty() && w.imu.back() >= until; }, 100.0))
+      << "the IMU did not reach " << until << " s (clock at " << w.last_clock << " s)";
   // Every state sensed once, in order (100 Hz from 0), and the clock never far ahead of the
   // sensed states: the clock moves on after the sensors' report of T, which they send after
   // the IMU of T; the IMU travels on its own connection, so on a loaded machine it can arrive
@@ -1295,18 +1319,12 @@ TEST(Lockstep, TheClockWaitsForTheSensors)
   // runs ahead at the physics' pace, seconds ahead of these sensors.
   // (From the first state this node got: the sensors may publish t = 0 before this node's
   // subscription is connected.)
-  std::size_t n = 0;
-  for (double t : imu)
-    if (t <= until + 1e-9)
-      ++n;
-  ASSERT_FALSE(imu.empty());
-  EXPECT_LE(imu.front(), 0.05);
-  EXPECT_EQ(n, static_cast<std::size_t>(std::llround((until - imu.front()) * 100.0)) + 1);
-  for (std::size_t k = 1; k < imu.size(); ++k)
-    ASSERT_NEAR(imu[k] - imu[k - 1], 0.01, 1e-6) << k;
-  EXPECT_LE(lead, 0.1 + 1e-6);
+  ASSERT_FALSE(w.imu.empty());
+  EXPECT_LE(w.imu.front(), 0.05);
+  w.expectEveryState(until);
+  EXPECT_LE(w.lead, 0.1 + 1e-6);
   std::printf("[ lockstep ] %.1f s of sim time in %.1f s wall; /clock at most %.3f s ahead of the sensed IMU\n", until,
-              (ros::WallTime::now() - start).toSec(), lead);
+              (ros::WallTime::now() - start).toSec(), w.lead);
 }
 
 // sensors_node following dynamics_node's clock (~clock_followers, the single-process run of
@@ -1347,52 +1365,35 @@ TEST(LockstepFollow, ClockSensorsAndWeatherUnderLoad)
     }
   } stop_hogs{ burn, hogs };
 
-  std::vector<double> imu;
   std::vector<std::pair<double, std::size_t>> sweeps;  // stamp (sweep start), points
-  double last_clock = 0.0, lead = 0.0, sweep_lead = 0.0;
-  ros::Subscriber imu_sub = nh.subscribe<sensor_msgs::Imu>(
-      "/ego/imu/data", 1000, [&](const sensor_msgs::Imu::ConstPtr& m) { imu.push_back(m->header.stamp.toSec()); },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  double sweep_lead = 0.0;
+  ImuBehindClock w(nh);
   ros::Subscriber points_sub = nh.subscribe<sensor_msgs::PointCloud2>(
       "/ego/avt_341/points", 100,
       [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
         sweeps.emplace_back(m->header.stamp.toSec(), static_cast<std::size_t>(m->width) * m->height);
-        sweep_lead = std::max(sweep_lead, last_clock - m->header.stamp.toSec());
-      },
-      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
-  ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
-      "/clock", 1000,
-      [&](const rosgraph_msgs::Clock::ConstPtr& c) {
-        last_clock = c->clock.toSec();
-        if (!imu.empty())
-          lead = std::max(lead, last_clock - imu.back());
+        sweep_lead = std::max(sweep_lead, w.last_clock - m->header.stamp.toSec());
       },
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   // The physics starts on this test's signal (dynamics_node ~start_topic), once it listens.
   ASSERT_TRUE(spinUntil([&] {
-    return imu_sub.getNumPublishers() > 0 && points_sub.getNumPublishers() > 0 && clock_sub.getNumPublishers() > 0;
+    return w.imu_sub.getNumPublishers() > 0 && points_sub.getNumPublishers() > 0 && w.clock_sub.getNumPublishers() > 0;
   }, 60.0));
   ros::Publisher start_pub = nh.advertise<std_msgs::Empty>("/test/start", 1, true);
   start_pub.publish(std_msgs::Empty());
   const ros::WallTime start = ros::WallTime::now();
-  ASSERT_TRUE(spinUntil([&] { return !imu.empty() && imu.back() >= until; }, 100.0))
-      << "the IMU did not reach " << until << " s (clock at " << last_clock << " s)";
-  ASSERT_FALSE(imu.empty());
-  std::size_t n = 0;
-  for (double t : imu)
-    if (t <= until + 1e-9)
-      ++n;
-  EXPECT_LE(imu.front(), 1e-9);  // from the very first state
-  EXPECT_EQ(n, static_cast<std::size_t>(std::llround((until - imu.front()) * 100.0)) + 1);
-  for (std::size_t k = 1; k < imu.size(); ++k)
-    ASSERT_NEAR(imu[k] - imu[k - 1], 0.01, 1e-6) << k;
+  ASSERT_TRUE(spinUntil([&] { return !w.imu.empty() && w.imu.back() >= until; }, 100.0))
+      << "the IMU did not reach " << until << " s (clock at " << w.last_clock << " s)";
+  ASSERT_FALSE(w.imu.empty());
+  EXPECT_LE(w.imu.front(), 1e-9);  // from the very first state
+  w.expectEveryState(until);
   // ~follower_lag 0.05 s, plus up to 0.1 s for this process's receiving: the IMU and the clock
   // come on separate connections, and after each sweep the paced clock catches up with its
   // pace (up to 0.1 s wall behind, ad::Pacer) at the physics' speed, where a few ms of
   // delivery are hundredths of a second of sim time (0.054-0.102 s measured in 5 runs under
   // the hog). The sensors run at ~0.45x real time here: without the lockstep the clock would
   // be over 1.5 s ahead of them at 3 s.
-  EXPECT_LE(lead, 0.05 + 0.1 + 1e-6);
+  EXPECT_LE(w.lead, 0.05 + 0.1 + 1e-6);
   // A sweep goes out once it has ended (one period after its stamp), then the same.
   EXPECT_LE(sweep_lead, sweep_period + 0.05 + 0.1 + 1e-6);
 
@@ -1414,7 +1415,7 @@ TEST(LockstepFollow, ClockSensorsAndWeatherUnderLoad)
                                       << fog_start << " s) is the first foggy one";
   std::printf("[ follow ] %.1f s of sim time in %.1f s wall with %d busy thread(s); /clock at most %.3f s ahead of the "
               "IMU, %.3f s of a sweep's stamp; sweeps: clear >= %zu points, foggy (from %.2f s) <= %zu\n",
-              until, (ros::WallTime::now() - start).toSec(), hog_threads, lead, sweep_lead, clear_min, boundary,
+              until, (ros::WallTime::now() - start).toSec(), hog_threads, w.lead, sweep_lead, clear_min, boundary,
               foggy_max);
 }
 
