@@ -45,6 +45,9 @@ public:
    * @throw std::runtime_error if the physics diverged
    */
   virtual void afterStep(double time, bool stepped) = 0;
+  /// The bodies were moved from outside (World::setPose): every contact's shear displacement
+  /// and the servos' integrals start again from nothing, as for a vehicle set down there.
+  virtual void forgetContacts() = 0;
   virtual const VehicleState& state() const = 0;
   /// The bodies that collide with obstacles and other vehicles (obstacle_collision.hpp).
   virtual VehicleBodies collisionBodies() const = 0;
@@ -319,6 +322,12 @@ public:
   void afterStep(dBodyID chassis, bool stepped);
   /// N, the ground's normal force on the hull this step (0: the hull touches nothing).
   double normalForce() const { return normal_; }
+  /// Every plate's shear displacement forgotten (SimVehicleBase::forgetContacts).
+  void forgetContacts()
+  {
+    for (Plate& p : plates_)
+      p.ground.reset();
+  }
 
 private:
   struct Plate

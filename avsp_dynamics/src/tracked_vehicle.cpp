@@ -69,6 +69,16 @@ public:
   void setCommand(const DriveCommand& command) override { command_ = command; }
   void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times) override;
   void afterStep(double time, bool stepped) override { readState(time, stepped); }
+  void forgetContacts() override
+  {
+    for (Side& side : sides_)
+    {
+      for (RoadWheel& w : side.wheels)
+        w.ground.reset();
+      side.servo.reset();
+    }
+    hull_->forgetContacts();
+  }
   const VehicleState& state() const override { return state_; }
   VehicleBodies collisionBodies() const override;
   void setCollisionReport(const CollisionReport& r) override

@@ -36,6 +36,9 @@ struct World::Ode
   std::vector<dBodyID> agent_bodies;  ///< one per World::agents_ entry (their mass, no gravity)
   std::vector<dBodyID> proxy_bodies;  ///< one per World::proxies_ entry (their mass, no gravity)
   std::vector<AgentCollisionBody> agent_geoms, proxy_geoms;  ///< what ObstacleCollision gets
+  /// Per vehicle, every body of it (the chassis and all jointed to it) and its pose relative to
+  /// base_link as the vehicle was set down: World::setPose sets a vehicle down again.
+  std::vector<std::vector<std::pair<dBodyID, Eigen::Isometry3d>>> vehicle_bodies;
   ~Ode()
   {
     if (contacts)
@@ -58,6 +61,14 @@ public:
   void setCommand(const DriveCommand& command) override { command_ = command; }
   void beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times) override;
   void afterStep(double time, bool stepped) override;
+  void forgetContacts() override
+  {
+    for (Wheel& w : wheels_)
+      w.ground.reset();
+    for (SideServo& s : servo_)
+      s.reset();
+    hull_->forgetContacts();
+  }
   const VehicleState& state() const override { return state_; }
   VehicleBodies collisionBodies() const override;
   void setCollisionReport(const CollisionReport& r) override
@@ -674,6 +685,31 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
     vehicles_.pop_back();
     throw;
   }
+  // Every body of the vehicle: all that the chassis reaches through joints (no contact joint
+  // exists between steps; a joint to the static world has no body), as set down.
+  std::vector<dBodyID> bodies{ vehicles_.back()->collisionBodies().chassis };
+  for (std::size_t k = 0; k < bodies.size(); ++k)
+    for (int j = 0; j < dBodyGetNumJoints(bodies[k]); ++j)
+    {
+      const dJointID joint = dBodyGetJoint(bodies[k], j);
+      for (int side = 0; side < 2; ++side)
+      {
+        const dBodyID other = dJointGetBody(joint, side);
+        if (other && std::find(bodies.begin(), bodies.end(), other) == bodies.end())
+          bodies.push_back(other);
+      }
+    }
+  const Eigen::Isometry3d base_inverse = vehicles_.back()->state().pose.inverse();
+  std::vector<std::pair<dBodyID, Eigen::Isometry3d>> rest;
+  for (dBodyID b : bodies)
+  {
+    const dReal* p = dBodyGetPosition(b);
+    Eigen::Isometry3d body = Eigen::Isometry3d::Identity();
+    body.linear() = rotationOf(b);
+    body.translation() = Eigen::Vector3d(p[0], p[1], p[2]);
+    rest.emplace_back(b, base_inverse * body);
+  }
+  ode_->vehicle_bodies.push_back(std::move(rest));
   return vehicles_.size() - 1;
 }
 
@@ -705,6 +741,30 @@ void World::setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity)
     dBodySetLinearVel(w.body, velocity.x(), velocity.y(), velocity.z());
     dBodySetAngularVel(w.body, omega.x(), omega.y(), omega.z());
   }
+  vehicles_[vehicle]->afterStep(time(), false);
+}
+
+void World::setPose(std::size_t vehicle, const Eigen::Isometry3d& pose)
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::setPose: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  const std::string& name = vehicles_[vehicle]->state().name;
+  if (!pose.matrix().allFinite())
+    throw std::invalid_argument("World::setPose: pose of '" + name + "' is not finite");
+  if (!(pose.linear().transpose() * pose.linear()).isIdentity(1e-9) || pose.linear().determinant() < 0.0)
+    throw std::invalid_argument("World::setPose: the rotation of '" + name + "' is not a rotation");
+  // Set down as when it was added: every body at its pose relative to base_link then (the
+  // suspension unloaded, nothing turning), so it lands there as a vehicle placed there would.
+  for (const auto& [b, rest] : ode_->vehicle_bodies[vehicle])
+  {
+    const Eigen::Isometry3d body = pose * rest;
+    dBodySetPosition(b, body.translation().x(), body.translation().y(), body.translation().z());
+    setRotation(b, body.linear());
+    dBodySetLinearVel(b, 0.0, 0.0, 0.0);
+    dBodySetAngularVel(b, 0.0, 0.0, 0.0);
+  }
+  vehicles_[vehicle]->forgetContacts();
   vehicles_[vehicle]->afterStep(time(), false);
 }
 

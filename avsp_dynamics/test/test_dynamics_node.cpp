@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/SetVehiclePose.h>
 #include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
@@ -785,6 +786,106 @@ TEST(RunControl, PauseStepResumeKeepThePhysics)
             0.5);  // it drove
   std::printf("[run control] paused at %.3f s, 25 steps to %.3f s, %zu odometry messages crossed, 150 equal to the twin\n",
               held, clock >= held + 0.025 ? held + 0.025 : clock, crossed);
+}
+
+// ~set_vehicle_pose (run_control.test): refusals name what is wrong and change nothing (the next
+// odometry continues where the last left off); a good call sets the ego down there, stopped;
+// on the default course a place inside the staging area's first building (x 53-67 m,
+// y 218.5-227.5 m) is refused naming the building.
+TEST(RunControl, SetVehiclePose)
+{
+  ros::NodeHandle nh;
+  std::vector<nav_msgs::Odometry> ego;
+  ros::Subscriber se = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 10000,
+                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { ego.push_back(*m); });
+  ros::ServiceClient set = nh.serviceClient<avsp_msgs::SetVehiclePose>("/dynamics/set_vehicle_pose");
+  ros::ServiceClient course = nh.serviceClient<avsp_msgs::SetVehiclePose>("/course_sim/set_vehicle_pose");
+  ASSERT_TRUE(set.waitForExistence(ros::Duration(60.0)));
+  ASSERT_TRUE(course.waitForExistence(ros::Duration(120.0)));
+  ros::Publisher pe = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 1, true);
+  avsp_msgs::DriveCommand cmd;
+  cmd.throttle = 0.5;
+  cmd.steering = 0.3;
+  pe.publish(cmd);
+  ASSERT_TRUE(spinUntil([&] { return ego.size() >= 20; }, 60.0));
+  const auto position = [](const nav_msgs::Odometry& o) {
+    return Eigen::Vector2d(o.pose.pose.position.x, o.pose.pose.position.y);
+  };
+  // Calls, then collects 0.5 s of sim time of odometry from just before the call on.
+  const auto around = [&](avsp_msgs::SetVehiclePose& call, std::vector<nav_msgs::Odometry>& seen) {
+    ros::spinOnce();
+    const std::size_t n = ego.size();
+    if (!set.call(call) || !spinUntil([&] { return ego.size() > n + 50; }, 30.0))
+      return false;
+    seen.assign(ego.begin() + static_cast<std::ptrdiff_t>(n - 1), ego.end());
+    return true;
+  };
+  // Indexes k where the ego moved more than 0.1 m since message k - 1 (10 ms before).
+  const auto jumps = [&](const std::vector<nav_msgs::Odometry>& seen) {
+    std::vector<std::size_t> out;
+    for (std::size_t k = 1; k < seen.size(); ++k)
+      if ((position(seen[k]) - position(seen[k - 1])).norm() > 0.1)
+        out.push_back(k);
+    return out;
+  };
+  struct Bad
+  {
+    std::string vehicle;
+    double x, y, yaw;
+    std::string says;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Bad& b : { Bad{ "rover", 0.0, 0.0, 0.0, "no vehicle 'rover' (vehicles: ego)" },
+                        Bad{ "ego", nan, 0.0, 0.0, "must be finite" }, Bad{ "ego", 0.0, 0.0, nan, "must be finite" },
+                        Bad{ "ego", 100.0, 0.0, 0.0, "off the terrain" } })
+  {
+    avsp_msgs::SetVehiclePose call;
+    call.request.vehicle = b.vehicle;
+    call.request.x = b.x;
+    call.request.y = b.y;
+    call.request.yaw = b.yaw;
+    std::vector<nav_msgs::Odometry> seen;
+    ASSERT_TRUE(around(call, seen));
+    EXPECT_FALSE(call.response.success) << b.says;
+    EXPECT_NE(call.response.message.find(b.says), std::string::npos) << call.response.message;
+    EXPECT_TRUE(jumps(seen).empty()) << b.says << ": the ego jumped";
+  }
+  avsp_msgs::SetVehiclePose call;
+  // Across the square from where it is: a jump of well over 5 m.
+  ros::spinOnce();
+  const Eigen::Vector2d target(position(ego.back()).x() > 0.0 ? -20.0 : 20.0,
+                               position(ego.back()).y() > 0.0 ? -15.0 : 15.0);
+  call.request.vehicle = "ego";
+  call.request.x = target.x();
+  call.request.y = target.y();
+  call.request.yaw = 1.0;
+  std::vector<nav_msgs::Odometry> seen;
+  ASSERT_TRUE(around(call, seen));
+  ASSERT_TRUE(call.response.success) << call.response.message;
+  // One jump, to the place asked for: the first odometry there is within 5 cm of it, facing
+  // yaw 1, at rest but for the 10 ms of throttle since.
+  const std::vector<std::size_t> j = jumps(seen);
+  ASSERT_EQ(j.size(), 1u);
+  const nav_msgs::Odometry& there = seen[j[0]];
+  EXPECT_LT((position(there) - target).norm(), 0.05);
+  EXPECT_NEAR(yawOf(there), 1.0, 0.01);
+  EXPECT_LT(speedOf(there), 0.2);
+  EXPECT_GT((position(seen[j[0] - 1]) - target).norm(), 5.0);
+
+  avsp_msgs::SetVehiclePose inside;
+  inside.request.vehicle = "parked";
+  inside.request.x = 60.0;
+  inside.request.y = 223.0;
+  inside.request.yaw = 0.0;
+  ASSERT_TRUE(course.call(inside));
+  EXPECT_FALSE(inside.response.success);
+  EXPECT_NE(inside.response.message.find("building"), std::string::npos) << inside.response.message;
+  EXPECT_NE(inside.response.message.find("(60, 223)"), std::string::npos) << inside.response.message;
+  inside.request.x = 40.0;
+  inside.request.y = 205.0;
+  ASSERT_TRUE(course.call(inside));
+  EXPECT_TRUE(inside.response.success) << inside.response.message;
+  std::printf("[set pose] %s | %s\n", call.response.message.c_str(), inside.response.message.c_str());
 }
 
 int main(int argc, char** argv)

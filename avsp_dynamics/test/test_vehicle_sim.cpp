@@ -955,6 +955,65 @@ TEST(VehicleSim, SkidToAStopDoesNotSpringBack)
 // 3e38 m high under the front-left wheel (finite, so the terrain takes it). In this run the
 // other three wheels and the hull fault, not the front-left itself: how the overflow reaches
 // their contacts is not pinned down here; that a terrain accepts such a height is issue 21's.
+// World::setPose (dynamics_node ~set_vehicle_pose): a vehicle driving at speed is set down
+// again, every body with it, at a resting pose 18 m away and turned, and stopped. It then
+// rests there as a vehicle placed there from the start does, on the same soil: height within
+// 0.1 mm, position within 1 mm, heading, no drift, and (wheeled) carrying its weight. Moved
+// rigidly with its suspension loaded and its contacts' shear kept, the M113 rested 3 mm lower.
+TEST(VehicleSim, SetPoseMovesEveryBodyAndStopsTheVehicle)
+{
+  for (const std::string name : { "fed_alpha", "m113" })
+  {
+    SCOPED_TRACE(name);
+    const VehicleModel m = vehicle(name);
+    auto ground = makeTerrain(soils().get("gravel"), 60, 60, 0.05);
+    World world(*ground);
+    const std::size_t id = world.addVehicle(m, world.restingPose(m, 0, 0, 0, 0.01));
+    world.setCommand(id, DriveCommand{ 0.6, 0.0, 0.0 });
+    world.advance(2.0);
+    ASSERT_GT(world.state(id).body_velocity.x(), 0.5);
+    const Eigen::Isometry3d target = world.restingPose(m, 15.0, -10.0, 1.2, 0.01);
+    world.setPose(id, target);
+    EXPECT_LT((world.state(id).pose.translation() - target.translation()).norm(), 1e-9);
+    EXPECT_TRUE(world.state(id).pose.linear().isApprox(target.linear(), 1e-9));
+    EXPECT_LT(world.state(id).linear_velocity.norm(), 1e-12);
+    EXPECT_LT(world.state(id).angular_velocity.norm(), 1e-12);
+    world.setCommand(id, DriveCommand{ 0.0, 1.0, 0.0 });
+    world.advance(2.0);
+    const VehicleState& s = world.state(id);
+
+    auto fresh_ground = makeTerrain(soils().get("gravel"), 60, 60, 0.05);
+    World fresh(*fresh_ground);
+    const std::size_t f = fresh.addVehicle(m, target);
+    fresh.setCommand(f, DriveCommand{ 0.0, 1.0, 0.0 });
+    fresh.advance(2.0);
+    const VehicleState& r = fresh.state(f);
+    std::printf("[set pose] %s: rests %.4f m from the target (fresh vehicle %.4f m), height %.4f m vs %.4f m\n",
+                name.c_str(), (s.pose.translation() - target.translation()).head<2>().norm(),
+                (r.pose.translation() - target.translation()).head<2>().norm(), s.pose.translation().z(),
+                r.pose.translation().z());
+    EXPECT_NEAR(s.pose.translation().z(), r.pose.translation().z(), 1e-4);
+    EXPECT_LT((s.pose.translation() - r.pose.translation()).head<2>().norm(), 1e-3);
+    const double yaw = std::atan2(s.pose.linear()(1, 0), s.pose.linear()(0, 0));
+    EXPECT_NEAR(yaw, 1.2, 0.01);
+    EXPECT_LT(s.linear_velocity.norm(), 0.01);
+    if (!m.wheels.empty())
+      EXPECT_NEAR(sumNormal(s), m.total_mass * kG, 0.02 * m.total_mass * kG);
+  }
+  // Refusals: unknown vehicle, a non-finite pose, a matrix that is no rotation.
+  const VehicleModel m = vehicle("fed_alpha");
+  auto ground = makeTerrain(soils().get("gravel"), 20, 20, 0.05);
+  World world(*ground);
+  const std::size_t id = world.addVehicle(m, world.restingPose(m, 0, 0, 0, 0.01));
+  EXPECT_THROW(world.setPose(id + 1, Eigen::Isometry3d::Identity()), std::out_of_range);
+  Eigen::Isometry3d bad = Eigen::Isometry3d::Identity();
+  bad.translation().x() = std::nan("");
+  EXPECT_THROW(world.setPose(id, bad), std::invalid_argument);
+  bad = Eigen::Isometry3d::Identity();
+  bad.linear() *= 2.0;
+  EXPECT_THROW(world.setPose(id, bad), std::invalid_argument);
+}
+
 TEST(VehicleSim, NonFiniteContactIsLeftOutAndNamedOnce)
 {
   const VehicleModel m = vehicle("fed_alpha");

@@ -275,6 +275,17 @@ public:
   void setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity);
 
   /**
+   * @brief Sets a vehicle down again at `pose` (base_link), as addVehicle() did: every body
+   *        of it (the chassis and all jointed to it) at its pose relative to base_link then,
+   *        all velocities zero, every contact's shear state and servo forgotten: a teleport
+   *        between steps. The soil is not touched. Takes effect from the next step; state()
+   *        shows it at once.
+   * @throw std::out_of_range for an unknown vehicle index
+   * @throw std::invalid_argument when the pose is not finite or its rotation not orthonormal
+   */
+  void setPose(std::size_t vehicle, const Eigen::Isometry3d& pose);
+
+  /**
    * @brief Gravity from the next step on (m/s^2, map frame; WorldOptions::gravity sets it along
    *        -z at construction). A tilt-table test tilts gravity over a level ground instead of
    *        tilting the ground: the same loads, normal and along the surface, as a slope.

@@ -54,6 +54,7 @@
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/StepDone.h>
+#include <avsp_msgs/SetVehiclePose.h>
 #include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
@@ -263,6 +264,7 @@ public:
       resume_srv_ = pnh_.advertiseService("resume", &Impl::onResume, this);
       step_srv_ = pnh_.advertiseService("step", &Impl::onStep, this);
     }
+    set_pose_srv_ = pnh_.advertiseService("set_vehicle_pose", &Impl::onSetVehiclePose, this);
     setUpDiagnostics();
     ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
              source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
@@ -970,6 +972,84 @@ private:
     return true;
   }
 
+  /// ~set_vehicle_pose: the vehicle set down again at (x, y, yaw), resting on the ground and
+  /// stopped (World::setPose), unless the place is off the terrain or in a standing object.
+  /// Taken between clock periods, like every callback: for a reproducible script, ~pause,
+  /// ~step to the instant, call, ~resume.
+  bool onSetVehiclePose(avsp_msgs::SetVehiclePose::Request& req, avsp_msgs::SetVehiclePose::Response& res)
+  {
+    res.success = false;
+    VehicleIo* v = nullptr;
+    std::string known;
+    for (const auto& c : vehicles_)
+    {
+      known += (known.empty() ? "" : ", ") + c->name;
+      if (c->name == req.vehicle)
+        v = c.get();
+    }
+    if (!v)
+      res.message = "refused: no vehicle '" + req.vehicle + "' (vehicles: " + known + ")";
+    else if (!std::isfinite(req.x) || !std::isfinite(req.y) || !std::isfinite(req.yaw))
+      res.message = "refused: x, y and yaw must be finite numbers";
+    else
+    {
+      try
+      {
+        const Eigen::Isometry3d pose = world_->restingPose(v->model, req.x, req.y, req.yaw, 0.01);
+        const std::string blocked = standingObjectUnder(v->model, pose);
+        if (!blocked.empty())
+          res.message = "refused: at (" + shortNumber(req.x) + ", " + shortNumber(req.y) + ") '" + v->name +
+                        "' would stand in " + blocked;
+        else
+        {
+          if (v->ran && ruts_every_ > 0 && ruts_pub_.getNumSubscribers() > 0)
+            publishRuts();  // the ruts so far, before the rut area jumps
+          v->ran = false;
+          world_->setPose(v->id, pose);
+          v->wheel_odom = ad::WheelOdometry(world_->state(v->id).pose);  // dead reckoning restarts there
+          res.success = true;
+          res.message = "'" + v->name + "' set down at (" + shortNumber(req.x) + ", " + shortNumber(req.y) +
+                        "), yaw " + shortNumber(req.yaw) + " rad, at t = " + shortNumber(world_->time()) + " s";
+        }
+      }
+      catch (const std::exception& e)
+      {
+        res.message = std::string("refused: ") + e.what();
+      }
+    }
+    if (res.success)
+      ROS_INFO("dynamics_node: ~set_vehicle_pose: %s", res.message.c_str());
+    else
+      ROS_WARN("dynamics_node: ~set_vehicle_pose: %s (nothing changed)", res.message.c_str());
+    return true;
+  }
+
+  /// The first standing object (not grass, not toppled) whose footprint meets the bounding box
+  /// of the vehicle's collision boxes at `pose`: "<type> <id> at (x, y)", or "".
+  std::string standingObjectUnder(const ad::VehicleModel& model, const Eigen::Isometry3d& pose) const
+  {
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+    for (const ad::CollisionBox& b : model.collision_boxes)
+      for (int corner = 0; corner < 8; ++corner)
+      {
+        const Eigen::Vector3d local(((corner & 1) ? 0.5 : -0.5) * b.size.x(), ((corner & 2) ? 0.5 : -0.5) * b.size.y(),
+                                    ((corner & 4) ? 0.5 : -0.5) * b.size.z());
+        const Eigen::Vector3d p = pose * (b.pose * local);
+        x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x()), y0 = std::min(y0, p.y()), y1 = std::max(y1, p.y());
+      }
+    if (!(x0 <= x1))
+      return "";
+    for (std::uint32_t id : objects_.query(x0, y0, x1, y1))
+    {
+      const at::TerrainObject& o = objects_.get(id);
+      if (o.type == at::ObjectType::kGrass || o.toppled)
+        continue;
+      return std::string(at::toString(o.type)) + " " + std::to_string(id) + " at (" + shortNumber(o.x) + ", " +
+             shortNumber(o.y) + ")";
+    }
+    return "";
+  }
+
   /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
   std::set<std::string> lockstepVehicles(const std::vector<VehicleSpec>& specs, double step, double odom_rate)
   {
@@ -1547,7 +1627,7 @@ private:
   bool paused_ = false;                         ///< ~pause came (and no ~resume since)
   std::uint64_t pending_steps_ = 0;             ///< ~step's steps not yet taken
   static constexpr std::uint64_t kMaxPendingSteps = 100000000;  ///< 1e8 (a day at 1 ms)
-  ros::ServiceServer pause_srv_, resume_srv_, step_srv_;
+  ros::ServiceServer pause_srv_, resume_srv_, step_srv_, set_pose_srv_;
   // With ~peers: the exchanges' transport and the protocol (declared after world_, objects_ and
   // the transport they refer to: destroyed before them).
   std::unique_ptr<RosExchangeTransport> transport_;
