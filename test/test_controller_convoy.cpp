@@ -17,6 +17,7 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <std_msgs/Float64.h>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp/control/path.hpp"
 
@@ -24,17 +25,10 @@ namespace ac = avsp::control;
 
 namespace
 {
+/// avsp::node::spinUntil, polling every 0.001 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.001).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.001);
 }
 
 struct Sample

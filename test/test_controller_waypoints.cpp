@@ -19,6 +19,7 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <std_msgs/Bool.h>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 #include "command_output.hpp"
 
@@ -28,17 +29,10 @@ namespace ac = avsp::control;
 
 namespace
 {
+/// avsp::node::spinUntil, polling every 0.001 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.001).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.001);
 }
 
 struct Sample

@@ -23,6 +23,7 @@
 
 #include <avsp_terrain/ros/agent_params.hpp>
 #include <avsp_terrain/agents.hpp>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 #include "command_output.hpp"
 
@@ -30,17 +31,10 @@ namespace at = avsp::terrain;
 
 namespace
 {
+/// avsp::node::spinUntil, polling every 0.001 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.001).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.001);
 }
 
 template <typename M>

@@ -13,20 +13,14 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 namespace
 {
+/// avsp::node::spinUntil, polling every 0.002 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.002).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.002);
 }
 
 double yawOf(const geometry_msgs::Quaternion& q)

@@ -33,23 +33,17 @@
 #include <std_srvs/Trigger.h>
 
 #include <Eigen/Core>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp_dynamics/vehicle_model.hpp"
 
 namespace
 {
 /// Spins until `done` holds or `timeout` (wall s) passes.
+/// avsp::node::spinUntil, polling every 0.001 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout = 60.0)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.001).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.001);
 }
 
 geometry_msgs::Twist twist(double throttle, double brake_y, double steering)

@@ -36,20 +36,14 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <xmlrpcpp/XmlRpcClient.h>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 namespace
 {
+/// avsp::node::spinUntil, polling every 0.0005 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.0005).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.0005);
 }
 
 /// Open-loop command of vehicle k at sim time t: throttle ramps, steering weaves (k < 0:

@@ -54,6 +54,7 @@
 #include <avsp_dynamics/vehicle_model.hpp>
 #include <avsp_terrain/default_course.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp_sensors/geodetic.hpp"
 #include "avsp_sensors/lidar.hpp"
@@ -80,17 +81,10 @@ constexpr double kLatitude = 39.7425, kLongitude = -105.1786, kAltitude = 1830.0
 const std::string kWmm2025 = std::string(AVSP_SENSORS_DATA_DIR) + "/magnetic/wmm2025.wmm";
 
 /// Spins until `done` holds or `timeout` (wall s) passes; the deadline only guards a hang.
+/// avsp::node::spinUntil, polling every 0.0002 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout = 30.0)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.0002).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.0002);
 }
 
 /// Every message of one topic, in arrival order.

@@ -28,6 +28,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp_terrain/default_course.hpp"
 #include "avsp_terrain/dem_io.hpp"
@@ -41,17 +42,10 @@ constexpr double kRutDepth = 0.1;  // m, depth of the test's patch below the cou
 constexpr float kRutLift = 0.02f;  // m, terrain_node's default ~rut_marker_lift
 
 /// Spins until `done` holds or `timeout` (wall s) passes; the deadline only guards a hang.
+/// avsp::node::spinUntil, polling every 0.005 s here.
 bool spinUntil(const std::function<bool()>& done, double timeout = 60.0)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done())
-  {
-    if (ros::WallTime::now() > deadline)
-      return false;
-    ros::spinOnce();
-    ros::WallDuration(0.005).sleep();
-  }
-  return done();
+  return avsp::node::spinUntil(done, timeout, 0.005);
 }
 
 struct Fixture : ::testing::Test
