@@ -658,32 +658,16 @@ private:
   /// exchange protocol's runner over the ROS transport.
   void loadPeers()
   {
-    if (!pnh_.hasParam("peers"))
-      return;
-    XmlRpc::XmlRpcValue list;
-    pnh_.getParam("peers", list);
-    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
-      throw StartupError("parameter ~peers must be a list of partition names");
-    if (list.size() > 0 && partition_.empty())
-      throw StartupError("parameter ~peers needs a ~partition");
     ad::PartitionOptions options;
     options.partition = partition_;
     options.interval = sync_interval_;
-    for (int k = 0; k < list.size(); ++k)
-    {
-      const std::string where = "parameter ~peers[" + std::to_string(k) + "]";
-      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
-        throw StartupError(where + " must be a partition name (string)");
-      const std::string name = static_cast<std::string>(list[k]);
-      std::string why;
-      if (name.empty() || name.find('/') != std::string::npos || !ros::names::validate(name, why))
-        throw StartupError(where + " '" + name + "' must be a plain name (no '/')");
-      if (name == partition_)
-        throw StartupError(where + " '" + name + "' is this partition (~partition)");
-      if (std::find(options.peers.begin(), options.peers.end(), name) != options.peers.end())
-        throw StartupError(where + " '" + name + "' is listed twice");
-      options.peers.push_back(name);
-    }
+    options.peers = avsp::node::plainNamesParam(pnh_, "peers", "partition names");
+    if (!options.peers.empty() && partition_.empty())
+      throw StartupError("parameter ~peers needs a ~partition");
+    for (std::size_t k = 0; k < options.peers.size(); ++k)
+      if (options.peers[k] == partition_)
+        throw StartupError("parameter ~peers[" + std::to_string(k) + "] '" + partition_ +
+                           "' is this partition (~partition)");
     if (options.peers.empty())
       return;
     options.step_ahead_intervals = avsp::node::boundedIntParam(pnh_, "step_ahead_intervals", 4, 0, 100);
@@ -824,21 +808,8 @@ private:
   /// follower reports time t once it has the odometry of t, which goes out before /clock does.
   void readFollowers(double odom_period)
   {
-    if (!pnh_.hasParam("clock_followers"))
-      return;
-    XmlRpc::XmlRpcValue list;
-    pnh_.getParam("clock_followers", list);
-    if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
-      throw StartupError("parameter ~clock_followers must be a list of names (the followers' ~lockstep_partition)");
-    std::vector<std::string> names;
-    for (int k = 0; k < list.size(); ++k)
-    {
-      std::string why;
-      if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString || !ros::names::validate(list[k], why) ||
-          static_cast<std::string>(list[k]).find('/') != std::string::npos)
-        throw StartupError("parameter ~clock_followers[" + std::to_string(k) + "] must be a plain name (string, no '/')");
-      names.push_back(static_cast<std::string>(list[k]));
-    }
+    const std::vector<std::string> names =
+        avsp::node::plainNamesParam(pnh_, "clock_followers", "names (the followers' ~lockstep_partition)");
     if (names.empty())
       return;
     if (!publish_clock_ || !partition_.empty())

@@ -1,7 +1,10 @@
 #include "avsp_terrain/ros/node_params.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+
+#include <ros/names.h>
 
 namespace avsp
 {
@@ -100,6 +103,31 @@ std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, cons
   if (v.getType() != XmlRpc::XmlRpcValue::TypeString)
     throw StartupError("parameter ~" + key + " must be a string, got " + parameterKind(v));
   return static_cast<std::string>(v);
+}
+
+std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& what)
+{
+  std::vector<std::string> names;
+  if (!pnh.hasParam(key))
+    return names;
+  XmlRpc::XmlRpcValue list;
+  pnh.getParam(key, list);
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    throw StartupError("parameter ~" + key + " must be a list of " + what + ", got " + parameterKind(list));
+  for (int k = 0; k < list.size(); ++k)
+  {
+    const std::string where = "parameter ~" + key + "[" + std::to_string(k) + "]";
+    if (list[k].getType() != XmlRpc::XmlRpcValue::TypeString)
+      throw StartupError(where + " must be a name (string), got " + parameterKind(list[k]));
+    const std::string name = static_cast<std::string>(list[k]);
+    std::string why;
+    if (name.empty() || name.find('/') != std::string::npos || !ros::names::validate(name, why))
+      throw StartupError(where + " '" + name + "' must be a plain name (no '/')");
+    if (std::find(names.begin(), names.end(), name) != names.end())
+      throw StartupError(where + " '" + name + "' is listed twice");
+    names.push_back(name);
+  }
+  return names;
 }
 
 }  // namespace node

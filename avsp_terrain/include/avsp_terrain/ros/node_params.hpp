@@ -12,6 +12,7 @@
  */
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <ros/node_handle.h>
 #include <xmlrpcpp/XmlRpcValue.h>
@@ -65,6 +66,14 @@ bool boolParam(const ros::NodeHandle& pnh, const std::string& key, bool fallback
  * @throw StartupError for a value of another type (a number, a list)
  */
 std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& fallback);
+
+/**
+ * @brief A private list of plain names (partitions, lockstep followers): empty when absent.
+ * @param what what the names are, for the messages ("partition names")
+ * @throw StartupError naming the key (and the index) for a value that is not a list, an entry
+ *        that is not a string or not a plain ROS name (no '/'), or a name listed twice
+ */
+std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& what);
 
 }  // namespace node
 }  // namespace avsp
