@@ -512,7 +512,7 @@ private:
   void onPatch(const ros::MessageEvent<const avsp_msgs::TerrainPatch>& event)
   {
     const avsp_msgs::TerrainPatch& m = *event.getMessage();
-    if (m.width == 0 && m.height == 0 && m.heights.empty())
+    if (at::node::isEndOfInstantMarker(m))
       return;  // an end-of-instant marker (TerrainPatch.msg): no heights
     if (!m.header.frame_id.empty() && m.header.frame_id != "map")
     {

@@ -44,6 +44,7 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -827,7 +828,8 @@ private:
     {
       throw StartupError("parameter ~" + std::string(e.what()));
     }
-    follower_waited_.assign(names.size(), 0.0);
+    for (const std::string& n : names)
+      follower_waited_[n] = 0.0;
   }
 
   void onFollowerDone(const avsp_msgs::StepDone::ConstPtr& msg)
@@ -858,10 +860,9 @@ private:
       // (if any) would have let the clock go: waiting that the pace would have spent sleeping
       // held nothing back.
       const double from = std::max(last.toSec(), pacer_ ? pacer_->due(t) : last.toSec());
-      const std::vector<std::string>& names = followers_->names();
-      for (std::size_t k = 0; k < names.size(); ++k)
-        if (followers_->reached(names[k]) < t - followers_->lag() - 1e-9 && now.toSec() > from)
-          follower_waited_[k] += now.toSec() - from;
+      if (now.toSec() > from)
+        for (const std::string& n : followers_->holding(t))
+          follower_waited_[n] += now.toSec() - from;
       last = now;
       if (now > resend)
       {
@@ -1351,12 +1352,11 @@ private:
     {
       // Who holds the clock back: each follower's lag behind the world and the wall time the
       // clock waited for it (the slowest node is the one with the most).
-      const std::vector<std::string>& names = followers_->names();
-      for (std::size_t k = 0; k < names.size(); ++k)
+      for (const std::string& n : followers_->names())
       {
-        const double r = followers_->reached(names[k]);
-        s.add("follower " + names[k] + " behind (s)", std::isfinite(r) ? world_->time() - r : world_->time());
-        s.add("clock waited for " + names[k] + " (wall s)", follower_waited_[k]);
+        const double r = followers_->reached(n);
+        s.add("follower " + n + " behind (s)", std::isfinite(r) ? world_->time() - r : world_->time());
+        s.add("clock waited for " + n + " (wall s)", follower_waited_.at(n));
       }
     }
     if (real_time_factor_ > 0.0 && rtf && *rtf < kRealTimeFactorShare * real_time_factor_)
@@ -1558,11 +1558,10 @@ private:
     }
     // The instant's end-of-patches marker (TerrainPatch.msg): sensors_node ~ruts_period waits
     // for it, so a rut reaches the same sweep in every run.
-    avsp_msgs::TerrainPatch marker;
-    marker.header.stamp = stamp();
-    marker.header.frame_id = "map";
-    marker.resolution = g.dx();
-    ruts_pub_.publish(marker);
+    std_msgs::Header header;
+    header.stamp = stamp();
+    header.frame_id = "map";
+    ruts_pub_.publish(at::node::endOfInstantMarker(header, g.dx()));
   }
 
   ros::NodeHandle& nh_;
@@ -1592,7 +1591,7 @@ private:
   ros::Publisher done_pub_;
   ros::Subscriber tick_sub_;
   std::optional<ad::ClockFollowers> followers_;  ///< ~clock_followers (none: the clock runs free)
-  std::vector<double> follower_waited_;         ///< wall s the clock waited for each follower
+  std::map<std::string, double> follower_waited_;  ///< wall s the clock waited for each follower
   ros::Subscriber followers_sub_;
   double clock_published_ = 0.0;                ///< s, the last time sent on /clock
   bool paused_ = false;                         ///< ~pause came (and no ~resume since)

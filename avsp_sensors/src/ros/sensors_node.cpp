@@ -221,7 +221,7 @@ public:
     // Every message is kept (a weather change must not be dropped by a full queue).
     environment_sub_ = nh_.subscribe("/environment", 1000, &Impl::onEnvironment, this);
     // In the lockstep environment_node publishes at every multiple of its period; a time is
-    // sensed only once its message has come (environmentCovers).
+    // sensed only once its message has come (worldKnownAt).
     environment_period_ = boundedParam(pnh_, "environment_period", 0.0, 0.0, 3600.0);
     // The same for the ruts: dynamics_node marks the end of each rut instant (1 / its ~ruts_rate).
     ruts_period_ = boundedParam(pnh_, "ruts_period", 0.0, 0.0, 3600.0);
@@ -615,7 +615,7 @@ private:
   {
     const avsp_msgs::TerrainPatch::ConstPtr msg = event.getMessage();
     const std::string publisher = event.getPublisherName();
-    if (msg->width == 0 && msg->height == 0 && msg->heights.empty())
+    if (at::node::isEndOfInstantMarker(*msg))
     {
       // dynamics_node's end-of-instant marker: every patch up to its stamp has come.
       ruts_reached_ = std::max(ruts_reached_, asn::stampSeconds(msg->header.stamp));

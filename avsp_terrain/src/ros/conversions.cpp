@@ -34,6 +34,19 @@ avsp_msgs::TerrainPatch toTerrainPatch(HeightPatch patch, const std_msgs::Header
   return msg;
 }
 
+avsp_msgs::TerrainPatch endOfInstantMarker(const std_msgs::Header& header, double resolution)
+{
+  avsp_msgs::TerrainPatch marker;
+  marker.header = header;
+  marker.resolution = resolution;
+  return marker;
+}
+
+bool isEndOfInstantMarker(const avsp_msgs::TerrainPatch& msg)
+{
+  return msg.width == 0 && msg.height == 0 && msg.heights.empty();
+}
+
 }  // namespace node
 }  // namespace terrain
 }  // namespace avsp

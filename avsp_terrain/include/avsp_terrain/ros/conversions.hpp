@@ -23,6 +23,12 @@ HeightPatch heightPatchFromMessage(const avsp_msgs::TerrainPatch& msg);
 /// The TerrainPatch message of `patch` (its heights moved into the message) under `header`.
 avsp_msgs::TerrainPatch toTerrainPatch(HeightPatch patch, const std_msgs::Header& header);
 
+/// The end-of-instant marker (TerrainPatch.msg: width = height = 0, no heights) under `header`:
+/// every patch of its stamp from that publisher has gone out before it.
+avsp_msgs::TerrainPatch endOfInstantMarker(const std_msgs::Header& header, double resolution);
+/// Whether `msg` is an end-of-instant marker (no heights to apply).
+bool isEndOfInstantMarker(const avsp_msgs::TerrainPatch& msg);
+
 }  // namespace node
 }  // namespace terrain
 }  // namespace avsp
