@@ -1,4 +1,5 @@
 // A scenario's sections as the nodes receive them (rosparam's typing) and through their parsers.
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -119,4 +120,67 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
               std::string::npos)
         << m;
   }
+}
+
+// The run's RViz configuration (issue 22, item 5) from what sensors_node will publish: a display
+// for each topic the run has that RViz draws, and none for a sensor a vehicle does not carry.
+TEST(NodeChecks, RvizConfigShowsExactlyTheRunsTopics)
+{
+  as::LoadOptions load;
+  load.vehicles_dir = AVSP_CONFIG_DIR "/vehicles";
+  load.soils_file = AVSP_CONFIG_DIR "/soils.yaml";
+  as::Scenario s = as::loadScenario(AVSP_CONFIG_DIR "/scenarios/reference_traverse.yaml", load);
+  // The fed_alpha (lidar and radar by the scenario) also carries a stereo pair and a mono camera
+  // without RGB output.
+  s.vehicles[2].sensors["cameras"] =
+      YAML::Load("[{name: pod, stereo_baseline: 0.3, width: 64, height: 48, rate: 2.0}, "
+                 "{name: depth_only, width: 32, height: 24, rate: 2.0, outputs: [depth]}]");
+  const std::vector<as::VehicleDisplays> shown = checkSensorsAsTheNodeWill(s, load.vehicles_dir);
+  ASSERT_EQ(shown.size(), 4u);
+  EXPECT_EQ(shown[0].name, "m113");
+  EXPECT_FALSE(shown[0].lidar || shown[0].radar || shown[0].occupancy);
+  EXPECT_TRUE(shown[2].lidar && shown[2].radar);
+  EXPECT_EQ(shown[2].rgb_cameras, (std::vector<std::string>{ "pod/left", "pod/right" }));
+  EXPECT_TRUE(shown[3].lidar);
+  EXPECT_FALSE(shown[3].radar);
+
+  const std::string config = as::generateRvizConfig(s, shown);
+  std::vector<std::string> expected = { "/terrain/mesh", "/terrain/rut_markers", "/terrain/objects",
+                                        "/agents/markers", "/v2v/fleet_markers" };
+  for (const as::VehicleSpec& v : s.vehicles)  // every vehicle has a controller here
+    for (const char* t : { "avt_341/odometry", "controller/path", "controller/target" })
+      expected.push_back("/" + v.name + "/" + t);
+  for (const char* t : { "avt_341/points", "radar/points", "radar/markers", "pod/left/image_raw", "pod/right/image_raw" })
+    expected.push_back(std::string("/fed_alpha/") + t);
+  expected.push_back("/tracer_x/avt_341/points");
+  for (const as::VehicleDisplays& d : shown)
+    if (d.occupancy)
+      for (const char* t : { "octomap/occupied_cells", "occupancy/grid" })
+        expected.push_back("/" + d.name + "/" + t);
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(as::rvizConfigTopics(config), expected);
+
+  // The view follows the formation's lead from behind; RViz reads the file as YAML.
+  const YAML::Node root = YAML::Load(config);
+  const YAML::Node view = root["Visualization Manager"]["Views"]["Current"];
+  EXPECT_EQ(view["Class"].as<std::string>(), "rviz/ThirdPersonFollower");
+  EXPECT_EQ(view["Target Frame"].as<std::string>(), "m113/base_link");
+  EXPECT_EQ(root["Visualization Manager"]["Global Options"]["Fixed Frame"].as<std::string>(), "map");
+  // One group per vehicle, named after it, with its robot description.
+  std::vector<std::string> groups;
+  for (const YAML::Node& d : root["Visualization Manager"]["Displays"])
+    if (d["Class"].as<std::string>() == "rviz/Group")
+    {
+      groups.push_back(d["Name"].as<std::string>());
+      EXPECT_EQ(d["Displays"][0]["Robot Description"].as<std::string>(), groups.back() + "/robot_description");
+    }
+  EXPECT_EQ(groups, (std::vector<std::string>{ "m113", "mrzr", "fed_alpha", "tracer_x" }));
+
+  // An external vehicle has no controller displays; without agents there is no agents display.
+  s.vehicles[1].controller.type = as::ControllerType::kExternal;
+  s.agents = YAML::Node();
+  const std::vector<std::string> fewer = as::rvizConfigTopics(as::generateRvizConfig(s, shown));
+  EXPECT_EQ(fewer.size(), expected.size() - 3u);
+  EXPECT_EQ(std::count(fewer.begin(), fewer.end(), "/mrzr/controller/path"), 0);
+  EXPECT_EQ(std::count(fewer.begin(), fewer.end(), "/agents/markers"), 0);
 }

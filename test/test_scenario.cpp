@@ -10,6 +10,7 @@
 #include <regex>
 
 #include <avsp/scenario/launch_generator.hpp>
+#include <avsp/scenario/rviz_config.hpp>
 #include <avsp/scenario/scenario.hpp>
 
 namespace as = avsp::scenario;
@@ -908,4 +909,34 @@ TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
   // ext is external: only "second" is in south's lockstep.
   EXPECT_EQ(rosparamOf(xml, "dynamics_south", "lockstep_vehicles").size(), 1u);
   EXPECT_EQ(paramOf(xml, "dynamics_south", "flat_soil"), "gravel");
+}
+
+TEST(RvizConfig, FollowsTheLeadAndNeedsEveryVehicle)
+{
+  as::Scenario s = as::loadScenario(kConfig + "/scenarios/reference_traverse.yaml", options());
+  EXPECT_EQ(as::leadVehicle(s).name, "m113");  // the formation's first
+  s.formation.present = false;
+  std::swap(s.vehicles[0], s.vehicles[1]);  // mrzr (leader-follower) first now
+  EXPECT_EQ(as::leadVehicle(s).name, "m113");  // the first on waypoints
+  for (as::VehicleSpec& v : s.vehicles)
+    v.controller.type = as::ControllerType::kExternal;
+  EXPECT_EQ(as::leadVehicle(s).name, "mrzr");  // the first
+
+  std::vector<as::VehicleDisplays> shown(s.vehicles.size());
+  for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+    shown[i].name = s.vehicles[i].name;
+  EXPECT_NO_THROW(as::generateRvizConfig(s, shown));
+  shown.pop_back();
+  EXPECT_THROW(as::generateRvizConfig(s, shown), std::invalid_argument);
+  shown.push_back(as::VehicleDisplays());
+  shown.back().name = "ghost";
+  EXPECT_THROW(as::generateRvizConfig(s, shown), std::invalid_argument);
+
+  // The launch file opens RViz with the run's configuration when given one.
+  as::LaunchOptions o;
+  o.output_dir = "/tmp/out";
+  o.vehicles_dir = kConfig + "/vehicles";
+  o.rviz = true;
+  o.rviz_config = "/tmp/out/run.rviz";
+  EXPECT_NE(as::generateLaunch(s, o).find("args=\"-d '/tmp/out/run.rviz'\""), std::string::npos);
 }

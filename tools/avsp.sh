@@ -5,7 +5,7 @@
 #                                    (results/reference_traverse/; --gui: with RViz at wall-clock pace)
 #   bash tools/avsp.sh test          install what is missing, build, run every test, print "N passed, N failed"
 #   bash tools/avsp.sh build         install what is missing and build only
-#   bash tools/avsp.sh screenshot    build, then RViz under Xvfb -> results/rviz_team.png
+#   bash tools/avsp.sh screenshot    build, then the reference traverse in RViz under Xvfb -> results/rviz_reference_traverse.png
 #
 # Every step says what it does; the first failing step is named and the script exits non-zero.
 set -euo pipefail
@@ -70,7 +70,7 @@ case "$cmd" in
     do_setup tools/debian-packages.txt tools/debian-packages-gui.txt; do_build
     step "RViz screenshot under Xvfb (scripts/rviz_screenshot.sh)"
     set +u; . install/setup.sh; set -u
-    bash scripts/rviz_screenshot.sh results/rviz_team.png || fail "RViz screenshot" ;;
+    bash scripts/rviz_screenshot.sh results/rviz_reference_traverse.png || fail "RViz screenshot" ;;
   ""|-h|--help|help)
     usage ;;
   *)

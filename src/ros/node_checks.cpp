@@ -82,7 +82,8 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node)
   }
 }
 
-void checkSensorsAsTheNodeWill(const scenario::Scenario& s, const std::string& vehicles_dir)
+std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario::Scenario& s,
+                                                                 const std::string& vehicles_dir)
 {
   const bool has_common = s.sensors.IsDefined() && !s.sensors.IsNull();
   XmlRpc::XmlRpcValue common;
@@ -97,6 +98,7 @@ void checkSensorsAsTheNodeWill(const scenario::Scenario& s, const std::string& v
   }
   std::map<std::string, avsp::sensors::node::VehicleFrames> frames_of;
   std::vector<avsp::sensors::node::SensorsSpec> specs;
+  std::vector<scenario::VehicleDisplays> displays;
   for (std::size_t i = 0; i < s.vehicles.size(); ++i)
   {
     const scenario::VehicleSpec& v = s.vehicles[i];
@@ -114,6 +116,15 @@ void checkSensorsAsTheNodeWill(const scenario::Scenario& s, const std::string& v
         frames = frames_of.emplace(v.model, avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml"))
                      .first;
       avsp::sensors::node::mountSensors(spec, frames->second, "model '" + v.model + "'");
+      scenario::VehicleDisplays shown;
+      shown.name = v.name;
+      shown.lidar = spec.suite.lidar.has_value();
+      shown.radar = spec.suite.radar.has_value();
+      shown.occupancy = spec.suite.occupancy.has_value();
+      for (const avsp::sensors::CameraConfig& c : spec.cameras)
+        if (c.rgb)
+          shown.rgb_cameras.push_back(c.name);
+      displays.push_back(std::move(shown));
       specs.push_back(std::move(spec));
     }
     catch (const std::exception& e)
@@ -134,6 +145,7 @@ void checkSensorsAsTheNodeWill(const scenario::Scenario& s, const std::string& v
     throw scenario::ScenarioError(s.file + ": time.start_utc " + s.start_utc + " with the vehicles' magnetometers: " +
                                   e.what());
   }
+  return displays;
 }
 
 }  // namespace node

@@ -27,12 +27,15 @@
 
 #include "avsp/ros/node_checks.hpp"
 #include "avsp/scenario/launch_generator.hpp"
+#include "avsp/scenario/rviz_config.hpp"
 
 namespace avsp
 {
 namespace node
 {
 using scenario::generateLaunch;
+using scenario::generateRvizConfig;
+using scenario::VehicleDisplays;
 using scenario::LaunchCommand;
 using scenario::launchCommandUsage;
 using scenario::LoadOptions;
@@ -114,13 +117,14 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
     config = share + "/config";
   }
   LoadOptions load;
+  std::vector<VehicleDisplays> displays;
   load.vehicles_dir = fs::absolute(config + "/vehicles").lexically_normal().string();
   load.soils_file = fs::absolute(config + "/soils.yaml").lexically_normal().string();
   try
   {
     out.scenario = loadScenario(cmd.scenario, load);
     // The sections the nodes parse themselves, through their own parsers (--check and runs alike).
-    checkSensorsAsTheNodeWill(out.scenario, load.vehicles_dir);
+    displays = checkSensorsAsTheNodeWill(out.scenario, load.vehicles_dir);
   }
   catch (const std::exception& e)
   {
@@ -149,6 +153,14 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
   dir = fs::path(dir).lexically_normal().string();
   cmd.options.output_dir = dir;
   cmd.options.vehicles_dir = load.vehicles_dir;
+  std::string file = cmd.out;
+  if (file.empty())
+    file = default_to_stdout ? "-" : dir + "/" + out.scenario.name + ".launch";
+  // The run's RViz configuration beside its launch file (in the results folder when the launch
+  // file is printed), written whether or not --rviz asks for RViz: a user may open it later.
+  const fs::path rviz_file =
+      fs::absolute(file == "-" ? fs::path(dir) / (out.scenario.name + ".rviz") : fs::path(file).replace_extension(".rviz"));
+  cmd.options.rviz_config = rviz_file.string();
   std::string text;
   try
   {
@@ -161,9 +173,19 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
   }
   out.output_dir = dir;
   out.end_launch = cmd.end_launch;
-  std::string file = cmd.out;
-  if (file.empty())
-    file = default_to_stdout ? "-" : dir + "/" + out.scenario.name + ".launch";
+  {
+    std::error_code ec;
+    fs::create_directories(rviz_file.parent_path(), ec);
+    std::ofstream f(rviz_file);
+    f << generateRvizConfig(out.scenario, displays);
+    f.close();
+    if (!f)
+    {
+      std::cerr << program << ": cannot write " << rviz_file.string() << "\n";
+      return 3;
+    }
+  }
+  out.rviz_file = rviz_file.string();
   if (file == "-")
   {
     std::cout << text;

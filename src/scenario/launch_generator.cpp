@@ -550,7 +550,8 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
   (void)any_external;
 
   if (options.rviz)
-    o << "  <node pkg=\"rviz\" type=\"rviz\" name=\"rviz\" clear_params=\"true\" args=\"-d $(find avsp)/rviz/avsp.rviz\"/>\n";
+    o << "  <node pkg=\"rviz\" type=\"rviz\" name=\"rviz\" clear_params=\"true\" args=\"-d '"
+      << xmlEscape(options.rviz_config.empty() ? "$(find avsp)/rviz/avsp.rviz" : options.rviz_config) << "'\"/>\n";
   o << "</launch>\n";
   return o.str();
 }
@@ -638,7 +639,7 @@ std::string launchCommandUsage(const std::string& program)
          "Validates the scenario and writes a roslaunch file with every node of the run.\n"
          "  --duration S          s of sim time (0: the scenario's duration)\n"
          "  --real-time-factor R  0 = as fast as possible in lockstep (default), 1 = wall-clock pace\n"
-         "  --rviz                add RViz (rviz/avsp.rviz)\n"
+         "  --rviz                add RViz with the run's own configuration (<name>.rviz beside the launch file)\n"
          "  --output-dir DIR      results folder (default results/<scenario> under $PWD)\n"
          "  --out FILE            the launch file (default <output-dir>/<scenario>.launch; - = stdout)\n"
          "  --config-dir DIR      folder with vehicles/ and soils.yaml (default the avsp package's config)\n"

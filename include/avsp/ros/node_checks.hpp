@@ -8,10 +8,12 @@
  *        scenario file and the section, before any process starts.
  */
 #include <string>
+#include <vector>
 
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <yaml-cpp/yaml.h>
 
+#include "avsp/scenario/rviz_config.hpp"
 #include "avsp/scenario/scenario.hpp"
 
 namespace avsp
@@ -30,9 +32,12 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
  * @brief Runs sensors_node's parser on every vehicle's sensors (the scenario's `sensors` and the
  *        vehicle's own), as the generated launch file passes them, and mounts them on the
  *        vehicle's URDF links from `vehicles_dir` as the node does (a link the URDF lacks).
+ * @return per vehicle, in the scenario's order, what sensors_node will publish of it that RViz
+ *         can draw (the run's RViz configuration is made from it)
  * @throw scenario::ScenarioError "<file>: vehicles[i].sensors (as sensors_node reads it for '<v>'): <its message>"
  */
-void checkSensorsAsTheNodeWill(const scenario::Scenario& s, const std::string& vehicles_dir);
+std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario::Scenario& s,
+                                                                 const std::string& vehicles_dir);
 
 }  // namespace node
 }  // namespace avsp

@@ -17,7 +17,10 @@ struct LaunchOptions
 {
   double duration = 0.0;          ///< s of sim time; <= 0: the scenario's
   double real_time_factor = 0.0;  ///< dynamics_node: 0 = as fast as possible (lockstep)
-  bool rviz = false;              ///< add RViz with rviz/avsp.rviz
+  bool rviz = false;              ///< add RViz (with rviz_config)
+  /// RViz's configuration file (absolute; scenario_launch writes the run's own beside the
+  /// launch file, rviz_config.hpp); empty: the package's rviz/avsp.rviz
+  std::string rviz_config;
   std::string output_dir;         ///< run_recorder's results folder (absolute)
   std::string vehicles_dir;       ///< the folder the scenario's models were checked against
   double progress_period = 1.0;   ///< run_recorder: wall s between progress lines
