@@ -344,32 +344,48 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
   // Two nodes, each with its own world, start stepping when their (latched) command arrives;
   // it goes stale after 0.5 s, so each run is throttle + steering, then braking.
   ros::NodeHandle nh;
-  std::vector<nav_msgs::Odometry> a, b;
+  std::vector<nav_msgs::Odometry> a, b, c;
+  ros::Subscriber sc = nh.subscribe<nav_msgs::Odometry>("/det_c/avt_341/odometry", 1000,
+                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { c.push_back(*m); });
   ros::Subscriber sa = nh.subscribe<nav_msgs::Odometry>("/det_a/avt_341/odometry", 1000,
                                                         [&](const nav_msgs::Odometry::ConstPtr& m) { a.push_back(*m); });
   ros::Subscriber sb = nh.subscribe<nav_msgs::Odometry>("/det_b/avt_341/odometry", 1000,
                                                         [&](const nav_msgs::Odometry::ConstPtr& m) { b.push_back(*m); });
   // det_b's node runs with ~publish_odom_tf false: no odom -> det_b/base_link on /tf (a
   // localisation stack owns it), while det_a's comes with each odometry message.
-  std::size_t tf_a = 0, tf_b = 0;
+  // det_c's node has ~per_vehicle_odom_frames: det_c/odom -> det_c/base_link, and map -> det_c/odom
+  // (identity) once on /tf_static.
+  std::size_t tf_a = 0, tf_b = 0, tf_c = 0;
   ros::Subscriber tf_sub = nh.subscribe<tf2_msgs::TFMessage>("/tf", 1000, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
     for (const auto& t : m->transforms)
     {
-      tf_a += t.child_frame_id == "det_a/base_link";
+      tf_a += t.child_frame_id == "det_a/base_link" && t.header.frame_id == "odom";
       tf_b += t.child_frame_id == "det_b/base_link";
+      tf_c += t.child_frame_id == "det_c/base_link" && t.header.frame_id == "det_c/odom";
     }
   });
+  std::vector<geometry_msgs::TransformStamped> statics;
+  ros::Subscriber static_sub = nh.subscribe<tf2_msgs::TFMessage>(
+      "/tf_static", 10, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+        for (const auto& t : m->transforms)
+          statics.push_back(t);
+      });
   // The nodes step from their first command on: connected to both odometry streams (and /tf)
   // first, or the first messages go by unseen.
-  ASSERT_TRUE(spinUntil([&] { return sa.getNumPublishers() > 0 && sb.getNumPublishers() > 0 && tf_sub.getNumPublishers() > 0; }))
-      << "no det_a / det_b odometry publisher";
+  ASSERT_TRUE(spinUntil([&] {
+    return sa.getNumPublishers() > 0 && sb.getNumPublishers() > 0 && sc.getNumPublishers() > 0 &&
+           tf_sub.getNumPublishers() > 0;
+  })) << "no det_a / det_b / det_c odometry publisher";
   ros::Publisher pa = nh.advertise<geometry_msgs::Twist>("/det_a/avt_341/cmd_vel", 1, true);
   ros::Publisher pb = nh.advertise<geometry_msgs::Twist>("/det_b/avt_341/cmd_vel", 1, true);
+  ros::Publisher pc = nh.advertise<geometry_msgs::Twist>("/det_c/avt_341/cmd_vel", 1, true);
   pa.publish(twist(0.6, 0.0, 0.4));
   pb.publish(twist(0.6, 0.0, 0.4));
+  pc.publish(twist(0.6, 0.0, 0.4));
   const std::size_t n = 150;  // 1.5 s of sim time at 100 Hz
-  ASSERT_TRUE(spinUntil([&] { return a.size() >= n && b.size() >= n; }, 120.0))
-      << "odometry: det_a " << a.size() << ", det_b " << b.size();
+  ASSERT_TRUE(spinUntil([&] { return a.size() >= n && b.size() >= n && c.size() >= n && !statics.empty(); }, 120.0))
+      << "odometry: det_a " << a.size() << ", det_b " << b.size() << ", det_c " << c.size() << "; /tf_static "
+      << statics.size();
   for (std::size_t k = 0; k < n; ++k)
   {
     const auto &pa_ = a[k].pose.pose, &pb_ = b[k].pose.pose;
@@ -381,11 +397,33 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
     ASSERT_EQ(pa_.orientation.w, pb_.orientation.w) << "message " << k;
     ASSERT_EQ(ta.linear.x, tb.linear.x) << "message " << k;
     ASSERT_EQ(ta.angular.z, tb.angular.z) << "message " << k;
+    // The same motion in det_c's own odom frame.
+    ASSERT_EQ(a[k].header.frame_id, "odom");
+    ASSERT_EQ(c[k].header.frame_id, "det_c/odom") << "message " << k;
+    ASSERT_EQ(c[k].pose.pose.position.x, pa_.position.x) << "message " << k;
+    ASSERT_EQ(c[k].pose.pose.position.y, pa_.position.y) << "message " << k;
+    ASSERT_EQ(c[k].pose.pose.orientation.z, pa_.orientation.z) << "message " << k;
     // Following /clock, stamps are world time from where the node started: 100 Hz exactly.
     ASSERT_NEAR((a[k].header.stamp - a[0].header.stamp).toSec(), 0.01 * k, 1e-6) << "message " << k;
   }
   EXPECT_GT(tf_a, n / 2) << "det_a's odom -> base_link must be on /tf";
   EXPECT_EQ(tf_b, 0u) << "det_b's node has ~publish_odom_tf false";
+  EXPECT_GT(tf_c, n / 2) << "det_c/odom -> det_c/base_link must be on /tf";
+  std::size_t map_to_c = 0;
+  for (const auto& t : statics)
+    if (t.child_frame_id == "det_c/odom")
+    {
+      ++map_to_c;
+      EXPECT_EQ(t.header.frame_id, "map");
+      EXPECT_EQ(t.transform.translation.x, 0.0);
+      EXPECT_EQ(t.transform.translation.y, 0.0);
+      EXPECT_EQ(t.transform.translation.z, 0.0);
+      EXPECT_EQ(t.transform.rotation.w, 1.0);
+    }
+    else
+      ADD_FAILURE() << "/tf_static: " << t.header.frame_id << " -> " << t.child_frame_id
+                    << " (only det_c's node has per-vehicle frames)";
+  EXPECT_EQ(map_to_c, 1u);
   // Not trivially equal: the vehicles moved and turned.
   EXPECT_GT(std::hypot(a[n - 1].pose.pose.position.x - a[0].pose.pose.position.x,
                        a[n - 1].pose.pose.position.y - a[0].pose.pose.position.y),

@@ -1213,6 +1213,8 @@ TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
   // 12 m ahead), standing still.
   ASSERT_FALSE(mule_odom.messages.empty());
   ASSERT_FALSE(ego_odom.messages.empty());
+  EXPECT_EQ(mule_odom.messages.back().header.frame_id, "mule/odom");
+  EXPECT_EQ(ego_odom.messages.back().header.frame_id, "ego/odom");
   const auto& mp = mule_odom.messages.back().pose.pose.position;
   const auto& ep = ego_odom.messages.back().pose.pose.position;
   std::size_t scans = 0, seen = 0;
@@ -1238,7 +1240,7 @@ TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
   {
     if (c.header.stamp.toSec() < 2.0)
       continue;
-    EXPECT_EQ(c.header.frame_id, "odom");
+    EXPECT_EQ(c.header.frame_id, "ego/odom");  // ~per_vehicle_odom_frames on both nodes
     for (const Point& p : points(c))
     {
       own += insideBoxes(ego_frames, ep.x, ep.y, ep.z, p, -0.05) ? 1 : 0;

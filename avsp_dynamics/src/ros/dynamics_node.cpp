@@ -70,6 +70,7 @@
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/Empty.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <avsp_terrain/height_patch.hpp>
@@ -187,6 +188,7 @@ struct VehicleIo
 {
   std::string name;
   std::size_t id = 0;
+  std::string odom_frame = "odom";  ///< the frame of its odometry: odom, or <v>/odom (~per_vehicle_odom_frames)
   ad::VehicleModel model;
   std::string model_name;  ///< ~vehicles[k].model (config_dir/<model_name>.yaml); peers load it too
   std::string cmd_topic, drive_topic;
@@ -240,6 +242,7 @@ public:
     for (const VehicleSpec& s : specs)
       addVehicle(s, lockstep_names.count(s.name) > 0);
     transforms_.resize(vehicles_.size());
+    publishOdomFrames();
     toppled_pub_ = nh_.advertise<avsp_msgs::ObjectToppled>("/terrain/toppled", 100);
     // Every patch reaches every subscriber (a dropped one would be a rut a sensor never sees).
     ruts_pub_ = nh_.advertise<avsp_msgs::TerrainPatch>("/terrain/ruts", 1000);
@@ -533,6 +536,7 @@ private:
       pacer_.emplace(real_time_factor_, kPaceMaxLag);
     publish_clock_ = avsp::node::boolParam(pnh_, "publish_clock", true);
     publish_odom_tf_ = avsp::node::boolParam(pnh_, "publish_odom_tf", true);
+    per_vehicle_odom_frames_ = avsp::node::boolParam(pnh_, "per_vehicle_odom_frames", false);
     wait_for_command_ = avsp::node::boolParam(pnh_, "wait_for_command", false);
     start_topic_ = avsp::node::stringParam(pnh_, "start_topic", "");
     {
@@ -593,6 +597,7 @@ private:
   {
     auto v = std::make_unique<VehicleIo>();
     v->name = s.name;
+    v->odom_frame = per_vehicle_odom_frames_ ? s.name + "/odom" : "odom";
     const std::string yaml = config_dir_ + "/" + s.model + ".yaml";
     try
     {
@@ -1271,6 +1276,28 @@ private:
     clock_pub_.publish(c);
   }
 
+  /// With ~per_vehicle_odom_frames and ~publish_odom_tf: map -> <v>/odom, the identity, latched
+  /// once for every vehicle (the simulator knows ground truth, as world_frames.launch's map ->
+  /// odom says for the shared frame). Without ~publish_odom_tf the localisation stack that owns
+  /// <v>/odom -> <v>/base_link owns map -> <v>/odom too.
+  void publishOdomFrames()
+  {
+    if (!per_vehicle_odom_frames_ || !publish_odom_tf_)
+      return;
+    std::vector<geometry_msgs::TransformStamped> frames;
+    for (const auto& v : vehicles_)
+    {
+      geometry_msgs::TransformStamped t;
+      t.header.stamp = ros::Time(0);
+      t.header.frame_id = "map";
+      t.child_frame_id = v->odom_frame;
+      t.transform.rotation.w = 1.0;
+      frames.push_back(t);
+    }
+    static_tf_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    static_tf_->sendTransform(frames);
+  }
+
   void publishStates()
   {
     const ros::Time t = stamp();
@@ -1280,7 +1307,7 @@ private:
       const ad::VehicleState& s = world_->state(v->id);
       nav_msgs::Odometry odom;
       odom.header.stamp = t;
-      odom.header.frame_id = "odom";  // identity child of map: the simulator knows ground truth
+      odom.header.frame_id = v->odom_frame;  // identity child of map: the simulator knows ground truth
       odom.child_frame_id = v->name + "/base_link";
       odom.pose.pose = toPose(s.pose);
       odom.twist.twist.linear = toVector3(s.body_velocity);
@@ -1402,7 +1429,7 @@ private:
     using C = ad::WheelOdometryCovariance;
     nav_msgs::Odometry o;
     o.header.stamp = t;
-    o.header.frame_id = "odom";
+    o.header.frame_id = v.odom_frame;
     o.child_frame_id = v.name + "/base_link";
     o.pose.pose = toPose(v.wheel_odom.pose());
     const double speed = ad::runningGearSpeed(v.model, s);
@@ -1579,6 +1606,7 @@ private:
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
   bool publish_odom_tf_ = true;  ///< ~publish_odom_tf: broadcast odom -> <v>/base_link
+  bool per_vehicle_odom_frames_ = false;  ///< ~per_vehicle_odom_frames: <v>/odom instead of odom
   bool wait_for_command_ = false;
   std::string start_topic_;        ///< ~start_topic: physics waits for a message there ("" = no wait)
   bool start_signalled_ = false;   ///< a message came on ~start_topic
@@ -1609,6 +1637,7 @@ private:
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_tf_;  ///< map -> <v>/odom
   /// Wall s behind the ~real_time_factor pace after which the pace restarts (ad::Pacer).
   static constexpr double kPaceMaxLag = 0.1;
   std::optional<ad::Pacer> pacer_;  ///< with ~real_time_factor > 0 and ~publish_clock

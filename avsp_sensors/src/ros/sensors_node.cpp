@@ -135,6 +135,9 @@ struct VehicleIo
   std::unique_ptr<as::VehicleSensors> sensors;
   std::vector<as::BodyBox> boxes;
   std::string odom_topic, base_frame;
+  /// Frame of its odometry, registered clouds, clusters and maps: ~world_frame, or <v>/odom with
+  /// ~per_vehicle_odom_frames (each an identity child of map).
+  std::string world_frame;
   double last_stamp = -1.0;  ///< s, the last state queued (an equal stamp is a re-send)
   double sensed = 0.0;       ///< s, the time of the last state sensed (/diagnostics' lag)
   std::uint64_t states_sensed = 0;
@@ -190,6 +193,10 @@ public:
     world_frame_ = avsp::node::stringParam(pnh_, "world_frame", "odom");
     if (world_frame_.empty())
       throw StartupError("parameter ~world_frame must not be empty");
+    per_vehicle_odom_frames_ = avsp::node::boolParam(pnh_, "per_vehicle_odom_frames", false);
+    if (per_vehicle_odom_frames_ && pnh_.hasParam("world_frame"))
+      throw StartupError("parameters ~world_frame and ~per_vehicle_odom_frames exclude each other (the latter puts "
+                         "each vehicle in <v>/odom)");
     const int seed = boundedIntParam(pnh_, "seed", 0, 0, 2147483647);
     threads_ = static_cast<unsigned>(boundedIntParam(pnh_, "threads", 0, 0, 256));
     const double timeout = boundedParam(pnh_, "odometry_timeout", 1.0, 0.0, 3600.0);
@@ -241,7 +248,8 @@ public:
     }
     ROS_INFO("sensors_node: %zu vehicle(s) and %zu agent(s) on %s (%zu objects), world frame '%s', %u ray-casting "
              "thread(s)%s",
-             vehicles_.size(), agents_.size(), source_.c_str(), objects_.size(), world_frame_.c_str(), threads_,
+             vehicles_.size(), agents_.size(), source_.c_str(), objects_.size(),
+             per_vehicle_odom_frames_ ? "<v>/odom" : world_frame_.c_str(), threads_,
              threads_ == 0 ? " (0 = all cores)" : "");
   }
 
@@ -331,10 +339,11 @@ private:
     }
     v->boxes = frames.boxes;
     v->base_frame = entry.name + "/" + frames.root_link;
+    v->world_frame = per_vehicle_odom_frames_ ? entry.name + "/odom" : world_frame_;
     asn::mountSensors(spec, frames, where);
     as::SuiteConfig& suite = spec.suite;
     if (suite.lidar)
-      v->lidar_frame = suite.lidar->registered ? world_frame_ : entry.name + "/" + spec.lidar_link;
+      v->lidar_frame = suite.lidar->registered ? v->world_frame : entry.name + "/" + spec.lidar_link;
     if (suite.radar)
       v->radar_frame = entry.name + "/" + spec.radar_link;
     if (suite.gps)
@@ -575,7 +584,7 @@ private:
   {
     as::VehicleState state;
     std::string why;
-    if (!asn::stateFromOdometry(msg, world_frame_, v.base_frame, state, why))
+    if (!asn::stateFromOdometry(msg, v.world_frame, v.base_frame, state, why))
     {
       ++v.odometry_ignored;
       warnThrottled(2.0, "sensors_node: %s ignored: %s; the vehicle keeps its last good state",
@@ -929,11 +938,11 @@ private:
       const ros::WallTime start = ros::WallTime::now();
       const Eigen::Vector3d p = state.pose.translation();
       if (v.cells_pub.getNumSubscribers() > 0)
-        v.cells_pub.publish(asn::occupiedCellMarkers(v.sensors->occupancy()->occupiedCells(), with(world_frame_),
+        v.cells_pub.publish(asn::occupiedCellMarkers(v.sensors->occupancy()->occupiedCells(), with(v.world_frame),
                                                      p.z() - 2.0, p.z() + 4.0));
       if (v.grid_pub.getNumSubscribers() > 0)
         v.grid_pub.publish(asn::toOccupancyGrid(v.sensors->occupancyGrid(p.x(), p.y(), scene_->terrain()),
-                                                with(world_frame_)));
+                                                with(v.world_frame)));
       ++costs.maps;
       costs.map_products += (ros::WallTime::now() - start).toSec();
     }
@@ -965,7 +974,7 @@ private:
     const ros::WallTime start = ros::WallTime::now();
     std_msgs::Header h;
     h.stamp = stamp;
-    h.frame_id = world_frame_;
+    h.frame_id = v.world_frame;
     as::LidarClustering clustering;
     try
     {
@@ -1023,6 +1032,7 @@ private:
   ros::NodeHandle& nh_;
   ros::NodeHandle& pnh_;
   std::string world_frame_ = "odom";
+  bool per_vehicle_odom_frames_ = false;  ///< ~per_vehicle_odom_frames
   at::OutputFolder output_;  // where <v>/save_map may write
   unsigned threads_ = 0;
   float body_reflectivity_ = 0.5f;
