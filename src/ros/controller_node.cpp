@@ -60,7 +60,7 @@ std::vector<ac::Waypoint> waypointsFromParams(const ros::NodeHandle& pnh)
   XmlRpc::XmlRpcValue list;
   if (!pnh.hasParam("waypoints"))
     throw StartupError("parameter ~waypoints (list of {x, y, speed}) is required in mode waypoints");
-  pnh.getParam("waypoints", list);
+  avsp::node::structuredParam(pnh, "waypoints", list);
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~waypoints must be a list of {x, y, speed} entries");
   std::vector<ac::Waypoint> waypoints;

@@ -51,7 +51,7 @@ ae::WeatherTimeline weatherFromParams(const ros::NodeHandle& pnh)
   if (!pnh.hasParam("weather"))
     return {};
   XmlRpc::XmlRpcValue list;
-  pnh.getParam("weather", list);
+  avsp::node::structuredParam(pnh, "weather", list);
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~weather must be a list of {start, end, ...} entries (see README)");
   std::vector<ae::WeatherEvent> events;

@@ -1,12 +1,7 @@
 // Scenario sections through the nodes' own parameter parsers (node_checks.hpp).
 #include "avsp/ros/node_checks.hpp"
 
-#include <cerrno>
-#include <cmath>
-#include <cstdlib>
-#include <limits>
 #include <map>
-#include <regex>
 #include <stdexcept>
 
 #include <avsp_sensors/ros/sensor_params.hpp>
@@ -15,73 +10,6 @@ namespace avsp
 {
 namespace node
 {
-namespace
-{
-/// A plain scalar typed as PyYAML's safe_load (rosparam) types it.
-XmlRpc::XmlRpcValue plainScalar(const std::string& text)
-{
-  static const std::regex kTrue("true|True|TRUE|yes|Yes|YES|on|On|ON");
-  static const std::regex kFalse("false|False|FALSE|no|No|NO|off|Off|OFF");
-  static const std::regex kInt("[-+]?(0|[1-9][0-9_]*)");
-  static const std::regex kFloat("[-+]?([0-9][0-9_]*)?\\.[0-9_]*([eE][-+][0-9]+)?|[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+");
-  static const std::regex kInf("[-+]?\\.(inf|Inf|INF)");
-  static const std::regex kNan("\\.(nan|NaN|NAN)");
-  if (std::regex_match(text, kTrue))
-    return XmlRpc::XmlRpcValue(true);
-  if (std::regex_match(text, kFalse))
-    return XmlRpc::XmlRpcValue(false);
-  if (std::regex_match(text, kInt))
-  {
-    errno = 0;
-    const long long v = std::strtoll(text.c_str(), nullptr, 10);
-    if (errno == 0 && v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max())
-      return XmlRpc::XmlRpcValue(static_cast<int>(v));
-    return XmlRpc::XmlRpcValue(std::strtod(text.c_str(), nullptr));  // XML-RPC ints are 32-bit
-  }
-  if (std::regex_match(text, kFloat))
-    return XmlRpc::XmlRpcValue(std::strtod(text.c_str(), nullptr));
-  if (std::regex_match(text, kInf))
-    return XmlRpc::XmlRpcValue(text[0] == '-' ? -std::numeric_limits<double>::infinity()
-                                              : std::numeric_limits<double>::infinity());
-  if (std::regex_match(text, kNan))
-    return XmlRpc::XmlRpcValue(std::numeric_limits<double>::quiet_NaN());
-  return XmlRpc::XmlRpcValue(text);
-}
-}  // namespace
-
-XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node)
-{
-  switch (node.Type())
-  {
-    case YAML::NodeType::Scalar:
-      // yaml-cpp tags a quoted scalar "!": a string whatever it spells.
-      return node.Tag() == "!" ? XmlRpc::XmlRpcValue(node.Scalar()) : plainScalar(node.Scalar());
-    case YAML::NodeType::Sequence:
-    {
-      XmlRpc::XmlRpcValue out;
-      out.setSize(static_cast<int>(node.size()));
-      for (std::size_t k = 0; k < node.size(); ++k)
-        out[static_cast<int>(k)] = toXmlRpc(node[k]);
-      return out;
-    }
-    case YAML::NodeType::Map:
-    {
-      // Parsed from XML so that an empty map is still a struct (XmlRpcValue has no other way).
-      int offset = 0;
-      XmlRpc::XmlRpcValue out("<value><struct></struct></value>", &offset);
-      for (const auto& kv : node)
-      {
-        if (!kv.first.IsScalar())
-          throw std::invalid_argument("a map key that is not a string");
-        out[kv.first.Scalar()] = toXmlRpc(kv.second);
-      }
-      return out;
-    }
-    default:
-      throw std::invalid_argument("a null value (rosparam cannot set it)");
-  }
-}
-
 std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario::Scenario& s,
                                                                  const std::string& vehicles_dir)
 {

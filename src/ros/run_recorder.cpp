@@ -112,7 +112,7 @@ std::string format(const char* fmt, double a)
 std::vector<ar::VehicleSpec> vehicleList(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray)
+  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~vehicles must be a list of {name, leader}");
   std::vector<ar::VehicleSpec> out;
   for (int k = 0; k < list.size(); ++k)
@@ -186,7 +186,7 @@ std::vector<std::string> watchList(const ros::NodeHandle& pnh)
 {
   std::vector<std::string> out;
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("watch", list))
+  if (!avsp::node::structuredParam(pnh, "watch", list))
     return out;
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~watch must be a list of node names");

@@ -41,7 +41,7 @@ std::vector<std::string> stringList(const ros::NodeHandle& pnh, const std::strin
 {
   XmlRpc::XmlRpcValue v;
   std::vector<std::string> out;
-  if (!pnh.getParam(name, v) || v.getType() != XmlRpc::XmlRpcValue::TypeArray)
+  if (!avsp::node::structuredParam(pnh, name, v) || v.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw std::runtime_error("parameter ~" + name + ": required, a list of names");
   for (int i = 0; i < v.size(); ++i)
   {

@@ -46,7 +46,7 @@ namespace at = avsp::terrain;
 std::vector<std::string> vehiclesFromParams(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
     throw StartupError("parameter ~vehicles must be a non-empty list of vehicle names (or of {name: ...})");
   std::vector<std::string> names;
   std::set<std::string> seen;

@@ -152,7 +152,7 @@ struct VehicleSpec
 std::vector<VehicleSpec> vehicleSpecs(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
     throw StartupError("parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
   std::vector<VehicleSpec> specs;
   std::set<std::string> names;
@@ -1035,7 +1035,7 @@ private:
     if (!pnh_.hasParam("lockstep_vehicles"))
       return names;
     XmlRpc::XmlRpcValue list;
-    pnh_.getParam("lockstep_vehicles", list);
+    avsp::node::structuredParam(pnh_, "lockstep_vehicles", list);
     if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
       throw StartupError("parameter ~lockstep_vehicles must be a list of vehicle names");
     for (int k = 0; k < list.size(); ++k)

@@ -36,7 +36,7 @@ using avsp::node::StartupError;
 std::vector<std::string> partitionNames(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("partitions", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  if (!avsp::node::structuredParam(pnh, "partitions", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
     throw StartupError("parameter ~partitions must be a non-empty list of partition names");
   std::vector<std::string> names;
   for (int k = 0; k < list.size(); ++k)

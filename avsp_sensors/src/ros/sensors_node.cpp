@@ -185,7 +185,7 @@ public:
   Impl(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh)
   {
     XmlRpc::XmlRpcValue list;
-    if (!pnh_.getParam("vehicles", list))
+    if (!avsp::node::structuredParam(pnh_, "vehicles", list))
       throw StartupError("parameter ~vehicles must be a non-empty list of {name, model}");
     const std::vector<asn::VehicleEntry> entries = asn::parseVehicles(list);
     std::vector<asn::SensorsSpec> specs = readSensorSpecs(entries);
@@ -281,8 +281,8 @@ private:
   std::vector<asn::SensorsSpec> readSensorSpecs(const std::vector<asn::VehicleEntry>& entries)
   {
     XmlRpc::XmlRpcValue common, per_vehicle;
-    const bool has_common = pnh_.getParam("sensors", common);
-    const bool has_per_vehicle = pnh_.getParam("vehicle_sensors", per_vehicle);
+    const bool has_common = avsp::node::structuredParam(pnh_, "sensors", common);
+    const bool has_per_vehicle = avsp::node::structuredParam(pnh_, "vehicle_sensors", per_vehicle);
     if (has_per_vehicle)
     {
       if (per_vehicle.getType() != XmlRpc::XmlRpcValue::TypeStruct)

@@ -101,7 +101,7 @@ std::vector<AgentSpec> parseAgents(XmlRpc::XmlRpcValue& list, const std::string&
 std::vector<AgentSpec> agentSpecsFromParams(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("agents", list))
+  if (!avsp::node::structuredParam(pnh, "agents", list))
     return {};
   return parseAgents(list, "~agents");
 }

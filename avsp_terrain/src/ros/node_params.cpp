@@ -1,8 +1,12 @@
 #include "avsp_terrain/ros/node_params.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <regex>
 
 #include <ros/names.h>
 
@@ -111,7 +115,7 @@ std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::
   if (!pnh.hasParam(key))
     return names;
   XmlRpc::XmlRpcValue list;
-  pnh.getParam(key, list);
+  structuredParam(pnh, key, list);
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~" + key + " must be a list of " + what + ", got " + parameterKind(list));
   for (int k = 0; k < list.size(); ++k)
@@ -128,6 +132,98 @@ std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::
     names.push_back(name);
   }
   return names;
+}
+
+namespace
+{
+/// A plain scalar typed as PyYAML's safe_load (rosparam) types it.
+XmlRpc::XmlRpcValue plainScalar(const std::string& text)
+{
+  static const std::regex kTrue("true|True|TRUE|yes|Yes|YES|on|On|ON");
+  static const std::regex kFalse("false|False|FALSE|no|No|NO|off|Off|OFF");
+  static const std::regex kInt("[-+]?(0|[1-9][0-9_]*)");
+  static const std::regex kFloat("[-+]?([0-9][0-9_]*)?\\.[0-9_]*([eE][-+][0-9]+)?|[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+");
+  static const std::regex kInf("[-+]?\\.(inf|Inf|INF)");
+  static const std::regex kNan("\\.(nan|NaN|NAN)");
+  if (std::regex_match(text, kTrue))
+    return XmlRpc::XmlRpcValue(true);
+  if (std::regex_match(text, kFalse))
+    return XmlRpc::XmlRpcValue(false);
+  if (std::regex_match(text, kInt))
+  {
+    errno = 0;
+    const long long v = std::strtoll(text.c_str(), nullptr, 10);
+    if (errno == 0 && v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max())
+      return XmlRpc::XmlRpcValue(static_cast<int>(v));
+    return XmlRpc::XmlRpcValue(std::strtod(text.c_str(), nullptr));  // XML-RPC ints are 32-bit
+  }
+  if (std::regex_match(text, kFloat))
+    return XmlRpc::XmlRpcValue(std::strtod(text.c_str(), nullptr));
+  if (std::regex_match(text, kInf))
+    return XmlRpc::XmlRpcValue(text[0] == '-' ? -std::numeric_limits<double>::infinity()
+                                              : std::numeric_limits<double>::infinity());
+  if (std::regex_match(text, kNan))
+    return XmlRpc::XmlRpcValue(std::numeric_limits<double>::quiet_NaN());
+  return XmlRpc::XmlRpcValue(text);
+}
+}  // namespace
+
+XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node)
+{
+  switch (node.Type())
+  {
+    case YAML::NodeType::Scalar:
+      // yaml-cpp tags a quoted scalar "!": a string whatever it spells.
+      return node.Tag() == "!" ? XmlRpc::XmlRpcValue(node.Scalar()) : plainScalar(node.Scalar());
+    case YAML::NodeType::Sequence:
+    {
+      XmlRpc::XmlRpcValue out;
+      out.setSize(static_cast<int>(node.size()));
+      for (std::size_t k = 0; k < node.size(); ++k)
+        out[static_cast<int>(k)] = toXmlRpc(node[k]);
+      return out;
+    }
+    case YAML::NodeType::Map:
+    {
+      // Parsed from XML so that an empty map is still a struct (XmlRpcValue has no other way).
+      int offset = 0;
+      XmlRpc::XmlRpcValue out("<value><struct></struct></value>", &offset);
+      for (const auto& kv : node)
+      {
+        if (!kv.first.IsScalar())
+          throw std::invalid_argument("a map key that is not a string");
+        out[kv.first.Scalar()] = toXmlRpc(kv.second);
+      }
+      return out;
+    }
+    default:
+      throw std::invalid_argument("a null value (rosparam cannot set it)");
+  }
+}
+
+bool structuredParam(const ros::NodeHandle& pnh, const std::string& key, XmlRpc::XmlRpcValue& value)
+{
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(key, v))
+    return false;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeString)
+  {
+    const std::string text = static_cast<std::string>(v);
+    const std::size_t first = text.find_first_not_of(" \t");
+    if (first != std::string::npos && (text[first] == '[' || text[first] == '{'))
+    {
+      try
+      {
+        v = toXmlRpc(YAML::Load(text));
+      }
+      catch (const std::exception& e)
+      {
+        throw StartupError("parameter ~" + key + " = '" + text + "' is not a YAML list or dictionary: " + e.what());
+      }
+    }
+  }
+  value = v;
+  return true;
 }
 
 }  // namespace node

@@ -13,6 +13,8 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <yaml-cpp/yaml.h>
 
+#include <avsp_terrain/ros/node_params.hpp>
+
 #include "avsp/scenario/rviz_config.hpp"
 #include "avsp/scenario/scenario.hpp"
 
@@ -20,13 +22,7 @@ namespace avsp
 {
 namespace node
 {
-/**
- * @brief A YAML node as rosparam loads it: plain scalars typed as YAML 1.1 does (true/false/yes/
- *        no/on/off, integers, floats, .inf/.nan), quoted ones strings, sequences arrays, maps
- *        structs.
- * @throw std::invalid_argument for a null or a non-string map key (rosparam cannot set those)
- */
-XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
+// toXmlRpc() (YAML as rosparam types it): avsp_terrain/ros/node_params.hpp, which every node reads with.
 
 /**
  * @brief Runs sensors_node's parser on every vehicle's sensors (the scenario's `sensors` and the

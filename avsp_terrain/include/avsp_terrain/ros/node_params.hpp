@@ -16,6 +16,7 @@
 
 #include <ros/node_handle.h>
 #include <xmlrpcpp/XmlRpcValue.h>
+#include <yaml-cpp/yaml.h>
 
 namespace avsp
 {
@@ -74,6 +75,24 @@ std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, cons
  *        that is not a string or not a plain ROS name (no '/'), or a name listed twice
  */
 std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& what);
+
+/**
+ * @brief A YAML node as rosparam loads it: plain scalars typed as YAML 1.1 does (true/false/yes/
+ *        no/on/off, integers, floats, .inf/.nan), quoted ones strings, sequences arrays, maps
+ *        structs.
+ * @throw std::invalid_argument for a null or a non-string map key (rosparam cannot set those)
+ */
+XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
+
+/**
+ * @brief A private list or dictionary parameter, also when given as YAML text: `rosrun pkg node
+ *        _vehicles:='[a, b]'` sets the string "[a, b]" (roscpp types a command-line parameter
+ *        as a number, a boolean or a string), which is read here as rosparam would read it.
+ *        Other values come back as they are; the caller checks their type.
+ * @return false when the parameter is not set (`value` untouched)
+ * @throw StartupError naming the key when a string starting with '[' or '{' is not valid YAML
+ */
+bool structuredParam(const ros::NodeHandle& pnh, const std::string& key, XmlRpc::XmlRpcValue& value);
 
 }  // namespace node
 }  // namespace avsp
