@@ -10,8 +10,8 @@
 int main(int argc, char** argv)
 {
   avsp::node::Generated g;
-  const int rc = avsp::node::generateFromCommandLine(
-      "scenario_launch", std::vector<std::string>(argv + 1, argv + argc), g, false);
+  const int rc =
+      avsp::node::generateFromCommandLine("scenario_launch", std::vector<std::string>(argv + 1, argv + argc), g, false);
   if (rc == 0 && g.launch_file != "-")
     std::cout << g.launch_file << "\n";
   return rc;

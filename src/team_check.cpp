@@ -151,10 +151,9 @@ int main(int argc, char** argv)
       ok = false;
     }
     frames_checked += found;
-    const std::size_t gear =
-        model.drive_type == avsp::dynamics::DriveType::kTracked ?
-            model.tracks[0].road_wheels.size() + model.tracks[1].road_wheels.size() :
-            model.wheels.size();
+    const std::size_t gear = model.drive_type == avsp::dynamics::DriveType::kTracked
+                                 ? model.tracks[0].road_wheels.size() + model.tracks[1].road_wheels.size()
+                                 : model.wheels.size();
     std::printf("%-10s %-10s %-11s %9.1f %6zu %3zu/%-3zu  %.2f\n", team[k].name.c_str(), team[k].model.c_str(),
                 avsp::dynamics::toString(model.drive_type), model.total_mass, gear, found, expected.size(),
                 model.sensor_mounts.at("lidar").z());

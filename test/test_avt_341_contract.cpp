@@ -77,8 +77,9 @@ TEST(Avt341Contract, AvspLeavesTheStacksTopicsToTheStack)
                                                << ": under avt_341/ AVSP publishes only odometry and points";
   for (const auto& [topic, nodes] : subscribers)
     if (topic.rfind(ns, 0) == 0 && !nodes.empty())
-      EXPECT_TRUE(avsp_subscribes.count(topic)) << topic << " is read by " << *nodes.begin()
-                                                << ": under avt_341/ AVSP reads only cmd_vel (and its own odometry and points)";
+      EXPECT_TRUE(avsp_subscribes.count(topic))
+          << topic << " is read by " << *nodes.begin()
+          << ": under avt_341/ AVSP reads only cmd_vel (and its own odometry and points)";
   // The stack's own outputs, by name (the check above covers them; this says which).
   for (const char* stack : { "occupancy_grid", "global_path", "waypoints", "local_path", "cmd_vel" })
     EXPECT_FALSE(has(publishers, ns + stack)) << ns + stack << " belongs to the AVT-341 stack";

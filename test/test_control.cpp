@@ -46,17 +46,14 @@ struct Bicycle
 {
   ac::SteeringGeometry g = ackermann();
   double x = 0.0, y = 0.0, yaw = 0.0, v = 0.0, delta = 0.0;
-  double max_rate = 0.8;     // rad/s
-  double a_throttle = 2.5;   // m/s^2 at full throttle
-  double a_brake = 6.0;      // m/s^2 at full brake
-  double drag = 0.03;        // 1/s
+  double max_rate = 0.8;    // rad/s
+  double a_throttle = 2.5;  // m/s^2 at full throttle
+  double a_brake = 6.0;     // m/s^2 at full brake
+  double drag = 0.03;       // 1/s
   ac::Command command;
 
-  ac::Pose2 base() const
-  {
-    return {x - g.reference_x * std::cos(yaw), y - g.reference_x * std::sin(yaw), yaw};
-  }
-  ac::Vec2 rear() const { return {x, y}; }
+  ac::Pose2 base() const { return { x - g.reference_x * std::cos(yaw), y - g.reference_x * std::sin(yaw), yaw }; }
+  ac::Vec2 rear() const { return { x, y }; }
 
   void step(double dt)
   {
@@ -72,8 +69,8 @@ struct Bicycle
   }
 };
 
-constexpr double kPlantStep = 0.01;   // s
-constexpr int kControlEvery = 5;      // controller at 20 Hz
+constexpr double kPlantStep = 0.01;  // s
+constexpr int kControlEvery = 5;     // controller at 20 Hz
 
 /// Points of a circle of radius r about (cx, cy), counter-clockwise from angle a0 over `angle` rad.
 std::vector<ac::Vec2> arc(double cx, double cy, double r, double a0, double angle, int n)
@@ -82,7 +79,7 @@ std::vector<ac::Vec2> arc(double cx, double cy, double r, double a0, double angl
   for (int k = 0; k <= n; ++k)
   {
     const double a = a0 + angle * k / n;
-    pts.push_back({cx + r * std::cos(a), cy + r * std::sin(a)});
+    pts.push_back({ cx + r * std::cos(a), cy + r * std::sin(a) });
   }
   return pts;
 }
@@ -91,7 +88,7 @@ std::vector<ac::Waypoint> withSpeed(const std::vector<ac::Vec2>& pts, double spe
 {
   std::vector<ac::Waypoint> w;
   for (const auto& p : pts)
-    w.push_back({p.x, p.y, speed});
+    w.push_back({ p.x, p.y, speed });
   return w;
 }
 }  // namespace
@@ -101,12 +98,12 @@ std::vector<ac::Waypoint> withSpeed(const std::vector<ac::Vec2>& pts, double spe
 
 TEST(PurePursuit, CurvatureIsTwoSinAlphaOverLookahead)
 {
-  for (double yaw : {0.0, 0.7, -2.5})
-    for (double alpha : {-1.2, -0.4, 0.0, 0.1, 0.5, 1.5})
-      for (double ld : {2.0, 7.5, 20.0})
+  for (double yaw : { 0.0, 0.7, -2.5 })
+    for (double alpha : { -1.2, -0.4, 0.0, 0.1, 0.5, 1.5 })
+      for (double ld : { 2.0, 7.5, 20.0 })
       {
-        const ac::Pose2 pose{3.0, -4.0, yaw};
-        const ac::Vec2 target{pose.x + ld * std::cos(yaw + alpha), pose.y + ld * std::sin(yaw + alpha)};
+        const ac::Pose2 pose{ 3.0, -4.0, yaw };
+        const ac::Vec2 target{ pose.x + ld * std::cos(yaw + alpha), pose.y + ld * std::sin(yaw + alpha) };
         const double k = ac::purePursuitCurvature(pose, target);
         EXPECT_NEAR(k, 2.0 * std::sin(alpha) / ld, 1e-12) << "yaw " << yaw << " alpha " << alpha << " L_d " << ld;
         if (std::abs(alpha) > 0.05)
@@ -117,7 +114,7 @@ TEST(PurePursuit, CurvatureIsTwoSinAlphaOverLookahead)
           EXPECT_NEAR(std::hypot(target.x - cx, target.y - cy), 1.0 / std::abs(k), 1e-9);
         }
       }
-  EXPECT_EQ(ac::purePursuitCurvature({1.0, 1.0, 0.3}, {1.0, 1.0}), 0.0);
+  EXPECT_EQ(ac::purePursuitCurvature({ 1.0, 1.0, 0.3 }, { 1.0, 1.0 }), 0.0);
 }
 
 TEST(PurePursuit, LookaheadGrowsWithSpeedWithinBounds)
@@ -150,7 +147,7 @@ TEST(PurePursuit, LookaheadGrowsWithSpeedWithinBounds)
 
 TEST(Path, ArcLengthProjectionOffsetsAndEndRay)
 {
-  ac::Path path({{0.0, 0.0}, {10.0, 0.0}, {10.0, 10.0}});
+  ac::Path path({ { 0.0, 0.0 }, { 10.0, 0.0 }, { 10.0, 10.0 } });
   EXPECT_DOUBLE_EQ(path.length(), 20.0);
   EXPECT_DOUBLE_EQ(path.pointAt(15.0).y, 5.0);
   EXPECT_DOUBLE_EQ(path.pointAt(-3.0).x, 0.0);
@@ -161,14 +158,14 @@ TEST(Path, ArcLengthProjectionOffsetsAndEndRay)
   EXPECT_NEAR(path.offsetPointAt(5.0, 2.0).y, 2.0, 1e-12);
   EXPECT_NEAR(path.offsetPointAt(15.0, 2.0).x, 8.0, 1e-12);
 
-  const ac::PathProjection p = path.project({4.0, -1.5});
+  const ac::PathProjection p = path.project({ 4.0, -1.5 });
   EXPECT_NEAR(p.s, 4.0, 1e-12);
-  EXPECT_NEAR(p.lateral, -1.5, 1e-12);  // right of the path
-  const ac::PathProjection q = path.project({11.0, 30.0});  // beside the end ray
+  EXPECT_NEAR(p.lateral, -1.5, 1e-12);                        // right of the path
+  const ac::PathProjection q = path.project({ 11.0, 30.0 });  // beside the end ray
   EXPECT_NEAR(q.s, 40.0, 1e-12);
   EXPECT_NEAR(q.lateral, -1.0, 1e-12);
   // A window keeps the projection on its own part of the path.
-  EXPECT_NEAR(path.project({9.0, 1.0}, 0.0, 8.0).s, 8.0, 1e-12);
+  EXPECT_NEAR(path.project({ 9.0, 1.0 }, 0.0, 8.0).s, 8.0, 1e-12);
 
   // dropBefore keeps the arc lengths of the points left.
   path.dropBefore(12.0);
@@ -178,9 +175,9 @@ TEST(Path, ArcLengthProjectionOffsetsAndEndRay)
 
   // A moving tip.
   ac::Path crumbs;
-  crumbs.moveBack({0.0, 0.0});
-  crumbs.moveBack({1.0, 0.0});
-  crumbs.moveBack({2.5, 0.0});
+  crumbs.moveBack({ 0.0, 0.0 });
+  crumbs.moveBack({ 1.0, 0.0 });
+  crumbs.moveBack({ 2.5, 0.0 });
   EXPECT_EQ(crumbs.size(), 2u);
   EXPECT_DOUBLE_EQ(crumbs.endS(), 2.5);
   crumbs.setEndHeading(M_PI / 2.0);
@@ -193,7 +190,7 @@ TEST(Path, ArcLengthProjectionOffsetsAndEndRay)
 TEST(Steering, AckermannIsTheBicycleAngleOverFullLock)
 {
   const ac::SteeringGeometry g = ackermann();
-  for (double s : {-1.0, -0.5, -0.1, 0.0, 0.3, 0.9})
+  for (double s : { -1.0, -0.5, -0.1, 0.0, 0.3, 0.9 })
   {
     const double k = ac::curvatureForSteering(g, s);
     EXPECT_NEAR(k, std::tan(s * 0.5) / 3.3, 1e-12);
@@ -210,7 +207,7 @@ TEST(Steering, DifferentialMatchesSkidSteerSideMixing)
   g.kind = ac::SteeringKind::kDifferential;
   g.effective_track_width = 0.62;
   g.max_speed = 2.0;
-  for (double s : {-0.9, -0.5, -0.2, 0.1, 0.3, 0.5, 0.8})
+  for (double s : { -0.9, -0.5, -0.2, 0.1, 0.3, 0.5, 0.8 })
   {
     // Kinematic curvature of the centre from avsp_dynamics' side speeds (no side slip).
     const auto [left, right] = avsp::dynamics::skidSteerSides(0.6, s);
@@ -303,9 +300,9 @@ TEST(Avt341StackParameters, TheStacksCurvatureIsTheOneAvspDrives)
     for (const ad::CollisionBox& b : model.collision_boxes)
       for (int corner = 0; corner < 8; ++corner)
       {
-        const Eigen::Vector3d c = b.pose * Eigen::Vector3d((corner & 1 ? 0.5 : -0.5) * b.size.x(),
-                                                           (corner & 2 ? 0.5 : -0.5) * b.size.y(),
-                                                           (corner & 4 ? 0.5 : -0.5) * b.size.z());
+        const Eigen::Vector3d c =
+            b.pose * Eigen::Vector3d((corner & 1 ? 0.5 : -0.5) * b.size.x(), (corner & 2 ? 0.5 : -0.5) * b.size.y(),
+                                     (corner & 4 ? 0.5 : -0.5) * b.size.z());
         half_width = std::max(half_width, std::abs(c.y()));
       }
     if (model.drive_type == ad::DriveType::kTracked)
@@ -397,23 +394,23 @@ TEST(SpeedPid, OverSpeedBrakes)
   EXPECT_EQ(ac::pedalsForEffort(std::nan(""), 0.05, 1.0).brake, 1.0);
   ac::PidGains bad;
   bad.integral_limit = 0.0;
-  EXPECT_THROW(ac::SpeedPid{bad}, std::invalid_argument);
+  EXPECT_THROW(ac::SpeedPid{ bad }, std::invalid_argument);
 }
 
 TEST(SpeedProfile, SlowsDownAheadOfSlowerSegmentsAndTheGoal)
 {
   // Waypoints at 0, 100, 200, 300 m with 8, 3, 6 m/s; a = 1 m/s^2.
-  const ac::SpeedProfile p({0.0, 100.0, 200.0, 300.0}, {8.0, 3.0, 6.0}, 1.0, 0.5);
+  const ac::SpeedProfile p({ 0.0, 100.0, 200.0, 300.0 }, { 8.0, 3.0, 6.0 }, 1.0, 0.5);
   EXPECT_DOUBLE_EQ(p.targetSpeed(10.0), 8.0);
   // Braking curve into the 3 m/s segment: sqrt(9 + 2 * 1 * 10) 10 m before it.
   EXPECT_NEAR(p.targetSpeed(90.0), std::sqrt(29.0), 1e-12);
   EXPECT_NEAR(p.targetSpeed(100.0), 3.0, 1e-12);
   EXPECT_DOUBLE_EQ(p.targetSpeed(150.0), 3.0);
-  EXPECT_DOUBLE_EQ(p.targetSpeed(201.0), 6.0);  // speeding up starts at the waypoint
+  EXPECT_DOUBLE_EQ(p.targetSpeed(201.0), 6.0);                // speeding up starts at the waypoint
   EXPECT_NEAR(p.targetSpeed(290.0), std::sqrt(20.0), 1e-12);  // towards the goal
-  EXPECT_DOUBLE_EQ(p.targetSpeed(299.99), 0.5);                // creeping at the approach speed
+  EXPECT_DOUBLE_EQ(p.targetSpeed(299.99), 0.5);               // creeping at the approach speed
   EXPECT_DOUBLE_EQ(p.segmentSpeed(150.0), 3.0);
-  EXPECT_THROW(ac::SpeedProfile({0.0, 10.0}, {-1.0}, 1.0, 0.5), std::invalid_argument);
+  EXPECT_THROW(ac::SpeedProfile({ 0.0, 10.0 }, { -1.0 }, 1.0, 0.5), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -421,7 +418,7 @@ TEST(SpeedProfile, SlowsDownAheadOfSlowerSegmentsAndTheGoal)
 
 TEST(WaypointFollower, ConvergesToAStraightLine)
 {
-  ac::WaypointFollower follower(withSpeed({{0.0, 0.0}, {250.0, 0.0}}, 6.0), ackermann(), {});
+  ac::WaypointFollower follower(withSpeed({ { 0.0, 0.0 }, { 250.0, 0.0 } }, 6.0), ackermann(), {});
   Bicycle car;
   car.y = 3.0;  // 3 m left of the line, heading 17 deg away from it
   car.yaw = 0.3;
@@ -473,7 +470,7 @@ TEST(WaypointFollower, ConvergesToACircle)
 TEST(WaypointFollower, HoldsEachSegmentSpeedAndStopsAtTheGoal)
 {
   // Segments at 6, 3 and 8 m/s over 100, 100 and 141 m, with a bend between the last two.
-  std::vector<ac::Waypoint> w = {{0.0, 0.0, 6.0}, {100.0, 0.0, 3.0}, {200.0, 0.0, 8.0}, {300.0, 100.0, 0.0}};
+  std::vector<ac::Waypoint> w = { { 0.0, 0.0, 6.0 }, { 100.0, 0.0, 3.0 }, { 200.0, 0.0, 8.0 }, { 300.0, 100.0, 0.0 } };
   ac::WaypointFollowerOptions o;
   o.decel = 1.0;
   ac::WaypointFollower follower(w, ackermann(), o);
@@ -486,7 +483,7 @@ TEST(WaypointFollower, HoldsEachSegmentSpeedAndStopsAtTheGoal)
     if (k % kControlEvery == 0)
       car.command = follower.update(car.base(), car.v, k * kPlantStep).command;
     car.step(kPlantStep);
-    const double s = follower.path().project({car.base().x, car.base().y}).s;
+    const double s = follower.path().project({ car.base().x, car.base().y }).s;
     // The middle half of each segment.
     for (int seg = 0; seg < 3; ++seg)
     {
@@ -499,7 +496,7 @@ TEST(WaypointFollower, HoldsEachSegmentSpeedAndStopsAtTheGoal)
     arrived = follower.goalReached() && car.v < 1e-3;
   }
   ASSERT_TRUE(arrived) << "never stopped at the goal";
-  const double target[3] = {6.0, 3.0, 8.0};
+  const double target[3] = { 6.0, 3.0, 8.0 };
   for (int seg = 0; seg < 3; ++seg)
   {
     ASSERT_FALSE(speeds[seg].empty());
@@ -528,13 +525,13 @@ TEST(WaypointFollower, BadWaypointsNameTheEntryAndKey)
     }
     return std::string("accepted");
   };
-  EXPECT_NE(message({{0.0, 0.0, 1.0}}).find("at least 2"), std::string::npos);
-  EXPECT_NE(message({{0.0, 0.0, 1.0}, {5.0, 0.0, 2.0}, {9.0, 0.0, -1.0}}).find("waypoints[2].speed"),
+  EXPECT_NE(message({ { 0.0, 0.0, 1.0 } }).find("at least 2"), std::string::npos);
+  EXPECT_NE(message({ { 0.0, 0.0, 1.0 }, { 5.0, 0.0, 2.0 }, { 9.0, 0.0, -1.0 } }).find("waypoints[2].speed"),
             std::string::npos);
-  EXPECT_NE(message({{0.0, 0.0, 0.0}, {5.0, 0.0, 2.0}}).find("waypoints[0].speed"), std::string::npos);
-  EXPECT_NE(message({{0.0, 0.0, 1.0}, {0.0, std::nan(""), 2.0}}).find("waypoints[1].y"), std::string::npos);
-  EXPECT_NE(message({{0.0, 0.0, 1.0}, {0.0, 0.0, 2.0}}).find("waypoints[1]"), std::string::npos);
-  EXPECT_EQ(message({{0.0, 0.0, 1.0}, {5.0, 0.0, 0.0}}), "accepted");
+  EXPECT_NE(message({ { 0.0, 0.0, 0.0 }, { 5.0, 0.0, 2.0 } }).find("waypoints[0].speed"), std::string::npos);
+  EXPECT_NE(message({ { 0.0, 0.0, 1.0 }, { 0.0, std::nan(""), 2.0 } }).find("waypoints[1].y"), std::string::npos);
+  EXPECT_NE(message({ { 0.0, 0.0, 1.0 }, { 0.0, 0.0, 2.0 } }).find("waypoints[1]"), std::string::npos);
+  EXPECT_EQ(message({ { 0.0, 0.0, 1.0 }, { 5.0, 0.0, 0.0 } }), "accepted");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -547,15 +544,15 @@ TEST(LeaderFollower, GapIsTheDistanceAlongACurvedPath)
   const double r = 20.0, v = 5.0;
   ac::LeaderFollowerOptions o;
   ac::LeaderFollower f(ackermann(), o);
-  const ac::Pose2 follower{r, 0.0, M_PI / 2.0};  // on the circle about the origin, heading north
+  const ac::Pose2 follower{ r, 0.0, M_PI / 2.0 };  // on the circle about the origin, heading north
   f.update(follower, 0.0, 0.0);
   double last_stamp = 0.0, leader_angle = 0.0;
   for (int k = 0; k * v * 0.1 / r <= M_PI / 2.0; ++k)
   {
     last_stamp = 0.1 * k;
     leader_angle = k * v * 0.1 / r;
-    ASSERT_TRUE(f.addLeaderState({last_stamp, r * std::cos(leader_angle), r * std::sin(leader_angle),
-                                  leader_angle + M_PI / 2.0, v}));
+    ASSERT_TRUE(f.addLeaderState(
+        { last_stamp, r * std::cos(leader_angle), r * std::sin(leader_angle), leader_angle + M_PI / 2.0, v }));
   }
   ac::FollowerStatus st = f.update(follower, 0.0, last_stamp);
   EXPECT_TRUE(st.leader_fresh);
@@ -570,7 +567,7 @@ TEST(LeaderFollower, GapIsTheDistanceAlongACurvedPath)
   EXPECT_FALSE(st.leader_fresh);
   EXPECT_EQ(st.tracking.command.brake, 1.0);
   EXPECT_EQ(st.tracking.command.throttle, 0.0);
-  EXPECT_FALSE(f.addLeaderState({last_stamp + 2.0, std::nan(""), 0.0, 0.0, 1.0}));
+  EXPECT_FALSE(f.addLeaderState({ last_stamp + 2.0, std::nan(""), 0.0, 0.0, 1.0 }));
 }
 
 namespace
@@ -593,7 +590,7 @@ struct Convoy
   {
   }
 
-  ac::Vec2 baseOf(const Bicycle& b) const { return {b.base().x, b.base().y}; }
+  ac::Vec2 baseOf(const Bicycle& b) const { return { b.base().x, b.base().y }; }
 
   void run(double until)
   {
@@ -602,7 +599,7 @@ struct Convoy
       if (k % 10 == 0)  // 10 Hz broadcasts, acceleration over the broadcast period
       {
         follower_ctl.addLeaderState(
-            {t, leader.base().x, leader.base().y, leader.yaw, leader.v, (leader.v - broadcast_speed) / 0.1});
+            { t, leader.base().x, leader.base().y, leader.yaw, leader.v, (leader.v - broadcast_speed) / 0.1 });
         broadcast_speed = leader.v;
       }
       if (k % kControlEvery == 0)
@@ -624,10 +621,10 @@ struct Convoy
 TEST(LeaderFollower, KeepsTheGapThroughABendAndFollowsAGapChange)
 {
   // East 120 m, a 90 deg left bend of 40 m radius, north 300 m, at 5 m/s.
-  std::vector<ac::Vec2> pts = {{0.0, 0.0}};
+  std::vector<ac::Vec2> pts = { { 0.0, 0.0 } };
   for (const ac::Vec2& p : arc(120.0, 40.0, 40.0, -M_PI / 2.0, M_PI / 2.0, 60))
     pts.push_back(p);
-  pts.push_back({160.0, 400.0});
+  pts.push_back({ 160.0, 400.0 });
   ac::LeaderFollowerOptions o;
   o.gap = 10.0;
   Convoy c(withSpeed(pts, 5.0), o);
@@ -659,7 +656,7 @@ TEST(LeaderFollower, NormalOffsetOnAStraightAndOnACircle)
     ac::LeaderFollowerOptions o;
     o.gap = 0.0;
     o.offset = 4.0;
-    Convoy c(withSpeed({{0.0, 0.0}, {600.0, 0.0}}, 5.0), o);
+    Convoy c(withSpeed({ { 0.0, 0.0 }, { 600.0, 0.0 } }, 5.0), o);
     c.leader.x = 5.0;
     c.follower.y = 1.0;
     c.run(60.0);
@@ -699,7 +696,7 @@ TEST(Formation, SlotsOfColumnLineAndDiamond)
   EXPECT_EQ(column[2].offset, 0.0);
 
   const auto line = ac::formationSlots(ac::FormationType::kLine, 5, 15.0, 5.0);
-  const double line_offsets[] = {0.0, -5.0, 5.0, -10.0, 10.0};
+  const double line_offsets[] = { 0.0, -5.0, 5.0, -10.0, 10.0 };
   for (int k = 1; k < 5; ++k)
   {
     EXPECT_EQ(line[k].leader, 0);

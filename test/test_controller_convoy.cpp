@@ -45,9 +45,9 @@ long long key(double t)
 struct GapStats
 {
   int n = 0;
-  double worst = 0.0;     ///< m, largest |gap - desired|
+  double worst = 0.0;  ///< m, largest |gap - desired|
   double sum_sq = 0.0;
-  double mean_gap = 0.0;  ///< m
+  double mean_gap = 0.0;       ///< m
   double worst_lateral = 0.0;  ///< m, farthest from the leader's driven path
   double rms() const { return n ? std::sqrt(sum_sq / n) : 0.0; }
 };
@@ -71,8 +71,8 @@ TEST(ControllerConvoy, ColumnKeepsTheGapAndFollowsAGapChange)
   {
     subs.push_back(nh.subscribe<nav_msgs::Odometry>(
         "/" + vehicles[k] + "/avt_341/odometry", 1000, [&samples, k](const nav_msgs::Odometry::ConstPtr& m) {
-          samples[k].push_back({m->header.stamp.toSec(), m->pose.pose.position.x, m->pose.pose.position.y,
-                                m->twist.twist.linear.x});
+          samples[k].push_back(
+              { m->header.stamp.toSec(), m->pose.pose.position.x, m->pose.pose.position.y, m->twist.twist.linear.x });
         }));
     if (k > 0)
       gap_pubs.push_back(nh.advertise<std_msgs::Float64>("/" + vehicles[k] + "/formation/gap", 1, true));
@@ -86,8 +86,7 @@ TEST(ControllerConvoy, ColumnKeepsTheGapAndFollowsAGapChange)
   };
   const double wall_budget = 200.0;
   const ros::WallTime start = ros::WallTime::now();
-  ASSERT_TRUE(spinUntil([&] { return now() >= change; }, wall_budget))
-      << "simulation stalled at t = " << now() << " s";
+  ASSERT_TRUE(spinUntil([&] { return now() >= change; }, wall_budget)) << "simulation stalled at t = " << now() << " s";
   for (auto& p : gap_pubs)
   {
     std_msgs::Float64 msg;
@@ -119,7 +118,7 @@ TEST(ControllerConvoy, ColumnKeepsTheGapAndFollowsAGapChange)
     std::map<long long, double> s_at;
     for (const Sample& p : samples[k - 1])
     {
-      trail.append({p.x, p.y});
+      trail.append({ p.x, p.y });
       s_at[key(p.t)] = trail.endS();
     }
     GapStats before, after;
@@ -132,7 +131,7 @@ TEST(ControllerConvoy, ColumnKeepsTheGapAndFollowsAGapChange)
       if (it == s_at.end())
         continue;
       const double lo = has_previous ? s_previous - 10.0 : trail.startS();
-      const ac::PathProjection proj = trail.project({p.x, p.y}, lo, it->second);
+      const ac::PathProjection proj = trail.project({ p.x, p.y }, lo, it->second);
       s_previous = proj.s;
       has_previous = true;
       const double g = it->second - proj.s;
@@ -155,17 +154,18 @@ TEST(ControllerConvoy, ColumnKeepsTheGapAndFollowsAGapChange)
       stats->mean_gap += g;
       stats->worst_lateral = std::max(stats->worst_lateral, proj.distance);
     }
-    for (GapStats* s : {&before, &after})
+    for (GapStats* s : { &before, &after })
       if (s->n)
         s->mean_gap /= s->n;
     const std::string who = vehicles[k] + " behind " + vehicles[k - 1];
-    std::printf("[ controller_convoy ] %s: gap %.0f m from t = %.0f s: mean %.2f m, RMS error %.2f m, worst %.2f m, "
-                "worst lateral %.2f m\n",
-                who.c_str(), gap, settle, before.mean_gap, before.rms(), before.worst, before.worst_lateral);
-    std::printf("[ controller_convoy ] %s: gap %.0f m from t = %.0f s: mean %.2f m, RMS error %.2f m, worst %.2f m, "
-                "worst lateral %.2f m\n",
-                who.c_str(), new_gap, changed_at + converge, after.mean_gap, after.rms(), after.worst,
-                after.worst_lateral);
+    std::printf(
+        "[ controller_convoy ] %s: gap %.0f m from t = %.0f s: mean %.2f m, RMS error %.2f m, worst %.2f m, "
+        "worst lateral %.2f m\n",
+        who.c_str(), gap, settle, before.mean_gap, before.rms(), before.worst, before.worst_lateral);
+    std::printf(
+        "[ controller_convoy ] %s: gap %.0f m from t = %.0f s: mean %.2f m, RMS error %.2f m, worst %.2f m, "
+        "worst lateral %.2f m\n",
+        who.c_str(), new_gap, changed_at + converge, after.mean_gap, after.rms(), after.worst, after.worst_lateral);
     std::string line;
     for (const auto& [t, g] : series)
       if (std::fmod(t, 5.0) < 0.25)

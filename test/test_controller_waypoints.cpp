@@ -53,10 +53,10 @@ std::vector<Waypoint> waypointsOf(const std::string& param)
     return out;
   auto number = [](XmlRpc::XmlRpcValue& v) {
     return v.getType() == XmlRpc::XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v))
-                                                      : static_cast<double>(v);
+                                                       : static_cast<double>(v);
   };
   for (int k = 0; k < list.size(); ++k)
-    out.push_back({number(list[k]["x"]), number(list[k]["y"]), number(list[k]["speed"])});
+    out.push_back({ number(list[k]["x"]), number(list[k]["y"]), number(list[k]["speed"]) });
   return out;
 }
 
@@ -76,21 +76,19 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
   bool goal_reached = false;
   nav_msgs::Path path;
   std::size_t commands = 0;
-  ros::Subscriber odom_sub = nh.subscribe<nav_msgs::Odometry>(
-      "/ego/avt_341/odometry", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) {
-        samples.push_back({m->header.stamp.toSec(), m->pose.pose.position.x, m->pose.pose.position.y,
-                           m->twist.twist.linear.x});
+  ros::Subscriber odom_sub =
+      nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) {
+        samples.push_back(
+            { m->header.stamp.toSec(), m->pose.pose.position.x, m->pose.pose.position.y, m->twist.twist.linear.x });
       });
-  ros::Subscriber goal_sub =
-      nh.subscribe<std_msgs::Bool>("/ego/controller/goal_reached", 10, [&](const std_msgs::Bool::ConstPtr& m) {
-        goal_reached = m->data;
-      });
-  ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>("/ego/controller/path", 1,
-                                                          [&](const nav_msgs::Path::ConstPtr& m) { path = *m; });
+  ros::Subscriber goal_sub = nh.subscribe<std_msgs::Bool>(
+      "/ego/controller/goal_reached", 10, [&](const std_msgs::Bool::ConstPtr& m) { goal_reached = m->data; });
+  ros::Subscriber path_sub =
+      nh.subscribe<nav_msgs::Path>("/ego/controller/path", 1, [&](const nav_msgs::Path::ConstPtr& m) { path = *m; });
   // In lockstep the controller answers each 50 ms instant on cmd_drive, stamped with it.
   std::size_t off_grid = 0;
-  ros::Subscriber cmd_sub = nh.subscribe<avsp_msgs::DriveCommand>(
-      "/ego/cmd_drive", 100, [&](const avsp_msgs::DriveCommand::ConstPtr& m) {
+  ros::Subscriber cmd_sub =
+      nh.subscribe<avsp_msgs::DriveCommand>("/ego/cmd_drive", 100, [&](const avsp_msgs::DriveCommand::ConstPtr& m) {
         ++commands;
         const double t = m->header.stamp.toSec();
         if (std::abs(t - 0.05 * std::round(t / 0.05)) > 1e-6)
@@ -99,9 +97,9 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
 
   auto now = [&] { return samples.empty() ? 0.0 : samples.back().t; };
   // Arrived: the controller says so and the vehicle has stopped (or 150 s of sim time).
-  ASSERT_TRUE(spinUntil([&] { return (goal_reached && !samples.empty() && std::abs(samples.back().speed) < 0.02) ||
-                                     now() > 150.0; },
-                        150.0))
+  ASSERT_TRUE(spinUntil(
+      [&] { return (goal_reached && !samples.empty() && std::abs(samples.back().speed) < 0.02) || now() > 150.0; },
+      150.0))
       << "simulation stalled at t = " << now() << " s";
   ASSERT_TRUE(goal_reached) << "goal not reached by t = " << now() << " s";
   // Stays braked at the goal.
@@ -125,7 +123,7 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
   // (base_link's projection on the waypoint polyline), every odometry sample.
   std::vector<ac::Vec2> pts;
   for (const Waypoint& w : waypoints)
-    pts.push_back({w.x, w.y});
+    pts.push_back({ w.x, w.y });
   const ac::Path route(pts);
   double s_previous = 0.0;
   for (std::size_t seg = 0; seg + 1 < waypoints.size(); ++seg)
@@ -137,7 +135,7 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
     s_previous = 0.0;
     for (const Sample& p : samples)
     {
-      const ac::PathProjection proj = route.project({p.x, p.y}, s_previous - 5.0, s_previous + 20.0);
+      const ac::PathProjection proj = route.project({ p.x, p.y }, s_previous - 5.0, s_previous + 20.0);
       s_previous = proj.s;
       if (proj.s < lo || proj.s > hi)
         continue;
@@ -151,10 +149,11 @@ TEST(ControllerWaypoints, ReachesTheGoalHoldingEachSegmentSpeed)
     EXPECT_LT(worst, 0.1 * waypoints[seg].speed) << "segment " << seg << " at " << waypoints[seg].speed << " m/s";
     EXPECT_LT(worst_lateral, 1.0) << "segment " << seg << ": off the route";
     RecordProperty("segment" + std::to_string(seg) + "_mean_speed", std::to_string(mean));
-    std::printf("[ controller_waypoints ] segment %zu: %.1f m/s prescribed, mean %.3f m/s (%+.2f %%), worst %.3f m/s "
-                "(%.2f %%), worst lateral %.2f m\n",
-                seg, waypoints[seg].speed, mean, 100.0 * (mean / waypoints[seg].speed - 1.0), worst,
-                100.0 * worst / waypoints[seg].speed, worst_lateral);
+    std::printf(
+        "[ controller_waypoints ] segment %zu: %.1f m/s prescribed, mean %.3f m/s (%+.2f %%), worst %.3f m/s "
+        "(%.2f %%), worst lateral %.2f m\n",
+        seg, waypoints[seg].speed, mean, 100.0 * (mean / waypoints[seg].speed - 1.0), worst,
+        100.0 * worst / waypoints[seg].speed, worst_lateral);
   }
 }
 

@@ -94,8 +94,8 @@ TEST(DeerCrossing, DeerInTheLidarCloudWhereAndWhenTheAgentIs)
   // The deer sets off at 1.5 s from y = -8 at 4 m/s: in front of ego (|y| < 1.5) from 3.125 s to
   // 3.875 s, at its end (y = 8) from 5.5 s. Until 6.5 s of sim time have been swept.
   const double until = 6.5;
-  ASSERT_TRUE(spinUntil([&] { return !cloud.messages.empty() && cloud.messages.back().header.stamp.toSec() >= until; },
-                        60.0))
+  ASSERT_TRUE(
+      spinUntil([&] { return !cloud.messages.empty() && cloud.messages.back().header.stamp.toSec() >= until; }, 60.0))
       << cloud.messages.size() << " sweeps";
 
   // The sweep's world is the world at its end (avsp_sensors README): the deer's pose then.
@@ -145,9 +145,10 @@ TEST(DeerCrossing, DeerInTheLidarCloudWhereAndWhenTheAgentIs)
   EXPECT_GE(in_front_sweeps, 5u);
   EXPECT_GE(before_sweeps, 5u);
   EXPECT_GE(after_sweeps, 5u);
-  std::printf("[deer crossing] %zu sweeps with the deer in them (%zu with it in front, %zu before it set off, %zu "
-              "after it passed)\n",
-              seen_sweeps, in_front_sweeps, before_sweeps, after_sweeps);
+  std::printf(
+      "[deer crossing] %zu sweeps with the deer in them (%zu with it in front, %zu before it set off, %zu "
+      "after it passed)\n",
+      seen_sweeps, in_front_sweeps, before_sweeps, after_sweeps);
 
   // agents_node: states on the 20 Hz grid of sim time, each the core's state at its stamp.
   spinUntil([] { return false; }, 0.3);

@@ -18,7 +18,10 @@ using ae::kRadToDeg;
 
 namespace
 {
-double dms(double d, double m, double s) { return d < 0.0 ? d - m / 60.0 - s / 3600.0 : d + m / 60.0 + s / 3600.0; }
+double dms(double d, double m, double s)
+{
+  return d < 0.0 ? d - m / 60.0 - s / 3600.0 : d + m / 60.0 + s / 3600.0;
+}
 
 /// Difference of two angles in degrees, in (-180, 180].
 double angleDiff(double a, double b)
@@ -41,8 +44,9 @@ void sightReduction(double gha, double dec, double lat, double lon, double& alti
   const double lha = (gha + lon) * kDegToRad;
   const double d = dec * kDegToRad, l = lat * kDegToRad;
   altitude = std::asin(std::sin(l) * std::sin(d) + std::cos(l) * std::cos(d) * std::cos(lha)) * kRadToDeg;
-  azimuth = std::atan2(-std::cos(d) * std::sin(lha), std::cos(l) * std::sin(d) - std::sin(l) * std::cos(d) * std::cos(lha)) *
-            kRadToDeg;
+  azimuth =
+      std::atan2(-std::cos(d) * std::sin(lha), std::cos(l) * std::sin(d) - std::sin(l) * std::cos(d) * std::cos(lha)) *
+      kRadToDeg;
   if (azimuth < 0.0)
     azimuth += 360.0;
 }
@@ -74,8 +78,8 @@ constexpr double kSunToleranceDeg = 0.02;
 // (refracted), azimuth 194.34024 deg (SPA's own uncertainty: 0.0003 deg).
 TEST(SunAlmanac, NrelSpaExampleGolden2003)
 {
-  const ae::Site golden{39.742476, -105.1786, 1830.14};
-  const ae::SkyState sky = ae::skyAt(ae::parseUtc("2003-10-17T19:30:30Z"), golden, ae::Atmosphere{820.0, 284.15});
+  const ae::Site golden{ 39.742476, -105.1786, 1830.14 };
+  const ae::SkyState sky = ae::skyAt(ae::parseUtc("2003-10-17T19:30:30Z"), golden, ae::Atmosphere{ 820.0, 284.15 });
   EXPECT_NEAR(angleDiff(sky.sun.azimuth * kRadToDeg, 194.340241), 0.0, kSunToleranceDeg);
   EXPECT_NEAR(90.0 - sky.sun.elevation * kRadToDeg, 50.111622, kSunToleranceDeg);
   // SPA's unrefracted topocentric elevation e0 = 39.872046 deg.
@@ -90,7 +94,7 @@ TEST(SunAlmanac, NrelSpaExampleGolden2003)
 TEST(SunAlmanac, Usno2014January1Wellington)
 {
   const double gha = dms(179, 10, 23.0), dec = dms(-23, 1, 17.21);
-  const ae::Site wellington{-41.2865, 174.7762, 0.0};
+  const ae::Site wellington{ -41.2865, 174.7762, 0.0 };
   double alt = 0.0, az = 0.0;
   sightReduction(gha, dec, wellington.latitude_deg, wellington.longitude_deg, alt, az);
   const ae::SkyState sky = ae::skyAt(ae::parseUtc("2014-01-01T00:00:00Z"), wellington, ae::Atmosphere{});
@@ -108,7 +112,7 @@ TEST(SunAlmanac, Usno2014January1Wellington)
 TEST(SunAlmanac, Ephemeris1999September1Honolulu)
 {
   const double gha = dms(179, 56, 4.5), dec = dms(8, 31, 15.9);
-  const ae::Site honolulu{21.3069, -157.8583, 0.0};
+  const ae::Site honolulu{ 21.3069, -157.8583, 0.0 };
   double alt = 0.0, az = 0.0;
   sightReduction(gha, dec, honolulu.latitude_deg, honolulu.longitude_deg, alt, az);
   const ae::SkyState sky = ae::skyAt(ae::parseUtc("1999-09-01T00:00:00Z"), honolulu, ae::Atmosphere{});
@@ -147,7 +151,7 @@ TEST(SunAlmanac, MeeusSiderealTime)
 // at noon it is day. Golden, CO (UTC-7), every day of 2025.
 TEST(SunNight, BelowTheHorizonAtMidnightEveryDay)
 {
-  const ae::Site golden{39.742476, -105.1786, 1830.0};
+  const ae::Site golden{ 39.742476, -105.1786, 1830.0 };
   const double jan1 = ae::parseUtc("2025-01-01T07:00:00Z");  // 00:00 MST
   for (int day = 0; day < 365; ++day)
   {
@@ -202,7 +206,7 @@ TEST(MoonAlmanac, Usno2024Phases)
 // geocentric directions differ by about the Moon's horizontal parallax times cos(alt), ~0.3 deg.
 TEST(MoonAlmanac, TotalEclipse2024SunAndMoonCoincide)
 {
-  const ae::Site greatest{dms(25, 17.4, 0), -dms(104, 8.3, 0), 1000.0};
+  const ae::Site greatest{ dms(25, 17.4, 0), -dms(104, 8.3, 0), 1000.0 };
   const ae::SkyState sky = ae::skyAt(ae::parseUtc("2024-04-08T18:17:16Z"), greatest, ae::Atmosphere{});
   EXPECT_LT(separationDeg(sky.sun, sky.moon), 0.05);
   EXPECT_NEAR(sky.sun.elevation * kRadToDeg, 69.8, 0.2);
@@ -223,7 +227,7 @@ TEST(UtcTime, ParsesAndRefusesByReason)
   EXPECT_EQ(ae::formatUtc(1709251199.5), "2024-02-29T23:59:59.500Z");
   EXPECT_DOUBLE_EQ(ae::julianDay(946728000.0), 2451545.0);  // J2000.0
   EXPECT_THROW(ae::parseUtc("2023-02-29T00:00:00Z"), std::invalid_argument);
-  EXPECT_THROW(ae::parseUtc("2023-01-01T00:00:00"), std::invalid_argument);    // no Z
+  EXPECT_THROW(ae::parseUtc("2023-01-01T00:00:00"), std::invalid_argument);  // no Z
   EXPECT_THROW(ae::parseUtc("2023-01-01T24:00:00Z"), std::invalid_argument);
   EXPECT_THROW(ae::parseUtc("yesterday"), std::invalid_argument);
 }
@@ -231,14 +235,15 @@ TEST(UtcTime, ParsesAndRefusesByReason)
 TEST(EnvironmentModel, WorldClockAcceleratesAndJumps)
 {
   ae::EnvironmentConfig config;
-  config.site = {39.74, -105.18, 1800.0};
+  config.site = { 39.74, -105.18, 1800.0 };
   config.start_utc = ae::parseUtc("2025-06-21T12:00:00Z");
   config.time_acceleration = 60.0;
   ae::EnvironmentModel model(config);
   EXPECT_DOUBLE_EQ(model.at(10.0).utc, config.start_utc + 600.0);
   EXPECT_DOUBLE_EQ(model.at(10.0).time_acceleration, 60.0);
   // The Sun at t equals the Sun at that world time.
-  const ae::SkyState direct = ae::skyAt(config.start_utc + 600.0, config.site, ae::Atmosphere{model.pressureHpa(), 288.15});
+  const ae::SkyState direct =
+      ae::skyAt(config.start_utc + 600.0, config.site, ae::Atmosphere{ model.pressureHpa(), 288.15 });
   EXPECT_DOUBLE_EQ(model.at(10.0).sky.sun.azimuth, direct.sun.azimuth);
   // Jump: at t = 20 s the world is at midnight, then runs at real time.
   const double midnight = ae::parseUtc("2025-06-22T06:00:00Z");
@@ -278,7 +283,8 @@ TEST(Daylight, TwilightAnchorsAndMonotonic)
   }
   EXPECT_GT(previous, 100000.0);  // high Sun, clear sky
   // Overcast is darker by day; a full Moon high up gives a few tenths of a lux, a new Moon nothing.
-  EXPECT_LT(ae::ambientIlluminance(45.0 * kDegToRad, -1.0, 0.0, 1.0), 0.3 * ae::ambientIlluminance(45.0 * kDegToRad, -1.0, 0.0, 0.0));
+  EXPECT_LT(ae::ambientIlluminance(45.0 * kDegToRad, -1.0, 0.0, 1.0),
+            0.3 * ae::ambientIlluminance(45.0 * kDegToRad, -1.0, 0.0, 0.0));
   const double full = ae::ambientIlluminance(-0.6, 60.0 * kDegToRad, 0.0, 0.0);
   EXPECT_GT(full, 0.1);
   EXPECT_LT(full, 0.4);
@@ -305,14 +311,14 @@ TEST(WeatherTimeline, RampsAddAndInterpolateFogThroughExtinction)
   hail.end = 190.0;
   hail.hail_rate_mm_h = 30.0;
   hail.rain_rate_mm_h = 5.0;
-  const ae::WeatherTimeline timeline({rain, fog, hail});
+  const ae::WeatherTimeline timeline({ rain, fog, hail });
 
   EXPECT_EQ(timeline.at(50.0).rain_rate_mm_h, 0.0);
   EXPECT_TRUE(std::isinf(timeline.at(50.0).fog_visibility));
-  EXPECT_DOUBLE_EQ(timeline.at(100.0).rain_rate_mm_h, 0.0);   // ramp starts from nothing
-  EXPECT_DOUBLE_EQ(timeline.at(110.0).rain_rate_mm_h, 5.0);   // half-way up the ramp
-  EXPECT_DOUBLE_EQ(timeline.at(140.0).rain_rate_mm_h, 10.0);  // full
-  EXPECT_DOUBLE_EQ(timeline.at(190.0).rain_rate_mm_h, 5.0);   // half-way down; hail ended at 190
+  EXPECT_DOUBLE_EQ(timeline.at(100.0).rain_rate_mm_h, 0.0);                // ramp starts from nothing
+  EXPECT_DOUBLE_EQ(timeline.at(110.0).rain_rate_mm_h, 5.0);                // half-way up the ramp
+  EXPECT_DOUBLE_EQ(timeline.at(140.0).rain_rate_mm_h, 10.0);               // full
+  EXPECT_DOUBLE_EQ(timeline.at(190.0).rain_rate_mm_h, 5.0);                // half-way down; hail ended at 190
   EXPECT_DOUBLE_EQ(timeline.at(185.0).rain_rate_mm_h, 10.0 * 0.75 + 5.0);  // overlapping events add
   EXPECT_DOUBLE_EQ(timeline.at(185.0).hail_rate_mm_h, 30.0);
   EXPECT_EQ(timeline.at(200.0).rain_rate_mm_h, 0.0);
@@ -327,7 +333,7 @@ TEST(WeatherTimeline, RampsAddAndInterpolateFogThroughExtinction)
   fog2.ramp = 0.0;
   fog2.fog_visibility = 400.0;
   ae::WeatherEvent fog3 = fog2;
-  EXPECT_NEAR(ae::WeatherTimeline({fog2, fog3}).at(200.0).fog_visibility, 200.0, 1e-9);
+  EXPECT_NEAR(ae::WeatherTimeline({ fog2, fog3 }).at(200.0).fog_visibility, 200.0, 1e-9);
 }
 
 /// Expects makeWeatherEvent to throw a message containing every piece of `expected`.
@@ -349,33 +355,40 @@ void expectBadEntry(const std::map<std::string, double>& numbers, const std::vec
 TEST(WeatherTimeline, BadEntriesNameTheEntryAndKey)
 {
   const double inf = std::numeric_limits<double>::infinity();
-  const ae::WeatherEvent good =
-      ae::makeWeatherEvent("~weather[0]", {{"start", 10.0}, {"end", 20.0}, {"fog_visibility", inf}, {"rain_rate_mm_h", 2}});
+  const ae::WeatherEvent good = ae::makeWeatherEvent(
+      "~weather[0]", { { "start", 10.0 }, { "end", 20.0 }, { "fog_visibility", inf }, { "rain_rate_mm_h", 2 } });
   EXPECT_EQ(good.rain_rate_mm_h, 2.0);
   EXPECT_EQ(good.ramp, 0.0);
 
-  expectBadEntry({{"end", 20.0}, {"rain_rate_mm_h", 1.0}}, {}, {"~weather[3].start", "missing"});
-  expectBadEntry({{"start", 0.0}, {"rain_rate_mm_h", 1.0}}, {}, {"~weather[3].end", "missing"});
-  expectBadEntry({{"start", 30.0}, {"end", 20.0}, {"rain_rate_mm_h", 1.0}}, {}, {"~weather[3].end", "> start"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}, {"rian_rate_mm_h", 1.0}}, {}, {"~weather[3].rian_rate_mm_h", "unknown key"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}, {"rain_rate_mm_h", -1.0}}, {}, {"~weather[3].rain_rate_mm_h", ">= 0"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}, {"fog_visibility", 0.0}}, {}, {"~weather[3].fog_visibility", "> 0"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}, {"ramp", 11.0}, {"snow_rate_mm_h", 1.0}}, {}, {"~weather[3].ramp"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}}, {}, {"~weather[3]", "sets no weather"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}}, {"hail_rate_mm_h"}, {"~weather[3].hail_rate_mm_h", "must be a number"});
-  expectBadEntry({{"start", 0.0}, {"end", 20.0}, {"wind_x", std::nan("")}}, {}, {"~weather[3].wind_x", "finite"});
+  expectBadEntry({ { "end", 20.0 }, { "rain_rate_mm_h", 1.0 } }, {}, { "~weather[3].start", "missing" });
+  expectBadEntry({ { "start", 0.0 }, { "rain_rate_mm_h", 1.0 } }, {}, { "~weather[3].end", "missing" });
+  expectBadEntry({ { "start", 30.0 }, { "end", 20.0 }, { "rain_rate_mm_h", 1.0 } }, {},
+                 { "~weather[3].end", "> start" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 }, { "rian_rate_mm_h", 1.0 } }, {},
+                 { "~weather[3].rian_rate_mm_h", "unknown key" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 }, { "rain_rate_mm_h", -1.0 } }, {},
+                 { "~weather[3].rain_rate_mm_h", ">= 0" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 }, { "fog_visibility", 0.0 } }, {},
+                 { "~weather[3].fog_visibility", "> 0" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 }, { "ramp", 11.0 }, { "snow_rate_mm_h", 1.0 } }, {},
+                 { "~weather[3].ramp" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 } }, {}, { "~weather[3]", "sets no weather" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 } }, { "hail_rate_mm_h" },
+                 { "~weather[3].hail_rate_mm_h", "must be a number" });
+  expectBadEntry({ { "start", 0.0 }, { "end", 20.0 }, { "wind_x", std::nan("") } }, {},
+                 { "~weather[3].wind_x", "finite" });
 }
 
 TEST(EnvironmentModel, WeatherOverrideReplacesTimelineAndIsValidated)
 {
   ae::EnvironmentConfig config;
-  config.site = {45.0, 7.0, 300.0};
+  config.site = { 45.0, 7.0, 300.0 };
   config.start_utc = ae::parseUtc("2025-03-01T10:00:00Z");
   ae::WeatherEvent rain;
   rain.start = 0.0;
   rain.end = 100.0;
   rain.rain_rate_mm_h = 8.0;
-  config.timeline = ae::WeatherTimeline({rain});
+  config.timeline = ae::WeatherTimeline({ rain });
   ae::EnvironmentModel model(config);
   EXPECT_EQ(model.at(50.0).weather.rain_rate_mm_h, 8.0);
   EXPECT_EQ(ae::overcastFraction(model.at(50.0).weather), 1.0);
@@ -425,8 +438,8 @@ TEST(EnvironmentModel, SeededFuzzOfRunTimeChanges)
     {
       const ae::EnvironmentState s = m.at(t);
       for (double v : { s.utc, s.time_acceleration, s.sky.sun.elevation, s.ambient_light, s.weather.fog_visibility,
-                        s.weather.rain_rate_mm_h, s.weather.snow_rate_mm_h, s.weather.hail_rate_mm_h,
-                        s.weather.wind_x, s.air_temperature })
+                        s.weather.rain_rate_mm_h, s.weather.snow_rate_mm_h, s.weather.hail_rate_mm_h, s.weather.wind_x,
+                        s.air_temperature })
         f.push_back(v);
     }
     return f;

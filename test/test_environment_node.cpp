@@ -93,7 +93,7 @@ World* world = nullptr;
 ae::EnvironmentModel referenceModel()
 {
   ae::EnvironmentConfig config;
-  config.site = {39.742476, -105.1786, 1830.14};
+  config.site = { 39.742476, -105.1786, 1830.14 };
   config.start_utc = ae::parseUtc("2003-10-17T19:30:30Z");
   config.time_acceleration = 60.0;
   return ae::EnvironmentModel(config);

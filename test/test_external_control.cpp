@@ -42,8 +42,8 @@ TEST(ExternalControl, DrivenThroughCmdVelItMovesAndItsLidarSeesTheWorld)
   EXPECT_EQ(cmd.getTopic(), "/ego/avt_341/cmd_vel");
 
   // Settled and braked (no command yet) with the lidar running.
-  ASSERT_TRUE(spinUntil([&] { return !odom.empty() && odom.back().header.stamp.toSec() > 2.0 && clouds.size() >= 3; },
-                        90.0))
+  ASSERT_TRUE(
+      spinUntil([&] { return !odom.empty() && odom.back().header.stamp.toSec() > 2.0 && clouds.size() >= 3; }, 90.0))
       << odom.size() << " odometry messages, " << clouds.size() << " clouds";
   const nav_msgs::Odometry start = odom.back();
   EXPECT_EQ(start.header.frame_id, "odom");

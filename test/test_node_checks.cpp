@@ -15,9 +15,9 @@ using XmlRpc::XmlRpcValue;
 
 TEST(ToXmlRpc, TypesScalarsAsRosparamDoes)
 {
-  const XmlRpcValue v = toXmlRpc(YAML::Load(
-      "{b1: true, b2: no, i: 42, n: -7, d: 0.5, e: 1.0e-3, inf: -.inf, s: VLP-16, q: '42', t: 'true', "
-      "l: [1, 2.5, x], m: {}, big: 10000000000}"));
+  const XmlRpcValue v = toXmlRpc(
+      YAML::Load("{b1: true, b2: no, i: 42, n: -7, d: 0.5, e: 1.0e-3, inf: -.inf, s: VLP-16, q: '42', t: 'true', "
+                 "l: [1, 2.5, x], m: {}, big: 10000000000}"));
   ASSERT_EQ(v.getType(), XmlRpcValue::TypeStruct);
   XmlRpcValue c = v;
   EXPECT_EQ(c["b1"].getType(), XmlRpcValue::TypeBoolean);
@@ -132,9 +132,9 @@ TEST(NodeChecks, RvizConfigShowsExactlyTheRunsTopics)
   as::Scenario s = as::loadScenario(AVSP_CONFIG_DIR "/scenarios/reference_traverse.yaml", load);
   // The fed_alpha (lidar and radar by the scenario) also carries a stereo pair and a mono camera
   // without RGB output.
-  s.vehicles[2].sensors["cameras"] =
-      YAML::Load("[{name: pod, stereo_baseline: 0.3, width: 64, height: 48, rate: 2.0}, "
-                 "{name: depth_only, width: 32, height: 24, rate: 2.0, outputs: [depth]}]");
+  s.vehicles[2].sensors["cameras"] = YAML::Load(
+      "[{name: pod, stereo_baseline: 0.3, width: 64, height: 48, rate: 2.0}, "
+      "{name: depth_only, width: 32, height: 24, rate: 2.0, outputs: [depth]}]");
   const std::vector<as::VehicleDisplays> shown = checkSensorsAsTheNodeWill(s, load.vehicles_dir);
   ASSERT_EQ(shown.size(), 4u);
   EXPECT_EQ(shown[0].name, "m113");
@@ -145,12 +145,13 @@ TEST(NodeChecks, RvizConfigShowsExactlyTheRunsTopics)
   EXPECT_FALSE(shown[3].radar);
 
   const std::string config = as::generateRvizConfig(s, shown);
-  std::vector<std::string> expected = { "/terrain/mesh", "/terrain/rut_markers", "/terrain/objects",
-                                        "/agents/markers", "/v2v/fleet_markers" };
+  std::vector<std::string> expected = { "/terrain/mesh", "/terrain/rut_markers", "/terrain/objects", "/agents/markers",
+                                        "/v2v/fleet_markers" };
   for (const as::VehicleSpec& v : s.vehicles)  // every vehicle has a controller here
     for (const char* t : { "avt_341/odometry", "controller/path", "controller/target" })
       expected.push_back("/" + v.name + "/" + t);
-  for (const char* t : { "avt_341/points", "radar/points", "radar/markers", "pod/left/image_raw", "pod/right/image_raw" })
+  for (const char* t :
+       { "avt_341/points", "radar/points", "radar/markers", "pod/left/image_raw", "pod/right/image_raw" })
     expected.push_back(std::string("/fed_alpha/") + t);
   expected.push_back("/tracer_x/avt_341/points");
   for (const as::VehicleDisplays& d : shown)

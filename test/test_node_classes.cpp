@@ -28,8 +28,7 @@ namespace
 /// Constructs `Node` on the private namespace `ns` (nothing set there but `setup`'s parameters)
 /// and expects a StartupError containing `text`.
 template <typename Node>
-void expectRefused(const std::string& ns, const std::function<void(ros::NodeHandle&)>& setup,
-                   const std::string& text)
+void expectRefused(const std::string& ns, const std::function<void(ros::NodeHandle&)>& setup, const std::string& text)
 {
   ros::NodeHandle nh, pnh(ns);
   setup(pnh);
@@ -58,8 +57,8 @@ TEST(NodeClasses, EachRefusesABadParameterNamingIt)
         p.setParam("mesh_resolution", -1.0);
       },
       "parameter ~mesh_resolution = -1.000000 must be finite and > 0");
-  expectRefused<dynamics::node::DynamicsNode>("/bad/dynamics", kNothing,
-                                              "parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
+  expectRefused<dynamics::node::DynamicsNode>(
+      "/bad/dynamics", kNothing, "parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
   expectRefused<dynamics::node::LockstepClock>("/bad/clock", kNothing,
                                                "parameter ~partitions must be a non-empty list of partition names");
   expectRefused<sensors::node::SensorsNode>("/bad/sensors", kNothing,

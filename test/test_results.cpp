@@ -91,7 +91,8 @@ TEST(VehicleRecord, DistanceOfAKnownPolylineAndSpeeds)
   EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(0.0, 0.0, 0.0, 0.0, 0.0));
   EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(1.0, 3.0, 0.0, 0.0, 3.0));
   EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(2.0, 3.0, 4.0, 0.0, 4.0));
-  EXPECT_EQ(OdometryAdded::kSample, r.addOdometry(3.0, 6.0, 4.0, 4.0, -5.0));  // (3, 0, 4): 5 m; reversing speed counts as 5 m/s
+  EXPECT_EQ(OdometryAdded::kSample,
+            r.addOdometry(3.0, 6.0, 4.0, 4.0, -5.0));  // (3, 0, 4): 5 m; reversing speed counts as 5 m/s
   EXPECT_DOUBLE_EQ(r.distance(), 12.0);
   EXPECT_DOUBLE_EQ(r.maxSpeed(), 5.0);
   EXPECT_DOUBLE_EQ(r.speed(), 5.0);
@@ -266,9 +267,9 @@ TEST(Gap, SeriesDoesNotDependOnHowTheTopicsInterleave)
     int ahead = lag(rng);  // + = the leader's messages ahead
     while (i < leader.size() || j < follower.size())
     {
-      const bool leader_next = j == follower.size() ||
-                               (i < leader.size() && (order == 0 || (order != 1 && static_cast<int>(i) <
-                                                                                       static_cast<int>(j) + ahead)));
+      const bool leader_next =
+          j == follower.size() ||
+          (i < leader.size() && (order == 0 || (order != 1 && static_cast<int>(i) < static_cast<int>(j) + ahead)));
       if (leader_next)
         tracker.addLeader(leader[i++]);
       else
@@ -358,8 +359,8 @@ TEST(RutMap, DepthFromPatchesAndCroppedGrid)
   EXPECT_NEAR(*map.depth(105, 110), 0.05, 1e-6);
   EXPECT_NEAR(*map.depth(106, 110), -0.01, 1e-6);
   EXPECT_NEAR(map.maxDepth(), 0.08, 1e-6);
-  EXPECT_NEAR(map.areaDeeperThan(0.04), 2 * 0.01, 1e-9);   // (104, 110) and (105, 110)
-  EXPECT_NEAR(map.areaDeeperThan(0.01), 6 * 0.01, 1e-9);   // 100..105 on row 110
+  EXPECT_NEAR(map.areaDeeperThan(0.04), 2 * 0.01, 1e-9);  // (104, 110) and (105, 110)
+  EXPECT_NEAR(map.areaDeeperThan(0.01), 6 * 0.01, 1e-9);  // 100..105 on row 110
 
   // Cropped to the points >= 1 cm (i 100..105, j 110) widened by 0.2 m, full resolution.
   auto g = map.depthGrid(0.01, 0.2, 100);
@@ -416,11 +417,11 @@ TEST(RutMap, SampledHeightsCoverTheBox)
   EXPECT_NEAR(g.resolution, 0.2, 1e-12);
   EXPECT_EQ(g.width, 51u);
   EXPECT_EQ(g.height, 21u);
-  EXPECT_NEAR(g.values[10 * 51 + 25], 0.0, 1e-6);    // x = 0
-  EXPECT_NEAR(g.values[0 * 51 + 50], 0.25, 1e-6);    // x = 5
+  EXPECT_NEAR(g.values[10 * 51 + 25], 0.0, 1e-6);  // x = 0
+  EXPECT_NEAR(g.values[0 * 51 + 50], 0.25, 1e-6);  // x = 5
   const Grid off = sampleHeights(base, 9.0, 0.0, 11.0, 1.0, 100);
   EXPECT_NEAR(off.resolution, 0.1, 1e-12);
-  EXPECT_TRUE(std::isnan(off.values.back()));        // x = 11 is off the terrain
+  EXPECT_TRUE(std::isnan(off.values.back()));  // x = 11 is off the terrain
   EXPECT_THROW(sampleHeights(base, 1.0, 0.0, 1.0, 1.0, 10), std::invalid_argument);
 }
 
@@ -503,8 +504,10 @@ TEST(Output, NpyGridAndCsvTables)
   std::memcpy(v, bytes.data() + 10 + header_len, sizeof v);
   EXPECT_EQ(v[4], 4.f);
   EXPECT_TRUE(std::isnan(v[5]));
-  const std::string check = "/usr/bin/python3 -c \"import numpy, sys; a = numpy.load(sys.argv[1]); "
-                            "assert a.shape == (2, 3) and a[1, 1] == 4 and numpy.isnan(a[1, 2])\" " + dir + "/g.npy";
+  const std::string check =
+      "/usr/bin/python3 -c \"import numpy, sys; a = numpy.load(sys.argv[1]); "
+      "assert a.shape == (2, 3) and a[1, 1] == 4 and numpy.isnan(a[1, 2])\" " +
+      dir + "/g.npy";
   EXPECT_EQ(std::system(check.c_str()), 0);
   g.values.pop_back();
   EXPECT_THROW(writeNpy(dir + "/bad.npy", g), std::invalid_argument);

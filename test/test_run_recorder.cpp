@@ -131,16 +131,14 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
   std::map<std::string, ros::Publisher> cmd;
   for (const std::string v : { "lead", "follow" })
   {
-    subs.push_back(nh.subscribe<nav_msgs::Odometry>("/" + v + "/avt_341/odometry", 5000,
-                                                    [&odom, v](const nav_msgs::Odometry::ConstPtr& m) {
-                                                      const auto& p = m->pose.pose.position;
-                                                      const auto& l = m->twist.twist.linear;
-                                                      // Not the test's own NaN or copy (below).
-                                                      if (std::isfinite(p.x) &&
-                                                          (odom[v].empty() || m->header.stamp.toSec() > odom[v].back().t))
-                                                        odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z,
-                                                                            std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z) });
-                                                    }));
+    subs.push_back(nh.subscribe<nav_msgs::Odometry>(
+        "/" + v + "/avt_341/odometry", 5000, [&odom, v](const nav_msgs::Odometry::ConstPtr& m) {
+          const auto& p = m->pose.pose.position;
+          const auto& l = m->twist.twist.linear;
+          // Not the test's own NaN or copy (below).
+          if (std::isfinite(p.x) && (odom[v].empty() || m->header.stamp.toSec() > odom[v].back().t))
+            odom[v].push_back({ m->header.stamp.toSec(), p.x, p.y, p.z, std::sqrt(l.x * l.x + l.y * l.y + l.z * l.z) });
+        }));
     subs.push_back(nh.subscribe<avsp_msgs::VehicleTelemetry>(
         "/" + v + "/telemetry", 5000, [&collisions, v, duration](const avsp_msgs::VehicleTelemetry::ConstPtr& m) {
           if (m->header.stamp.toSec() <= duration)
@@ -270,21 +268,21 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
         continue;
       if (previous)
       {
-        own += std::sqrt(std::pow(s.x - previous->x, 2) + std::pow(s.y - previous->y, 2) +
-                         std::pow(s.z - previous->z, 2));
+        own +=
+            std::sqrt(std::pow(s.x - previous->x, 2) + std::pow(s.y - previous->y, 2) + std::pow(s.z - previous->z, 2));
         max_gap_dt = std::max(max_gap_dt, s.t - previous->t);
       }
       previous = &s;
     }
     const double distance = v["distance"].as<double>();
-    std::printf("[ run_recorder ] %s: summary %.3f m, own odometry %.3f m (%.2f-%.2f s), max slip %s, collisions %s, "
-                "gap min %s mean %s\n",
-                name.c_str(), distance, own, t0, t1, show(v["max_slip"]).c_str(),
-                show(v["collisions"]).c_str(), show(v["gap_min"]).c_str(), show(v["gap_mean"]).c_str());
+    std::printf(
+        "[ run_recorder ] %s: summary %.3f m, own odometry %.3f m (%.2f-%.2f s), max slip %s, collisions %s, "
+        "gap min %s mean %s\n",
+        name.c_str(), distance, own, t0, t1, show(v["max_slip"]).c_str(), show(v["collisions"]).c_str(),
+        show(v["gap_min"]).c_str(), show(v["gap_mean"]).c_str());
     EXPECT_GT(own, 10.0) << name << " hardly moved";
-    const std::size_t own_samples = std::count_if(odom[name].begin(), odom[name].end(), [&](const Sample& s) {
-      return s.t >= t0 - 1e-9 && s.t <= t1 + 1e-9;
-    });
+    const std::size_t own_samples = std::count_if(
+        odom[name].begin(), odom[name].end(), [&](const Sample& s) { return s.t >= t0 - 1e-9 && s.t <= t1 + 1e-9; });
     EXPECT_EQ(v["odometry_samples"].as<std::size_t>(), own_samples) << name;
     EXPECT_NEAR(distance, own, 0.01 * own) << name;
     EXPECT_NEAR(v["mean_speed"].as<double>(), distance / (t1 - t0), 1e-6 * distance);
@@ -410,9 +408,8 @@ TEST(RunRecorderStartup, BadParametersExitNamingTheParameter)
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~output_dir is required"), std::string::npos) << out;
 
-  std::tie(code, out) = bad("unwritable", [&](const std::string& ns) {
-    nh.setParam(ns + "output_dir", std::string("/proc/avsp_results"));
-  });
+  std::tie(code, out) = bad(
+      "unwritable", [&](const std::string& ns) { nh.setParam(ns + "output_dir", std::string("/proc/avsp_results")); });
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("~output_dir '/proc/avsp_results'"), std::string::npos) << out;
 

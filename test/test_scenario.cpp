@@ -116,13 +116,13 @@ std::string errorOf(const YAML::Node& n)
   return errorOf(dump(n));
 }
 
-#define EXPECT_ERROR(message, ...)                                                                            \
-  do                                                                                                          \
-  {                                                                                                           \
-    const std::string m_ = (message);                                                                         \
-    EXPECT_EQ(m_.rfind("/some/dir/base.yaml: ", 0), 0u) << "message does not start with the file: " << m_;  \
-    for (const std::string& part : { __VA_ARGS__ })                                                           \
-      EXPECT_NE(m_.find(part), std::string::npos) << "'" << part << "' not in: " << m_;                       \
+#define EXPECT_ERROR(message, ...)                                                                         \
+  do                                                                                                       \
+  {                                                                                                        \
+    const std::string m_ = (message);                                                                      \
+    EXPECT_EQ(m_.rfind("/some/dir/base.yaml: ", 0), 0u) << "message does not start with the file: " << m_; \
+    for (const std::string& part : { __VA_ARGS__ })                                                        \
+      EXPECT_NE(m_.find(part), std::string::npos) << "'" << part << "' not in: " << m_;                    \
   } while (0)
 }  // namespace
 
@@ -428,7 +428,8 @@ TEST(Scenario, FuzzedTextsNeverCrashAndAlwaysNameTheFile)
   std::mt19937 rng(20261123);
   const std::string text = kBase;
   const std::string alphabet = "abcxyz019-.:{}[],# \n\"'!&*|>-";
-  const char* const numbers[] = { "-1", "0", "1e308", "-1e308", ".nan", ".inf", "1e-320", "99999999999999999999", "0x10", "~" };
+  const char* const numbers[] = { "-1",   "0", "1e308", "-1e308", ".nan", ".inf", "1e-320", "99999999999999999999",
+                                  "0x10", "~" };
   int loaded = 0, refused = 0;
   const as::LoadOptions o = fakeTerrain(false);
   for (int iteration = 0; iteration < 3000; ++iteration)
@@ -539,7 +540,8 @@ YAML::Node rosparamOf(const std::string& xml, const std::string& node, const std
 
 /// value="..." of `<param name="param" ...>` inside the node called `node` (in the group `ns`
 /// when given).
-std::string paramOf(const std::string& xml, const std::string& node, const std::string& param, const std::string& ns = "")
+std::string paramOf(const std::string& xml, const std::string& node, const std::string& param,
+                    const std::string& ns = "")
 {
   std::size_t from = 0;
   if (!ns.empty())
@@ -767,10 +769,11 @@ TEST(ReferenceScenario, CarriersRouteKeepsClearOfObjects)
           continue;
         const double c = std::cos(o.yaw), sn = std::sin(o.yaw);
         const double u = c * (x - o.x) + sn * (y - o.y), v = -sn * (x - o.x) + c * (y - o.y);
-        const double d = std::hypot(std::max(0.0, std::abs(u) - 0.5 * o.length), std::max(0.0, std::abs(v) - 0.5 * o.width));
+        const double d =
+            std::hypot(std::max(0.0, std::abs(u) - 0.5 * o.length), std::max(0.0, std::abs(v) - 0.5 * o.width));
         if (d < 2.5 && std::getenv("AVSP_LIST_CLOSE"))
-          std::printf("  %s %u at (%.1f, %.1f) %.2f m from (%.1f, %.1f), segment %zu\n", avsp::terrain::toString(o.type), id,
-                      o.x, o.y, d, x, y, k);
+          std::printf("  %s %u at (%.1f, %.1f) %.2f m from (%.1f, %.1f), segment %zu\n",
+                      avsp::terrain::toString(o.type), id, o.x, o.y, d, x, y, k);
         if (d < worst)
         {
           worst = d;
@@ -799,8 +802,9 @@ TEST(Scenario, PartitionsBalanceByCostOrFollowTheList)
   n["partitions"] = 1;
   EXPECT_TRUE(as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false)).partitions.empty());
   // Explicit, with a machine.
-  n["partitions"] = YAML::Load("[{name: north, vehicles: [third, lead], machine: hostb}, "
-                               "{name: south, vehicles: [second, ext]}]");
+  n["partitions"] = YAML::Load(
+      "[{name: north, vehicles: [third, lead], machine: hostb}, "
+      "{name: south, vehicles: [second, ext]}]");
   n["machines"] = YAML::Load("{hostb: {address: 10.0.0.2, env_loader: /opt/avsp/env.sh, user: sim}}");
   s = as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false));
   ASSERT_EQ(s.partitions.size(), 2u);
@@ -816,11 +820,10 @@ TEST(Scenario, BalancedPartitionsAreGreedyByCost)
 {
   // Costs 11, 5, 5, 5, 11, 5, 5, 5 over 3: the two 11s apart, then the 5s to the lightest.
   const std::vector<std::string> names{ "a", "b", "c", "d", "e", "f", "g", "h" };
-  const std::vector<as::PartitionSpec> p =
-      as::balancedPartitions(names, { 11, 5, 5, 5, 11, 5, 5, 5 }, 3);
+  const std::vector<as::PartitionSpec> p = as::balancedPartitions(names, { 11, 5, 5, 5, 11, 5, 5, 5 }, 3);
   ASSERT_EQ(p.size(), 3u);
-  EXPECT_EQ(p[0].vehicles, (std::vector<std::string>{ "a", "f" }));       // 16
-  EXPECT_EQ(p[1].vehicles, (std::vector<std::string>{ "e", "g" }));       // 16
+  EXPECT_EQ(p[0].vehicles, (std::vector<std::string>{ "a", "f" }));            // 16
+  EXPECT_EQ(p[1].vehicles, (std::vector<std::string>{ "e", "g" }));            // 16
   EXPECT_EQ(p[2].vehicles, (std::vector<std::string>{ "b", "c", "d", "h" }));  // 20
   EXPECT_THROW(as::balancedPartitions(names, { 1, 2 }, 2), std::invalid_argument);
   EXPECT_THROW(as::balancedPartitions(names, std::vector<double>(8, 1.0), 9), std::invalid_argument);
@@ -842,7 +845,8 @@ TEST(Scenario, BadPartitionsAreNamed)
   EXPECT_ERROR(errorOf(n), "partitions[0].vehicles[2]", "unknown vehicle 'nobody'");
   n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second]}, {name: a, vehicles: [third, ext]}]");
   EXPECT_ERROR(errorOf(n), "partitions[1].name", "duplicate partition 'a'");
-  n["partitions"] = YAML::Load("[{name: a, vehicles: [lead, second], machine: far}, {name: b, vehicles: [third, ext]}]");
+  n["partitions"] =
+      YAML::Load("[{name: a, vehicles: [lead, second], machine: far}, {name: b, vehicles: [third, ext]}]");
   EXPECT_ERROR(errorOf(n), "partitions[0].machine", "unknown machine 'far'");
   n["partitions"] = YAML::Load("[{name: sensors, vehicles: [lead, second]}, {name: b, vehicles: [third, ext]}]");
   EXPECT_ERROR(errorOf(n), "partitions[0].name", "'sensors' is sensors_node's name");
@@ -863,8 +867,9 @@ TEST(Scenario, BadPartitionsAreNamed)
 TEST(LaunchGenerator, PartitionsGetTheClockPeersAndMachines)
 {
   YAML::Node n = base();
-  n["partitions"] = YAML::Load("[{name: north, vehicles: [third, lead], machine: hostb}, "
-                               "{name: south, vehicles: [second, ext]}]");
+  n["partitions"] = YAML::Load(
+      "[{name: north, vehicles: [third, lead], machine: hostb}, "
+      "{name: south, vehicles: [second, ext]}]");
   n["machines"] = YAML::Load("{hostb: {address: 10.0.0.2, env_loader: /opt/avsp/env.sh}}");
   const as::Scenario s = as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false));
   as::LaunchOptions o;
@@ -916,7 +921,7 @@ TEST(RvizConfig, FollowsTheLeadAndNeedsEveryVehicle)
   as::Scenario s = as::loadScenario(kConfig + "/scenarios/reference_traverse.yaml", options());
   EXPECT_EQ(as::leadVehicle(s).name, "m113");  // the formation's first
   s.formation.present = false;
-  std::swap(s.vehicles[0], s.vehicles[1]);  // mrzr (leader-follower) first now
+  std::swap(s.vehicles[0], s.vehicles[1]);     // mrzr (leader-follower) first now
   EXPECT_EQ(as::leadVehicle(s).name, "m113");  // the first on waypoints
   for (as::VehicleSpec& v : s.vehicles)
     v.controller.type = as::ControllerType::kExternal;

@@ -49,7 +49,7 @@ public:
   }
   std::string uri() const { return "http://127.0.0.1:" + std::to_string(port_) + "/"; }
 
-  std::atomic<int> polls{ 0 };          ///< getBusInfo calls so far
+  std::atomic<int> polls{ 0 };           ///< getBusInfo calls so far
   std::atomic<bool> connected{ false };  ///< what getBusInfo reports
 
 private:
@@ -129,7 +129,7 @@ TEST(StartGate, WaitsUntilEveryTopicsSubscribersAreConnected)
   waitFor([&] { return api.polls >= 10 || signals > 0; });
   // Ten answers without the connection: the gate must still hold the physics.
   ASSERT_EQ(signals, 0) << "start_gate released while /fake_sub was not connected on " << kTopic << " (after "
-                       << api.polls << " polls)";
+                        << api.polls << " polls)";
   ASSERT_GE(api.polls, 10) << "start_gate did not ask /fake_pub for its connections";
   api.connected = true;
   EXPECT_TRUE(waitFor([&] { return signals > 0; })) << "start_gate did not release once every topic was connected";

@@ -71,11 +71,10 @@ struct Fleet
     for (const std::string& v : names)
     {
       out.push_back(nh.advertise<avsp_msgs::VehicleState>(ns + v + "/v2v/out", 100));
-      in.push_back(nh.subscribe<avsp_msgs::VehicleState>(ns + v + "/v2v/in", 1000,
-                                                         [this, v](const avsp_msgs::VehicleState::ConstPtr& m) {
-                                                           inbox[v].push_back({m->vehicle_id, m->seq,
-                                                                               m->header.stamp.toSec(), sim->now()});
-                                                         }));
+      in.push_back(nh.subscribe<avsp_msgs::VehicleState>(
+          ns + v + "/v2v/in", 1000, [this, v](const avsp_msgs::VehicleState::ConstPtr& m) {
+            inbox[v].push_back({ m->vehicle_id, m->seq, m->header.stamp.toSec(), sim->now() });
+          }));
     }
   }
 
@@ -133,7 +132,7 @@ bool waitFor(const std::function<bool()>& done, double timeout = 10.0)
 
 TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
 {
-  Fleet fleet("", {"alpha", "bravo", "charlie", "delta"});
+  Fleet fleet("", { "alpha", "bravo", "charlie", "delta" });
   std::vector<visualization_msgs::MarkerArray> markers;
   ros::Subscriber marker_sub = fleet.nh.subscribe<visualization_msgs::MarkerArray>(
       "/v2v/fleet_markers", 10, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { markers.push_back(*m); });
@@ -173,7 +172,7 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
     const long due_ms = sim->ticks - 50;
     auto owedUpTo = [&](long last_ms) {
       const long last = std::min(due_ms, last_ms);
-      return last < 100 ? std::size_t{0} : static_cast<std::size_t>((last - 100) / 100 + 1);
+      return last < 100 ? std::size_t{ 0 } : static_cast<std::size_t>((last - 100) / 100 + 1);
     };
     const std::size_t owed_ab = owedUpTo(19900), owed_bd = owedUpTo(end_ms);
     auto from = [&](const std::string& sender, double lo, double hi) {
@@ -190,7 +189,8 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   waitFor([] { return false; }, 1.0);  // grace: anything still in flight lands now
 
   // Rate: alpha's states reach bravo at 10 Hz (+-10 %) over [5, 15) s of sim time, and back.
-  for (const auto& [receiver, sender] : {std::pair<std::string, std::string>{"bravo", "alpha"}, {"alpha", "bravo"}})
+  for (const auto& [receiver, sender] :
+       { std::pair<std::string, std::string>{ "bravo", "alpha" }, { "alpha", "bravo" } })
   {
     const std::size_t n = fleet.count(receiver, [&, s = sender](const Received& r) {
       return r.sender == s && r.arrival >= 5.0 - 1e-9 && r.arrival < 15.0 - 1e-9;
@@ -213,7 +213,7 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   // hear each other; after bravo moved to 350 m, nothing between alpha and bravo (the states
   // stamped 20.0 s race bravo's move and may go either way).
   EXPECT_EQ(fleet.count("charlie", [](const Received&) { return true; }), 0u);
-  for (const char* v : {"alpha", "bravo", "delta"})
+  for (const char* v : { "alpha", "bravo", "delta" })
     EXPECT_EQ(fleet.count(v, [](const Received& r) { return r.sender == "charlie"; }), 0u) << v;
   EXPECT_EQ(fleet.count("alpha", [](const Received& r) { return r.sender == "delta"; }), 0u);
   EXPECT_EQ(fleet.count("delta", [](const Received& r) { return r.sender == "alpha"; }), 0u);
@@ -225,7 +225,8 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   {
     std::set<std::pair<std::string, std::uint32_t>> seen;
     for (const Received& r : list)
-      EXPECT_TRUE(seen.insert({r.sender, r.seq}).second) << receiver << " got " << r.sender << " " << r.seq << " twice";
+      EXPECT_TRUE(seen.insert({ r.sender, r.seq }).second)
+          << receiver << " got " << r.sender << " " << r.seq << " twice";
   }
 
   // Fleet view: while bravo is at 250 m, green links alpha-bravo and bravo-delta, none to charlie.
@@ -248,9 +249,9 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
 
 TEST(V2vRadioNode, LossAsConfiguredAndExactlyAsTheCorePredicts)
 {
-  Fleet fleet("/lossy/", {"l0", "l1", "l2", "l3", "l4"});
+  Fleet fleet("/lossy/", { "l0", "l1", "l2", "l3", "l4" });
   ASSERT_TRUE(waitFor([&] { return fleet.connected(); })) << "lossy radio did not connect";
-  auto position = [](std::size_t k) { return std::pair<double, double>{10.0 * k, 5.0 * (k % 2)}; };
+  auto position = [](std::size_t k) { return std::pair<double, double>{ 10.0 * k, 5.0 * (k % 2) }; };
   for (std::size_t k = 0; k < 5; ++k)  // warm-up round (sequence numbers 0)
     fleet.broadcast(k, position(k).first, position(k).second);
   ros::WallDuration(0.5).sleep();
@@ -271,15 +272,18 @@ TEST(V2vRadioNode, LossAsConfiguredAndExactlyAsTheCorePredicts)
         {
           ++attempts;
           if (avsp::v2v::Radio::lossDraw(7, fleet.names[k], fleet.names[r], seq) >= 0.2)
-            expected.insert({fleet.names[k], fleet.names[r], seq});
+            expected.insert({ fleet.names[k], fleet.names[r], seq });
         }
     }
-    ASSERT_TRUE(waitFor([&] {
-      std::size_t got = 0;
-      for (const auto& [receiver, list] : fleet.inbox)
-        got += fleet.count(receiver, [](const Received& x) { return x.seq >= 1; });
-      return got >= expected.size();
-    }, 5.0)) << "round " << round;
+    ASSERT_TRUE(waitFor(
+        [&] {
+          std::size_t got = 0;
+          for (const auto& [receiver, list] : fleet.inbox)
+            got += fleet.count(receiver, [](const Received& x) { return x.seq >= 1; });
+          return got >= expected.size();
+        },
+        5.0))
+        << "round " << round;
   }
   waitFor([] { return false; }, 1.0);  // grace for anything unexpected
 
@@ -287,7 +291,7 @@ TEST(V2vRadioNode, LossAsConfiguredAndExactlyAsTheCorePredicts)
   for (const auto& [receiver, list] : fleet.inbox)
     for (const Received& r : list)
       if (r.seq >= 1)
-        got.insert({r.sender, receiver, r.seq});
+        got.insert({ r.sender, receiver, r.seq });
   EXPECT_EQ(got, expected) << "deliveries differ from the seeded loss draws";
   const double loss = 1.0 - static_cast<double>(got.size()) / attempts;
   EXPECT_EQ(attempts, 2000u);
@@ -312,7 +316,7 @@ std::pair<int, std::string> runBadNode(const std::function<void(const std::strin
   std::stringstream text;
   text << in.rdbuf();
   std::remove(log.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
 }
 
 TEST(V2vRadioNodeStartup, BadParametersExitNamingTheKey)

@@ -35,9 +35,10 @@ double now()
 Cost oneWheel(const dem::BedTemplate& bed, double length, double radius, double width, double load, double seconds)
 {
   const int blocks = static_cast<int>(std::lround(length / bed.length()));
-  dem::DemDomain d{0.0, blocks * bed.length(), 0.0, bed.width(), 0.0, bed.depth() + 2.5 * radius + 0.1};
+  dem::DemDomain d{ 0.0, blocks * bed.length(), 0.0, bed.width(), 0.0, bed.depth() + 2.5 * radius + 0.1 };
   dem::DemWorld world(bed.parameters(), d, bed);
-  world.addBed(0.0, blocks * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
+  world.addBed(
+      0.0, blocks * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
   world.setBedEnds(0.0, blocks * bed.length());
   world.settle(0.1);
   dem::WheelRigSpec spec;
@@ -96,9 +97,8 @@ int main(int argc, char** argv)
       double wall = 0.0;
       for (const auto& w : model.wheels)
       {
-        const Cost c = oneWheel(bed, length, w.radius, std::min(w.width, 0.8 * width), model.total_mass * 9.81 /
-                                                                                         model.wheels.size(),
-                                seconds);
+        const Cost c = oneWheel(bed, length, w.radius, std::min(w.width, 0.8 * width),
+                                model.total_mass * 9.81 / model.wheels.size(), seconds);
         particles += c.particles;
         wall += c.wall_per_sim_second;  // the beds run one after the other on one core
       }

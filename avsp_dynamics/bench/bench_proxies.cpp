@@ -112,8 +112,9 @@ int main(int argc, char** argv)
     for (const char* name : { "m113", "mrzr", "tracer_x", "fed_alpha" })
       models.push_back(dynamics::loadVehicleModel(std::string(argv[2]) + "/" + name + ".yaml"));
     std::printf("Proxies and soil exchange, flat sandy loam, %g s at 1 ms steps, 10 ms intervals\n", seconds);
-    std::printf("| vehicles | proxies | us/step | of which collision | changed points/interval | takeChanges us | "
-                "applyChanges us |\n|---:|---:|---:|---:|---:|---:|---:|\n");
+    std::printf(
+        "| vehicles | proxies | us/step | of which collision | changed points/interval | takeChanges us | "
+        "applyChanges us |\n|---:|---:|---:|---:|---:|---:|---:|\n");
     for (std::size_t n : counts)
       for (bool proxies : { false, true })
       {

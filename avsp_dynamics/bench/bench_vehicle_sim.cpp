@@ -148,11 +148,11 @@ void printCourse(const char* label, const CourseRun& c)
 {
   const double per = 1e6 / static_cast<double>(c.run.times.steps);
   const dynamics::StepTimes& t = c.run.times;
-  std::printf("  %-30s %5zu geoms: collision %.2f us per step (total step %.1f us: ODE %.1f, soil contact %.1f; "
-              "real-time factor %.1fx); %.0f m, %ld steps in contact, %zu objects toppled\n",
-              label, c.geoms, t.collision * per, (t.ode + t.contact + t.other + t.collision) * per,
-              t.ode * per, t.contact * per, c.run.sim / c.run.wall, c.run.distance, c.contact_steps,
-              c.toppled);
+  std::printf(
+      "  %-30s %5zu geoms: collision %.2f us per step (total step %.1f us: ODE %.1f, soil contact %.1f; "
+      "real-time factor %.1fx); %.0f m, %ld steps in contact, %zu objects toppled\n",
+      label, c.geoms, t.collision * per, (t.ode + t.contact + t.other + t.collision) * per, t.ode * per,
+      t.contact * per, c.run.sim / c.run.wall, c.run.distance, c.contact_steps, c.toppled);
 }
 
 void print(const char* label, const Run& r)
@@ -225,15 +225,17 @@ int main(int argc, char** argv)
       grass += o.type == terrain::ObjectType::kGrass;
       rigid += o.type != terrain::ObjectType::kGrass && !std::isfinite(o.strength);
     }
-    std::printf("default course (600 m x 400 m, seed 1): %zu objects (%zu grass, %zu rigid, %zu toppleable); "
-                "%s at 5 m/s:\n",
-                course.objects.size(), grass, rigid, course.objects.size() - grass - rigid, model.model.c_str());
+    std::printf(
+        "default course (600 m x 400 m, seed 1): %zu objects (%zu grass, %zu rigid, %zu toppleable); "
+        "%s at 5 m/s:\n",
+        course.objects.size(), grass, rigid, course.objects.size() - grass - rigid, model.model.c_str());
     terrain::DeformableTerrain ground(std::move(course.heights), terrain::paletteFromNames(course.soil_names, soils),
                                       std::move(course.soil_map), terrain::DeformableTerrain::Options{ true });
     // Up the gravel dirt trail (open ground, objects kept a few metres off it): broad phase only.
     const terrain::CourseFeature& trail = course.feature("dirt_trail");
     const double trail_x = 0.5 * (trail.min_x + trail.max_x), trail_y = trail.min_y + 8.0;
-    printCourse("up the trail, no obstacles", driveCourse(ground, nullptr, model, trail_x, trail_y, 0.5 * M_PI, seconds));
+    printCourse("up the trail, no obstacles",
+                driveCourse(ground, nullptr, model, trail_x, trail_y, 0.5 * M_PI, seconds));
     terrain::ObjectSet all = course.objects;
     printCourse("up the trail, all objects", driveCourse(ground, &all, model, trail_x, trail_y, 0.5 * M_PI, seconds));
     const terrain::CourseFeature& woods = course.feature("woods");

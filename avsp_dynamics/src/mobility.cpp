@@ -36,7 +36,8 @@ const std::map<std::string, std::string>& manoeuvreTable()
 {
   static const std::map<std::string, std::string> table{
     { "side_slope_hold", "braked across a side slope: horizontal drift over the run (m)" },
-    { "side_slope_limit", "tilt table, braked across it: the angle it slides or tips at (deg), against min(slide, tip)" },
+    { "side_slope_limit",
+      "tilt table, braked across it: the angle it slides or tips at (deg), against min(slide, tip)" },
     { "grade_limit", "full throttle up a grade from rest: the steepest it climbs (deg)" },
     { "plane_hold_uphill", "braked facing up a plane: drift over the run (m)" },
     { "plane_hold_downhill", "braked facing down a plane: drift over the run (m)" },
@@ -82,9 +83,10 @@ Eigen::Isometry3d placeOn(const terrain::DeformableTerrain& t, const VehicleMode
                           double roll, double pitch, double clearance)
 {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                   Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-                      .toRotationMatrix();
+  pose.linear() =
+      (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   double z = -1e300;
   const double tilt = std::cos(roll) * std::cos(pitch);
   for (const auto& [p, r] : runningGear(m))
@@ -184,15 +186,15 @@ std::vector<double> wheelLoads(const VehicleModel& m, double theta)
   const double ground = m.wheels[0].rest_position.z() - m.wheels[0].radius;
   const double h = z - ground - (1.0 - unsprung / mass) * m.suspension.preload_deflection;
   const double w = weight(m);
-  const double on_front = front > rear ? (w * std::cos(theta) * (x - rear) - w * std::sin(theta) * h) / (front - rear) :
-                                         0.5 * w * std::cos(theta);
+  const double on_front = front > rear ? (w * std::cos(theta) * (x - rear) - w * std::sin(theta) * h) / (front - rear)
+                                       : 0.5 * w * std::cos(theta);
   std::size_t n_front = 0, n_rear = 0;
   for (const WheelSpec& wh : m.wheels)
     (wh.rest_position.x() > 0.5 * (front + rear) ? n_front : n_rear)++;
   std::vector<double> out;
   for (const WheelSpec& wh : m.wheels)
-    out.push_back(wh.rest_position.x() > 0.5 * (front + rear) ? on_front / n_front :
-                                                               (w * std::cos(theta) - on_front) / n_rear);
+    out.push_back(wh.rest_position.x() > 0.5 * (front + rear) ? on_front / n_front
+                                                              : (w * std::cos(theta) - on_front) / n_rear);
   return out;
 }
 
@@ -202,7 +204,8 @@ std::vector<double> wheelLoads(const VehicleModel& m, double theta)
 /// ahead of it only compacting what it sinks below that rut (multi-pass: the difference of the
 /// two compaction resistances; `multipass` false: every wheel on fresh soil), or a track's
 /// b k z^(n+1) / (n+1); plus a track's internal resistance.
-double resistance(const VehicleModel& m, const SoilParameters& soil, double theta, double v = 0.0, bool multipass = true)
+double resistance(const VehicleModel& m, const SoilParameters& soil, double theta, double v = 0.0,
+                  bool multipass = true)
 {
   const double normal = weight(m) * std::cos(theta);
   double r = 0.0;
@@ -391,8 +394,7 @@ Tilt tiltTable(const Run& r, double guess, double up_to)
     for (const TrackState& tr : s.tracks)
       if (tr.side == "left")
         uphill += tr.normal_force;
-    const Eigen::Vector3d gear_velocity =
-        s.linear_velocity + s.angular_velocity.cross(s.pose.linear() * gear_centre);
+    const Eigen::Vector3d gear_velocity = s.linear_velocity + s.angular_velocity.cross(s.pose.linear() * gear_centre);
     sliding = std::abs(gear_velocity.y()) > 0.02 ? sliding + r.step : 0.0;
     lifted = uphill < 0.01 * weight(r.model) ? lifted + r.step : 0.0;
     if (sliding >= 0.5 || lifted >= 0.2)
@@ -557,9 +559,9 @@ Closed closedRun(const VehicleModel& m, const SoilParameters& soil, double durat
         spin += b.mass;
   }
   const double m_eff = m.total_mass + spin;
-  const double cap = tracked(m) || m.drive_type == DriveType::kSkidSteer ?
-                         (reverse ? m.drivetrain.reverse_max_speed : m.drivetrain.max_speed) :
-                         1e300;  // a speed servo's target
+  const double cap = tracked(m) || m.drive_type == DriveType::kSkidSteer
+                         ? (reverse ? m.drivetrain.reverse_max_speed : m.drivetrain.max_speed)
+                         : 1e300;  // a speed servo's target
   Closed out;
   // The resistance at rest once (its closed forms do not change with speed), a track's internal
   // resistance growing with it.
@@ -617,11 +619,11 @@ double settlingTime(const std::vector<double>& z, double dt, double band)
 /// Parked: set down on the soil (touching it), brakes on, 62 s.
 struct Parked
 {
-  double sinkage = 0.0;          ///< m, mean running-gear sinkage at the end
-  double sinkage_closed = 0.0;   ///< m, closed form at each gear's own load, mean
-  double creep = 0.0;            ///< mm/min, chassis z from 2 s to 62 s
-  double jitter = 0.0;           ///< mm, chassis z peak to peak over the last 10 s
-  double settle = 0.0;           ///< s, into 1 mm of the height it ends at
+  double sinkage = 0.0;         ///< m, mean running-gear sinkage at the end
+  double sinkage_closed = 0.0;  ///< m, closed form at each gear's own load, mean
+  double creep = 0.0;           ///< mm/min, chassis z from 2 s to 62 s
+  double jitter = 0.0;          ///< mm, chassis z peak to peak over the last 10 s
+  double settle = 0.0;          ///< s, into 1 mm of the height it ends at
 };
 
 Parked parked(const Run& r)
@@ -659,7 +661,8 @@ Parked parked(const Run& r)
   {
     const WheelSpec& spec = r.model.wheels[i];
     out.sinkage += s.wheels[i].sinkage;
-    out.sinkage_closed += terrain::rigidWheelStaticSinkage(r.soil, spec.radius, spec.width, 0.5 * s.wheels[i].normal_force);
+    out.sinkage_closed +=
+        terrain::rigidWheelStaticSinkage(r.soil, spec.radius, spec.width, 0.5 * s.wheels[i].normal_force);
     ++n;
   }
   for (const TrackState& tr : s.tracks)
@@ -797,8 +800,9 @@ double highCentring(const Run& r, std::string& detail)
   for (std::size_t j = 0; j < ny; ++j)
     for (std::size_t i = 0; i < nx; ++i)
       map[j * nx + i] = -half_x + i * cell < -8.0 ? 0 : 1;  // gravel, then the soil from x = -8 m
-  terrain::DeformableTerrain t(terrain::ElevationGrid(-half_x, -half_y, cell, cell, nx, ny, std::vector<float>(nx * ny, 0.f)),
-                               { library.get("gravel"), r.soil }, map, terrain::DeformableTerrain::Options{ true });
+  terrain::DeformableTerrain t(
+      terrain::ElevationGrid(-half_x, -half_y, cell, cell, nx, ny, std::vector<float>(nx * ny, 0.f)),
+      { library.get("gravel"), r.soil }, map, terrain::DeformableTerrain::Options{ true });
   World w(t, options(r.step));
   const std::size_t id = w.addVehicle(r.model, placeOn(t, r.model, -14.0, 0.0, 0.0, 0.0, 0.0, 0.005));
   StuckDetector stuck;
@@ -857,8 +861,8 @@ std::vector<Case> loadMatrix(const std::string& yaml_path)
   std::set<std::string> ids;
   for (const Section& s : root.sequence("cases"))
   {
-    s.allowOnly({ "id", "vehicle", "soil", "manoeuvre", "check", "slope_deg", "speed", "steering", "slip",
-                  "duration", "step", "tolerance", "tolerance_abs", "value", "unit", "source" });
+    s.allowOnly({ "id", "vehicle", "soil", "manoeuvre", "check", "slope_deg", "speed", "steering", "slip", "duration",
+                  "step", "tolerance", "tolerance_abs", "value", "unit", "source" });
     Case c;
     c.id = s.string("id");
     if (!ids.insert(c.id).second)
@@ -916,8 +920,8 @@ double circleRadius(const std::vector<Eigen::Vector2d>& pts)
   return std::sqrt(0.25 * (c(0) * c(0) + c(1) * c(1)) - c(2));
 }
 
-Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x,
-                                double y, double yaw, double roll, double pitch, double clearance)
+Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x, double y,
+                                double yaw, double roll, double pitch, double clearance)
 {
   return placeOn(ground, model, x, y, yaw, roll, pitch, clearance);
 }
@@ -980,8 +984,10 @@ Result run(const Case& c, const Setup& setup)
     const double tip_reference = tilt.tipped && std::isfinite(tilt.statics) ? tilt.statics : tip;
     closed = std::min(slide, tip_reference) / kDeg;
     out.value = tilt.angle / kDeg;
-    detail << (tilt.held ? "held to the table's end" : tilt.tipped ? "tipped (two-wheel lift)" : "slid") << ", body roll "
-           << tilt.body_roll / kDeg << " deg";
+    detail << (tilt.held     ? "held to the table's end"
+               : tilt.tipped ? "tipped (two-wheel lift)"
+                             : "slid")
+           << ", body roll " << tilt.body_roll / kDeg << " deg";
     if (tilt.tipped && std::isfinite(tilt.statics))
       detail << ", statics at lift-off " << tilt.statics / kDeg << " deg";
     detail << "; slide limit " << slide / kDeg << " deg, rigid tip limit " << tip / kDeg << " deg (t/2h, h " << h
@@ -1051,8 +1057,8 @@ Result run(const Case& c, const Setup& setup)
     // sliding mu_s with u/L: g [(mu_s + f) d + (mu_p - mu_s) L (1 - e^(-d/L))] = v0^2 / 2. Weaker
     // brakes: v0^2 / (2 a), a = their force over the mass plus f g.
     const double v0 = c.speed;
-    const double brake_force = tracked(m) ? 2.0 * m.brakes.max_torque / m.track.effectiveSprocketRadius() :
-                                            m.wheels.size() * m.brakes.max_torque / m.wheels[0].radius;
+    const double brake_force = tracked(m) ? 2.0 * m.brakes.max_torque / m.track.effectiveSprocketRadius()
+                                          : m.wheels.size() * m.brakes.max_torque / m.wheels[0].radius;
     if (soil.model != terrain::SinkageModel::kRigid)
       throw std::runtime_error("mobility: braking cases are on rigid surfaces");
     const bool locks = brake_force > soil.friction_peak * weight(m);
@@ -1182,9 +1188,9 @@ Result run(const Case& c, const Setup& setup)
       {
         out.reference_low = std::min(closed_low, closed);
         closed = std::max(closed_low, closed);
-        out.error = out.value < out.reference_low ? out.value / out.reference_low - 1.0 :
-                    out.value > closed           ? out.value / closed - 1.0 :
-                                                   0.0;
+        out.error = out.value < out.reference_low ? out.value / out.reference_low - 1.0
+                    : out.value > closed          ? out.value / closed - 1.0
+                                                  : 0.0;
       }
       else
       {

@@ -40,9 +40,9 @@ void* vehicleTag(std::size_t vehicle, std::size_t geom)
 }
 struct Tag
 {
-  bool obstacle;          ///< not a vehicle's: a terrain object or an agent
-  std::uint32_t index;    ///< obstacle or agent geom index, or vehicle index
-  std::uint32_t geom = 0; ///< geom index within the vehicle
+  bool obstacle;           ///< not a vehicle's: a terrain object or an agent
+  std::uint32_t index;     ///< obstacle or agent geom index, or vehicle index
+  std::uint32_t geom = 0;  ///< geom index within the vehicle
   bool agent = false;
 };
 Tag decode(dGeomID g)
@@ -55,8 +55,7 @@ Tag decode(dGeomID g)
 
 void setRotation(dGeomID g, const Eigen::Matrix3d& m, bool offset)
 {
-  const dMatrix3 r = { m(0, 0), m(0, 1), m(0, 2), 0.0, m(1, 0), m(1, 1), m(1, 2), 0.0,
-                       m(2, 0), m(2, 1), m(2, 2), 0.0 };
+  const dMatrix3 r = { m(0, 0), m(0, 1), m(0, 2), 0.0, m(1, 0), m(1, 1), m(1, 2), 0.0, m(2, 0), m(2, 1), m(2, 2), 0.0 };
   if (offset)
     dGeomSetOffsetRotation(g, r);
   else
@@ -166,9 +165,9 @@ void ObstacleCollision::setObstacles(terrain::ObjectSet& objects, const terrain:
   {
     if (o.type == terrain::ObjectType::kGrass || o.toppled)
       continue;
-    for (const auto& [name, value] : { std::pair<const char*, double>{ "length", o.length },
-                                       std::pair<const char*, double>{ "width", o.width },
-                                       std::pair<const char*, double>{ "height", o.height } })
+    for (const auto& [name, value] :
+         { std::pair<const char*, double>{ "length", o.length }, std::pair<const char*, double>{ "width", o.width },
+           std::pair<const char*, double>{ "height", o.height } })
     {
       if (!std::isfinite(value) || !(value > 0.0))
       {
@@ -218,8 +217,8 @@ void ObstacleCollision::setObstacles(terrain::ObjectSet& objects, const terrain:
     const double length = p.top - p.bottom;
     ObstacleGeom og;
     og.object = o.id;
-    og.geom = isRound(o.type) ? dCreateCylinder(obstacle_space_, 0.25 * (o.length + o.width), length) :
-                                dCreateBox(obstacle_space_, o.length, o.width, length);
+    og.geom = isRound(o.type) ? dCreateCylinder(obstacle_space_, 0.25 * (o.length + o.width), length)
+                              : dCreateBox(obstacle_space_, o.length, o.width, length);
     dGeomSetPosition(og.geom, o.x, o.y, 0.5 * (p.top + p.bottom));
     setRotation(og.geom, Eigen::AngleAxisd(o.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix(), false);
     dGeomSetData(og.geom, obstacleTag(obstacles_.size()));
@@ -266,7 +265,8 @@ void ObstacleCollision::addVehicle(const std::vector<CollisionBox>& boxes, const
   for (const CollisionWheel& w : bodies.wheels)
   {
     const dReal* p = dBodyGetPosition(w.body);
-    const double d = std::sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) + (p[2] - c[2]) * (p[2] - c[2]));
+    const double d =
+        std::sqrt((p[0] - c[0]) * (p[0] - c[0]) + (p[1] - c[1]) * (p[1] - c[1]) + (p[2] - c[2]) * (p[2] - c[2]));
     v.reach = std::max(v.reach, d + std::hypot(w.radius, 0.5 * w.width) + 0.5);
   }
   for (const CollisionWheel& w : bodies.wheels)

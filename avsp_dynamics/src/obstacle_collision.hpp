@@ -76,16 +76,16 @@ struct VehicleBodies
 /// collides with.
 struct AgentCollisionBody
 {
-  dBodyID body = nullptr;  ///< a body of its mass (no gravity): the world drives it, contacts push it
+  dBodyID body = nullptr;           ///< a body of its mass (no gravity): the world drives it, contacts push it
   std::vector<CollisionBox> boxes;  ///< in the body's frame (its origin at its centre of mass)
 };
 
 /// What obstacles and other vehicles did to one vehicle over the last step.
 struct CollisionReport
 {
-  int contacts = 0;                                        ///< contact points
+  int contacts = 0;        ///< contact points
   int rigid_contacts = 0;  ///< of which with rigid obstacles and other vehicles (not toppleable objects)
-  Eigen::Vector3d impulse = Eigen::Vector3d::Zero();       ///< N s on the vehicle, map
+  Eigen::Vector3d impulse = Eigen::Vector3d::Zero();  ///< N s on the vehicle, map
 };
 
 class ObstacleCollision
@@ -145,8 +145,8 @@ private:
     std::vector<double> masses;   ///< kg, mass of each geom's body
     double mass = 0.0;            ///< kg, whole vehicle
     CollisionReport report;
-    dBodyID centre = nullptr;     ///< the chassis: the centre of the bounding sphere
-    double reach = 0.0;           ///< m, bounding sphere radius round it (suspension travel included)
+    dBodyID centre = nullptr;  ///< the chassis: the centre of the bounding sphere
+    double reach = 0.0;        ///< m, bounding sphere radius round it (suspension travel included)
   };
   /// An agent's (or proxy's) geoms [begin, end) in agent_geoms_ and its bounding sphere.
   struct AgentRange

@@ -39,15 +39,15 @@ std::vector<std::uint32_t> takeToppled(const terrain::ObjectSet& objects, std::v
 PartitionRunner::PartitionRunner(PartitionOptions options, World& world, terrain::ObjectSet& objects,
                                  std::vector<PartitionVehicle> vehicles, std::vector<std::uint32_t> standing,
                                  ModelLoader load_model, ExchangeTransport& transport, Log log)
-  : options_(std::move(options))
-  , world_(world)
-  , terrain_(world.terrain())
-  , objects_(objects)
-  , vehicles_(std::move(vehicles))
-  , standing_(std::move(standing))
-  , load_model_(std::move(load_model))
-  , transport_(transport)
-  , log_(std::move(log))
+  : options_(std::move(options)),
+    world_(world),
+    terrain_(world.terrain()),
+    objects_(objects),
+    vehicles_(std::move(vehicles)),
+    standing_(std::move(standing)),
+    load_model_(std::move(load_model)),
+    transport_(transport),
+    log_(std::move(log))
 {
   if (options_.peers.empty())
     throw std::invalid_argument("partition '" + options_.partition + "': no peers");
@@ -180,9 +180,8 @@ void PartitionRunner::applyOne(const std::string& peer, const PartitionExchange&
   {
     const std::uint32_t index = m.soil_points[k];
     if (index >= points)
-      throw std::out_of_range("soil_points[" + std::to_string(k) + "] = " + std::to_string(index) +
-                              " is outside the " + std::to_string(g.columns()) + " x " + std::to_string(g.rows()) +
-                              " grid");
+      throw std::out_of_range("soil_points[" + std::to_string(k) + "] = " + std::to_string(index) + " is outside the " +
+                              std::to_string(g.columns()) + " x " + std::to_string(g.rows()) + " grid");
     terrain::PointChange& c = changes[k];
     c.j = index / columns;
     c.i = index - c.j * columns;
@@ -287,9 +286,8 @@ bool PartitionRunner::unsentSoilApart(double t) const
   for (std::size_t k = 0; k < vehicles_.size(); ++k)
   {
     const SentState& s = soil_sent_states_[k];
-    grow[k] =
-        sweptReach(vehicles_[k].box, s.linear_velocity, s.angular_velocity, t - soil_sent_, kMaxAcceleration) +
-        soil_reach_;
+    grow[k] = sweptReach(vehicles_[k].box, s.linear_velocity, s.angular_velocity, t - soil_sent_, kMaxAcceleration) +
+              soil_reach_;
   }
   for (const auto& [name, r] : proxies_)
   {

@@ -12,8 +12,7 @@ namespace dynamics
 RealTimeFactorWindow::RealTimeFactorWindow(double window) : window_(window)
 {
   if (!std::isfinite(window) || window <= 0.0)
-    throw std::invalid_argument("RealTimeFactorWindow: window must be finite and > 0 s, got " +
-                                std::to_string(window));
+    throw std::invalid_argument("RealTimeFactorWindow: window must be finite and > 0 s, got " + std::to_string(window));
 }
 
 void RealTimeFactorWindow::add(double sim, double wall)

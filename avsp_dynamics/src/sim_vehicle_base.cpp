@@ -126,10 +126,10 @@ BrushForce brushForce(const Eigen::Vector2d& u, double normal, const FirmGroundS
   return out;
 }
 
-bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double body_mass,
-                             double mass_share, const ContactFrame& frame, const terrain::ContactForces& soil,
-                             const FirmContact& firm, const FirmGroundSpec& firm_spec, const WorldOptions& options,
-                             dJointFeedback* feedback, bool& fault)
+bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID body, double body_mass, double mass_share,
+                             const ContactFrame& frame, const terrain::ContactForces& soil, const FirmContact& firm,
+                             const FirmGroundSpec& firm_spec, const WorldOptions& options, dJointFeedback* feedback,
+                             bool& fault)
 {
   fault = false;
   active_ = false;
@@ -167,9 +167,9 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
     // lesser of the two limits (the soil displaced by s x, or all of it by |u|).
     const double magnitude = force.norm();
     const double through_slip = soil.shear_slope / std::max(shear_length_, kMinShearLength);
-    const double radial = du > 1e-12 ? through_slip + soil.shear_cap_slope :
-                                       (soil.shear_cap_slope > 0.0 ? std::min(through_slip, soil.shear_cap_slope) :
-                                                                     through_slip);
+    const double radial =
+        du > 1e-12 ? through_slip + soil.shear_cap_slope
+                   : (soil.shear_cap_slope > 0.0 ? std::min(through_slip, soil.shear_cap_slope) : through_slip);
     const double transverse = du > 1e-12 ? magnitude / du : radial;
     for (int r = 0; r < 2; ++r)
     {
@@ -179,8 +179,8 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   }
   if (on_firm)
   {
-    const BrushForce tyre = brushForce(decayed_, firm_normal, firm_spec, firm.surface->friction_peak,
-                                       firm.surface->friction_sliding);
+    const BrushForce tyre =
+        brushForce(decayed_, firm_normal, firm_spec, firm.surface->friction_peak, firm.surface->friction_sliding);
     force += tyre.force;
     stiffness += tyre.stiffness;
     capacity += tyre.capacity;
@@ -215,8 +215,9 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   // the soil's own force; at rest it damps the ground's elastic hold critically (zeta).
   const double a = decay_, b = decay_ * h;
   const double magnitude = force.norm();
-  const double k_elastic = (soil_normal > 0.0 ? soil.shear_elastic_slope : 0.0) +
-                           (on_firm ? firm_spec.longitudinal_stiffness * firm_normal / firm_spec.relaxation_length : 0.0);
+  const double k_elastic =
+      (soil_normal > 0.0 ? soil.shear_elastic_slope : 0.0) +
+      (on_firm ? firm_spec.longitudinal_stiffness * firm_normal / firm_spec.relaxation_length : 0.0);
   elastic_ = k_elastic > 0.0 ? magnitude / k_elastic : 0.0;
   k_elastic_ = k_elastic;
   // The force's slope along the displacement (what unloading on the curve would follow).
@@ -261,7 +262,8 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   if (soil_normal > 0.0)
     soil_length_ = std::max(soil.contact_length, kMinRelaxationLength);
   relaxation_ = (soil_normal * (soil_normal > 0.0 ? soil_length_ : 0.0) +
-                 firm_normal * (on_firm ? firm_spec.relaxation_length : 0.0)) / f_n;
+                 firm_normal * (on_firm ? firm_spec.relaxation_length : 0.0)) /
+                f_n;
   limit_ = std::max(soil_normal > 0.0 ? soil_length_ : 0.0, on_firm ? firm_spec.relaxation_length : 0.0);
   return true;
 }
@@ -295,8 +297,8 @@ void GroundContact::finish(const Eigen::Vector3d& point_velocity)
         unloading_ = sliding_ = false;
     }
   }
-  else if (sliding_ && travel_speed_ < kShearRenewalSpeed && moved.dot(decayed_) < 0.0 &&
-           decayed_.norm() > elastic_ && k_along_ > 0.0 && k_elastic_ > k_along_)
+  else if (sliding_ && travel_speed_ < kShearRenewalSpeed && moved.dot(decayed_) < 0.0 && decayed_.norm() > elastic_ &&
+           k_along_ > 0.0 && k_elastic_ > k_along_)
   {
     // A slid contact that has (nearly) stopped moves back: most of its displacement is
     // plastic (the soil has failed, the tread has slid), so it unloads on the elastic slope
@@ -354,7 +356,8 @@ HullContact::HullContact(const VehicleModel& model, const Eigen::Vector3d& chass
         plates_.push_back(p);
       }
   }
-  firm_.vertical_stiffness = model.total_mass * 9.81 / kHullDeflectionUnderWeight / std::max<std::size_t>(1, plates_.size());
+  firm_.vertical_stiffness =
+      model.total_mass * 9.81 / kHullDeflectionUnderWeight / std::max<std::size_t>(1, plates_.size());
   firm_.longitudinal_stiffness = 30.0;
   firm_.cornering_stiffness = 30.0;
   firm_.relaxation_length = 0.5;

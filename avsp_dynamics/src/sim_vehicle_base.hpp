@@ -74,8 +74,9 @@ protected:
     if (reported)
       return;
     reported = true;
-    warnings_.push_back("vehicle '" + vehicle + "', " + kind + " '" + name +
-                        "': the ground contact gave a non-finite force; it had no ground contact that step (reported once)");
+    warnings_.push_back(
+        "vehicle '" + vehicle + "', " + kind + " '" + name +
+        "': the ground contact gave a non-finite force; it had no ground contact that step (reported once)");
   }
 
   std::vector<std::string> warnings_;
@@ -134,8 +135,8 @@ inline void setRotation(dBodyID body, const Eigen::Matrix3d& m)
 inline void setMass(dBodyID body, double mass, const Eigen::Matrix3d& inertia)
 {
   dMass m;
-  dMassSetParameters(&m, mass, 0.0, 0.0, 0.0, inertia(0, 0), inertia(1, 1), inertia(2, 2), inertia(0, 1),
-                     inertia(0, 2), inertia(1, 2));
+  dMassSetParameters(&m, mass, 0.0, 0.0, 0.0, inertia(0, 0), inertia(1, 1), inertia(2, 2), inertia(0, 1), inertia(0, 2),
+                     inertia(1, 2));
   dBodySetMass(body, &m);
 }
 
@@ -153,9 +154,9 @@ inline double seconds(Clock::time_point a, Clock::time_point b)
 /// Several URDF bodies held rigidly together at the rest pose, as one rigid body.
 struct LumpedBody
 {
-  double mass = 0.0;                                    ///< kg
-  Eigen::Vector3d com = Eigen::Vector3d::Zero();        ///< m, base_link
-  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();    ///< kg m^2 about com, base_link axes
+  double mass = 0.0;                                  ///< kg
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();      ///< m, base_link
+  Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();  ///< kg m^2 about com, base_link axes
 };
 
 /// Mass, centre of mass and inertia (parallel-axis theorem) of `bodies`; mass 0 if none.
@@ -187,7 +188,7 @@ Eigen::Vector3d groundNormal(const terrain::DeformableTerrain& terrain, const Ei
 struct FirmContact
 {
   const terrain::SoilParameters* surface = nullptr;  ///< the rigid soil, nullptr: none under it
-  double share = 0.0;  ///< of the footprint on it (DeformableTerrain's rigid_share)
+  double share = 0.0;                                ///< of the footprint on it (DeformableTerrain's rigid_share)
   double depth = 0.0;  ///< m, tyre deflection: radius - distance from centre to the ground plane
 };
 
@@ -249,15 +250,15 @@ public:
   /// +1 or -1: the way the contact's leading edge faces (for the terrain's patch), kept through
   /// a standstill: it turns only when the gear moves the other way faster than 5 cm/s.
   int travel() const { return travel_; }
-  double normalForce() const { return normal_; }       ///< N, soil and tyre, this step
+  double normalForce() const { return normal_; }           ///< N, soil and tyre, this step
   double firmNormalForce() const { return firm_normal_; }  ///< N, the tyre's part
-  double resistance() const { return resistance_; }    ///< N, applied at the centre this step
+  double resistance() const { return resistance_; }        ///< N, applied at the centre this step
 
 private:
   Eigen::Vector2d u_ = Eigen::Vector2d::Zero();        ///< m, displacement after the last step
   Eigen::Vector2d decayed_ = Eigen::Vector2d::Zero();  ///< m, relaxed over this step (before the gear moves)
-  double decay_ = 1.0;         ///< this step's relaxation factor 1 / (1 + h D / L)
-  double step_ = 0.0;          ///< s
+  double decay_ = 1.0;                                 ///< this step's relaxation factor 1 / (1 + h D / L)
+  double step_ = 0.0;                                  ///< s
   double soil_length_ = 0.0;   ///< m, the soil's relaxation length (its loaded length last step)
   double shear_length_ = 0.0;  ///< m, this step's l: the displacement spreads from the leading edge over it
   double relaxation_ = 0.0;    ///< m, this contact's relaxation length (soil and tyre, by load)
@@ -276,7 +277,7 @@ private:
   bool unloading_ = false;
   Eigen::Vector2d reversal_ = Eigen::Vector2d::Zero(), back_ = Eigen::Vector2d::Zero();
   double gain_ = 1.0;
-  bool active_ = false;        ///< a joint was made this step
+  bool active_ = false;  ///< a joint was made this step
   int travel_ = 1;
   Eigen::Vector3d t1_ = Eigen::Vector3d::UnitX(), t2_ = Eigen::Vector3d::UnitY();
   double normal_ = 0.0, firm_normal_ = 0.0, resistance_ = 0.0;
@@ -332,10 +333,10 @@ public:
 private:
   struct Plate
   {
-    Eigen::Vector3d centre;  ///< m, on the box's bottom face, base_link at rest
-    Eigen::Vector3d along;   ///< unit, the box's x in base_link
-    Eigen::Vector3d across;  ///< unit, the box's y in base_link
-    Eigen::Vector3d up;      ///< unit, into the box from its bottom face, base_link
+    Eigen::Vector3d centre;            ///< m, on the box's bottom face, base_link at rest
+    Eigen::Vector3d along;             ///< unit, the box's x in base_link
+    Eigen::Vector3d across;            ///< unit, the box's y in base_link
+    Eigen::Vector3d up;                ///< unit, into the box from its bottom face, base_link
     double length = 0.0, width = 0.0;  ///< m
     GroundContact ground;
     bool contact = false;
@@ -347,8 +348,8 @@ private:
   Eigen::Vector3d chassis_com_;
   double total_mass_ = 0.0;
   double normal_ = 0.0;
-  FirmGroundSpec firm_;             ///< steel on pavement
-  terrain::SoilParameters steel_;   ///< the friction of steel on pavement (a rigid "soil")
+  FirmGroundSpec firm_;            ///< steel on pavement
+  terrain::SoilParameters steel_;  ///< the friction of steel on pavement (a rigid "soil")
 };
 
 /**

@@ -59,8 +59,8 @@ bool highCentred(const VehicleModel& model, const VehicleState& state)
 bool StuckDetector::update(const VehicleModel& model, const VehicleState& state, double time)
 {
   double slip = 0.0;
-  const bool spinning = state.command.throttle > 0.0 && ((meanDrivenSlip(model, state, slip) && slip >= slip_threshold_) ||
-                                                        highCentred(model, state));
+  const bool spinning = state.command.throttle > 0.0 &&
+                        ((meanDrivenSlip(model, state, slip) && slip >= slip_threshold_) || highCentred(model, state));
   if (!spinning)
     since_ = -1.0;
   else if (since_ < 0.0)

@@ -45,10 +45,10 @@ struct Hull
   Eigen::Vector3d w;  ///< rad/s
 
   explicit Hull(dBodyID body)
-    : x(vec(dBodyGetPosition(body)))
-    , r(rotationOf(body))
-    , v(vec(dBodyGetLinearVel(body)))
-    , w(vec(dBodyGetAngularVel(body)))
+    : x(vec(dBodyGetPosition(body))),
+      r(rotationOf(body)),
+      v(vec(dBodyGetLinearVel(body))),
+      w(vec(dBodyGetAngularVel(body)))
   {
   }
   /// Axle direction (the hull's y) in the world.
@@ -92,13 +92,13 @@ private:
   /// Where a road wheel is on its arm, in hull axes (base_link): the arm swings about +y.
   struct Arm
   {
-    double angle;          ///< rad about +y from the URDF pose
-    double rate;           ///< rad/s
-    double length;         ///< m, pivot to wheel centre in the arm's plane
-    double radial_error;   ///< m, length minus the URDF arm length
-    double radial_rate;    ///< m/s
-    double lateral_error;  ///< m, out of the arm's plane
-    double lateral_rate;   ///< m/s
+    double angle;             ///< rad about +y from the URDF pose
+    double rate;              ///< rad/s
+    double length;            ///< m, pivot to wheel centre in the arm's plane
+    double radial_error;      ///< m, length minus the URDF arm length
+    double radial_rate;       ///< m/s
+    double lateral_error;     ///< m, out of the arm's plane
+    double lateral_rate;      ///< m/s
     Eigen::Vector3d radial;   ///< unit, pivot to wheel centre in the arm's plane
     Eigen::Vector3d tangent;  ///< unit, the wheel centre's direction of motion for +angle
   };
@@ -107,31 +107,31 @@ private:
   {
     const RoadWheelSpec* spec = nullptr;
     dBodyID body = nullptr;
-    double mass = 0.0;          ///< kg, the wheel link
-    double tilt_inertia = 0.0;  ///< kg m^2 about a horizontal diameter
-    double spin_inertia = 0.0;  ///< kg m^2 about the axle, with its share of the track's rotating parts
-    Eigen::Vector3d pivot_from_com;  ///< m, arm pivot from the hull's centre of mass, base_link axes
-    Eigen::Vector3d arm;        ///< m, URDF wheel centre from the pivot, base_link axes
-    double arm_length = 0.0;    ///< m
-    double lift_sign = 1.0;     ///< +1 if a positive swing about +y lifts the wheel
+    double mass = 0.0;                ///< kg, the wheel link
+    double tilt_inertia = 0.0;        ///< kg m^2 about a horizontal diameter
+    double spin_inertia = 0.0;        ///< kg m^2 about the axle, with its share of the track's rotating parts
+    Eigen::Vector3d pivot_from_com;   ///< m, arm pivot from the hull's centre of mass, base_link axes
+    Eigen::Vector3d arm;              ///< m, URDF wheel centre from the pivot, base_link axes
+    double arm_length = 0.0;          ///< m
+    double lift_sign = 1.0;           ///< +1 if a positive swing about +y lifts the wheel
     double lower = 0.0, upper = 0.0;  ///< rad about +y, the URDF arm limits
     double segment_offset = 0.0;      ///< m, its segment's centre from the track's centre, + forward
     // Explicit attachment gains (see kAttachStepOmega).
     double k_attach = 0.0, c_attach = 0.0, k_tilt = 0.0, c_tilt = 0.0;
-    double drive_torque = 0.0;    ///< N m about the axle this step
+    double drive_torque = 0.0;                            ///< N m about the axle this step
     Eigen::Vector3d arm_force = Eigen::Vector3d::Zero();  ///< N, the arm's force on the wheel this step
-    double torsion_torque = 0.0;  ///< N m about +y this step
-    double spin_angle = 0.0;      ///< rad, relative to the arm
-    Arm arm_state{};              ///< where it is on its arm, at the start of this step
-    double spin = 0.0;            ///< rad/s about the axle relative to the hull, this step
+    double torsion_torque = 0.0;                          ///< N m about +y this step
+    double spin_angle = 0.0;                              ///< rad, relative to the arm
+    Arm arm_state{};                                      ///< where it is on its arm, at the start of this step
+    double spin = 0.0;                                    ///< rad/s about the axle relative to the hull, this step
     // Ground contact of its track segment this step.
     bool contact = false;
     ContactFrame frame;
     terrain::ContactForces soil;
     dJointFeedback feedback{};
-    GroundContact ground;          ///< the segment's shear state and joint (sim_vehicle_base.hpp)
-    ResistanceMotor resistance;    ///< the ground's resistance at the wheel centre
-    bool fault_reported = false;   ///< a non-finite contact force was reported once
+    GroundContact ground;         ///< the segment's shear state and joint (sim_vehicle_base.hpp)
+    ResistanceMotor resistance;   ///< the ground's resistance at the wheel centre
+    bool fault_reported = false;  ///< a non-finite contact force was reported once
   };
 
   struct Side
@@ -141,16 +141,16 @@ private:
     std::vector<dJointID> chain;  ///< angular motors: neighbouring road wheels at one speed
     dJointID brake = nullptr;     ///< angular motor, front road wheel to hull; enabled while braking
     SideServo servo;
-    double radius = 0.0;          ///< m, road wheel radius (one per track)
-    double spin_inertia = 0.0;    ///< kg m^2, all road wheels with the rotating parts, at road-wheel speed
-    double segment_length = 0.0;  ///< m
-    double contact_length = 0.0;  ///< m, first to last road wheel
-    Eigen::Vector3d centre;       ///< m, mean road wheel rest position, base_link
+    double radius = 0.0;           ///< m, road wheel radius (one per track)
+    double spin_inertia = 0.0;     ///< kg m^2, all road wheels with the rotating parts, at road-wheel speed
+    double segment_length = 0.0;   ///< m
+    double contact_length = 0.0;   ///< m, first to last road wheel
+    Eigen::Vector3d centre;        ///< m, mean road wheel rest position, base_link
     double sprocket_torque = 0.0;  ///< N m this step
     double brake_limit = 0.0;      ///< N m at the sprocket this step
     double sprocket_angle = 0.0, idler_angle = 0.0;  ///< rad
-    double belt_speed = 0.0;       ///< m/s, the belt relative to the hull this step, + forward drive
-    double internal_resistance = 0.0;  ///< N, the running gear's losses this step
+    double belt_speed = 0.0;                         ///< m/s, the belt relative to the hull this step, + forward drive
+    double internal_resistance = 0.0;                ///< N, the running gear's losses this step
   };
 
   Arm armOf(const RoadWheel& w, const Hull& hull) const;
@@ -168,7 +168,7 @@ private:
   dBodyID chassis_ = nullptr;
   Eigen::Vector3d chassis_com_;  ///< m, lumped centre of mass in base_link
   double chassis_mass_ = 0.0;
-  std::vector<Side> sides_;      ///< left, right
+  std::vector<Side> sides_;       ///< left, right
   double sprocket_radius_ = 0.0;  ///< m, T10's p N / (2 pi)
   double engine_speed_ = 0.0, engine_torque_ = 0.0;
   DriveCommand command_;
@@ -217,8 +217,8 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
     const std::string key = "tracks[" + std::to_string(s) + "]";
     const std::string which = "the " + t.side + " track";
     if (t.road_wheels.size() < 2)
-      throw fail(key + ".road_wheels", which + " needs at least 2 road wheels, has " +
-                                           std::to_string(t.road_wheels.size()));
+      throw fail(key + ".road_wheels",
+                 which + " needs at least 2 road wheels, has " + std::to_string(t.road_wheels.size()));
     const struct
     {
       const std::string& link;
@@ -238,14 +238,16 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
       const RoadWheelSpec& w = t.road_wheels[i];
       const Body* b = findBody(model_, w.link);
       if (!b)
-        throw fail(key + ".road_wheels", which + "'s road wheel link '" + w.link + "' is not a body with mass in " +
-                                             model_.urdf_path);
+        throw fail(key + ".road_wheels",
+                   which + "'s road wheel link '" + w.link + "' is not a body with mass in " + model_.urdf_path);
       if ((b->com - w.rest_position).norm() > 1e-3)
         throw ConfigError(model_.urdf_path + ": link '" + w.link +
                           "': the centre of mass must be on the axle (inertial origin at the wheel centre)");
       if (!(w.radius > 0.0) || std::abs(w.radius - t.road_wheels[0].radius) > 1e-9)
-        throw fail(key + ".road_wheels", which + "'s road wheels must share one radius > 0 (the belt turns them at "
-                                                 "one speed): '" + w.link + "' differs");
+        throw fail(key + ".road_wheels", which +
+                                             "'s road wheels must share one radius > 0 (the belt turns them at "
+                                             "one speed): '" +
+                                             w.link + "' differs");
       const Eigen::Vector3d arm = w.rest_position - w.pivot;
       if (std::hypot(arm.x(), arm.z()) < 1e-3)
         throw fail(key + ".road_wheels", "arm '" + w.arm_joint + "' has no length (pivot on the wheel's axle)");
@@ -483,9 +485,10 @@ void TrackedVehicle::suspend(RoadWheel& w, const Hull& hull)
   // explicit spring-dampers standing in for the bearing), and the torsion bar's torque acts
   // on the wheel as a force along the circle. A massless arm hands the wheel's reaction to
   // the hull unchanged: the opposite force at the wheel centre.
-  const Eigen::Vector3d f_hull = -(w.k_attach * a.radial_error + w.c_attach * a.radial_rate) * a.radial -
-                                 (w.k_attach * a.lateral_error + w.c_attach * a.lateral_rate) * Eigen::Vector3d::UnitY() +
-                                 (torque / a.length) * a.tangent;
+  const Eigen::Vector3d f_hull =
+      -(w.k_attach * a.radial_error + w.c_attach * a.radial_rate) * a.radial -
+      (w.k_attach * a.lateral_error + w.c_attach * a.lateral_rate) * Eigen::Vector3d::UnitY() +
+      (torque / a.length) * a.tangent;
   const Eigen::Vector3d f = hull.r * f_hull;
   w.arm_force = f;
   // The axle stays parallel to the hull's: a restoring torque about the misalignment, damping
@@ -506,8 +509,8 @@ void TrackedVehicle::updateDrivetrain(const Hull& hull)
 {
   const double h = options_.step;
   const DrivetrainSpec& d = model_.drivetrain;
-  const auto fractions = trackedSides(command_.throttle, command_.steering,
-                                      std::min(1.0, kPivotTrackSpeed / d.max_speed));
+  const auto fractions =
+      trackedSides(command_.throttle, command_.steering, std::min(1.0, kPivotTrackSpeed / d.max_speed));
   const double fraction[2] = { fractions.first, fractions.second };
   // Reverse: both tracks backwards at up to reverse_max_speed (a pivot turn is the same).
   const double gear = command_.reverse && command_.throttle > 0.0 ? -d.reverse_max_speed : d.max_speed;
@@ -533,19 +536,19 @@ void TrackedVehicle::updateDrivetrain(const Hull& hull)
     {
       // Speed servo at the sprocket on the track's rotating inertia seen there.
       const double inertia = side.spin_inertia * to_wheel * to_wheel;
-      torque = side.servo.torque(fraction[s] * (command_.throttle > 0.0 ? gear : d.max_speed) / sprocket_radius_ -
-                                     speed[s],
-                                 inertia, available, h);
+      torque =
+          side.servo.torque(fraction[s] * (command_.throttle > 0.0 ? gear : d.max_speed) / sprocket_radius_ - speed[s],
+                            inertia, available, h);
     }
     side.sprocket_torque = torque;
     side.brake_limit = command_.brake * model_.brakes.max_torque;
     engine_torque_ += std::abs(torque) / (d.efficiency * d.gear_ratio);
     // The running gear's own losses (pins, road wheels, idler): against the belt's motion
     // relative to the hull, at the road wheels (reaction on the hull).
-    const double internal = 0.5 * model_.total_mass * options_.gravity *
-                            (model_.track.internal_resistance +
-                             model_.track.internal_resistance_per_speed * std::abs(side.belt_speed)) *
-                            std::clamp(side.belt_speed / kInternalResistanceFadeSpeed, -1.0, 1.0);
+    const double internal =
+        0.5 * model_.total_mass * options_.gravity *
+        (model_.track.internal_resistance + model_.track.internal_resistance_per_speed * std::abs(side.belt_speed)) *
+        std::clamp(side.belt_speed / kInternalResistanceFadeSpeed, -1.0, 1.0);
     side.internal_resistance = std::abs(internal);
     for (RoadWheel& w : side.wheels)
       w.drive_torque = (torque * to_wheel - internal * side.radius) / static_cast<double>(side.wheels.size());
@@ -593,8 +596,8 @@ void TrackedVehicle::soilContact(RoadWheel& w, const Side& side, const Hull& hul
   // hull's there less the belt speed: the belt's slip on the ground.
   const double radius = w.spec->radius;
   ContactFrame& frame = w.frame;
-  frame.normal = groundNormal(terrain, centre, forward, 0.5 * side.segment_length,
-                              0.5 * model_.track.shoe_width + 0.5 * radius);
+  frame.normal =
+      groundNormal(terrain, centre, forward, 0.5 * side.segment_length, 0.5 * model_.track.shoe_width + 0.5 * radius);
   frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
   frame.t2 = frame.normal.cross(frame.t1);
   frame.point = centre - radius * frame.normal;

@@ -37,7 +37,7 @@ struct Range
 {
   double lo;
   double hi;
-  const char* unit;  ///< with its leading space (" kg"); "" for ratios
+  const char* unit;                                             ///< with its leading space (" kg"); "" for ratios
   bool contains(double v) const { return v >= lo && v <= hi; }  // false for NaN
 };
 
@@ -150,7 +150,6 @@ std::string tooFar(const std::string& what, double distance)
   return what + " is " + format(distance) + " m from base_link, outside the plausible range " +
          rangeText(kDistanceFromBase);
 }
-
 
 /// Why a vehicle file is not read; the caller adds which file and what names it.
 using FileRefused = avsp::terrain::InputFileRefused;
@@ -394,8 +393,9 @@ public:
       }
     }
     if (out.empty())
-      fail("no link other than the running gear has a <collision> box: the vehicle could not collide with "
-           "obstacles or other vehicles");
+      fail(
+          "no link other than the running gear has a <collision> box: the vehicle could not collide with "
+          "obstacles or other vehicles");
     return out;
   }
 
@@ -441,8 +441,7 @@ void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     spec.spin_joint = spin->name;
     spec.link = spin->child_link_name;
     urdf.cylinder(w, "spin_joint", spin, spec.radius, spec.width);
-    const auto susp =
-        urdf.joint(w, "suspension_joint", urdf::Joint::PRISMATIC, "prismatic", Eigen::Vector3d::UnitZ());
+    const auto susp = urdf.joint(w, "suspension_joint", urdf::Joint::PRISMATIC, "prismatic", Eigen::Vector3d::UnitZ());
     spec.suspension_joint = susp->name;
     if (!susp->limits || !(susp->limits->lower < 0.0 && susp->limits->upper > 0.0))
       w.fail("suspension_joint", "joint '" + susp->name + "' needs limits with lower < 0 < upper (travel, m)");
@@ -451,8 +450,7 @@ void readWheels(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     spec.suspension_upper = susp->limits->upper;
     if (w.node()["steering_joint"])
     {
-      const auto steer =
-          urdf.joint(w, "steering_joint", urdf::Joint::REVOLUTE, "revolute", Eigen::Vector3d::UnitZ());
+      const auto steer = urdf.joint(w, "steering_joint", urdf::Joint::REVOLUTE, "revolute", Eigen::Vector3d::UnitZ());
       spec.steering_joint = steer->name;
       urdf.checkLimits(*steer, kSteeringLimit, "steering, at most half a turn either way");
     }
@@ -493,8 +491,8 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
     if (!belt->inertial)
       t.fail("belt_link", "link '" + spec.belt_link + "' needs an <inertial> (the belt's mass) in " + m.urdf_path);
     if (!belt->parent_joint || belt->parent_joint->type != urdf::Joint::FIXED)
-      t.fail("belt_link", "link '" + spec.belt_link + "' must hang from a fixed joint (it moves with the hull) in " +
-                              m.urdf_path);
+      t.fail("belt_link",
+             "link '" + spec.belt_link + "' must hang from a fixed joint (it moves with the hull) in " + m.urdf_path);
     for (const Section& r : t.sequence("road_wheels"))
     {
       r.allowOnly({ "arm_joint", "spin_joint" });
@@ -511,7 +509,8 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       wheel.rest_position = urdf.restPose(wheel.link).translation();
       const Eigen::Isometry3d arm_pose = urdf.restPose(wheel.arm_link);
       wheel.pivot = arm_pose.translation();
-      wheel.arm_axis_sign = (arm_pose.linear() * Eigen::Vector3d(arm->axis.x, arm->axis.y, arm->axis.z)).y() < 0.0 ? -1.0 : 1.0;
+      wheel.arm_axis_sign =
+          (arm_pose.linear() * Eigen::Vector3d(arm->axis.x, arm->axis.y, arm->axis.z)).y() < 0.0 ? -1.0 : 1.0;
       if (!arm->limits || !(arm->limits->lower < 0.0 && arm->limits->upper > 0.0))
         r.fail("arm_joint", "joint '" + arm->name + "' needs limits with lower < 0 < upper (arm travel, rad)");
       urdf.checkLimits(*arm, kArmLimit, "road arm swing, at most a quarter turn either way");
@@ -520,9 +519,9 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
       if ((wheel.rest_position - wheel.pivot).norm() < 1e-3)
         r.fail("arm_joint", "joint '" + arm->name + "' sits on the wheel's axle: a road arm needs a length");
       if (!kArmLength.contains((wheel.rest_position - wheel.pivot).norm()))
-        urdf.fail("joint '" + arm->name + "': " +
-                  outside("road arm length (pivot to wheel centre)", (wheel.rest_position - wheel.pivot).norm(),
-                          kArmLength));
+        urdf.fail(
+            "joint '" + arm->name + "': " +
+            outside("road arm length (pivot to wheel centre)", (wheel.rest_position - wheel.pivot).norm(), kArmLength));
       spec.road_wheels.push_back(wheel);
     }
     if (spec.road_wheels.size() < 2)
@@ -543,12 +542,10 @@ void readTracks(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
   m.track.shoe_width = plausible(track, "shoe_width", track.positive("shoe_width"), kShoeWidth);
   const Section internal = track.map("internal_resistance");
   internal.allowOnly({ "coefficient", "per_speed" });
-  m.track.internal_resistance =
-      plausible(internal, "coefficient", internal.nonNegative("coefficient"), kInternalResistance,
-                "a fraction of the weight");
-  m.track.internal_resistance_per_speed =
-      plausible(internal, "per_speed", internal.nonNegative("per_speed"), kInternalResistancePerSpeed,
-                "a fraction of the weight per m/s");
+  m.track.internal_resistance = plausible(internal, "coefficient", internal.nonNegative("coefficient"),
+                                          kInternalResistance, "a fraction of the weight");
+  m.track.internal_resistance_per_speed = plausible(internal, "per_speed", internal.nonNegative("per_speed"),
+                                                    kInternalResistancePerSpeed, "a fraction of the weight per m/s");
   // T10 turns sprocket speed into track speed with p N / 2 pi; the URDF sprocket must agree.
   for (const TrackSpec& t : m.tracks)
   {
@@ -572,7 +569,9 @@ void readFirmGround(const Section& root, VehicleModel& m)
   g.vertical_stiffness = f.positive("vertical_stiffness");
   // Below what holds a quarter of the vehicle with 0.2 m of deflection, a "tyre" is a spring
   // nobody drives on (a typo's 1e3 for 1e6); above 1e9 N/m the contact is stiffer than steel.
-  const double weight_share = m.total_mass * 9.81 / std::max<std::size_t>(1, m.wheels.size() + 2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
+  const double weight_share =
+      m.total_mass * 9.81 /
+      std::max<std::size_t>(1, m.wheels.size() + 2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
   if (g.vertical_stiffness < weight_share / 0.2 || g.vertical_stiffness > 1e9)
     f.fail("vertical_stiffness", format(g.vertical_stiffness) + " N/m must be between " + format(weight_share / 0.2) +
                                      " N/m (0.2 m of deflection under its share of the weight) and 1e9 N/m");
@@ -598,9 +597,9 @@ void readDrivetrain(const Section& root, VehicleModel& m)
     d.fail("reverse_max_speed", "must not exceed max_speed");
   plausible(d, "reverse_max_speed", m.drivetrain.reverse_max_speed, kMaxSpeed);
   const Section diffs = d.map("differentials");
-  const std::set<std::string> names = m.drive_type == DriveType::kAckermann ?
-                                          std::set<std::string>{ "front", "rear", "center" } :
-                                          std::set<std::string>{ "left", "right" };
+  const std::set<std::string> names = m.drive_type == DriveType::kAckermann
+                                          ? std::set<std::string>{ "front", "rear", "center" }
+                                          : std::set<std::string>{ "left", "right" };
   diffs.allowOnly(names);
   for (const std::string& n : names)
     m.drivetrain.differentials[n] = differential(diffs, n);
@@ -676,8 +675,8 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     if (drive == "ackermann")
     {
       m.drive_type = DriveType::kAckermann;
-      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes",
-                       "firm_ground" });
+      root.allowOnly(
+          { "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes", "firm_ground" });
     }
     else if (drive == "skid_steer")
     {
@@ -687,8 +686,8 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     else if (drive == "tracked")
     {
       m.drive_type = DriveType::kTracked;
-      root.allowOnly({ "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes",
-                       "firm_ground" });
+      root.allowOnly(
+          { "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes", "firm_ground" });
     }
     else
     {

@@ -33,8 +33,8 @@ struct World::Ode
 {
   dWorldID world = nullptr;
   dJointGroupID contacts = nullptr;
-  std::vector<dBodyID> agent_bodies;  ///< one per World::agents_ entry (their mass, no gravity)
-  std::vector<dBodyID> proxy_bodies;  ///< one per World::proxies_ entry (their mass, no gravity)
+  std::vector<dBodyID> agent_bodies;                         ///< one per World::agents_ entry (their mass, no gravity)
+  std::vector<dBodyID> proxy_bodies;                         ///< one per World::proxies_ entry (their mass, no gravity)
   std::vector<AgentCollisionBody> agent_geoms, proxy_geoms;  ///< what ObstacleCollision gets
   /// Per vehicle, every body of it (the chassis and all jointed to it) and its pose relative to
   /// base_link as the vehicle was set down: World::setPose sets a vehicle down again.
@@ -85,19 +85,19 @@ private:
     dBodyID body = nullptr;
     dJointID joint = nullptr;
     double mass = 0.0;
-    double spin_inertia = 0.0;  ///< kg m^2 about the axle
-    double lower = 0.0, upper = 0.0;  ///< m, suspension travel
-    double drive_torque = 0.0;  ///< N m this step
-    double brake_limit = 0.0;   ///< N m this step
-    bool contact = false;       ///< a contact joint was made this step
+    double spin_inertia = 0.0;                          ///< kg m^2 about the axle
+    double lower = 0.0, upper = 0.0;                    ///< m, suspension travel
+    double drive_torque = 0.0;                          ///< N m this step
+    double brake_limit = 0.0;                           ///< N m this step
+    bool contact = false;                               ///< a contact joint was made this step
     Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< contact frame of this step
     Eigen::Vector3d t1 = Eigen::Vector3d::UnitX(), t2 = Eigen::Vector3d::UnitY();
     terrain::ContactForces soil;
     dJointFeedback feedback{};
-    GroundContact ground;  ///< the contact's shear state and joint (sim_vehicle_base.hpp)
-    ResistanceMotor resistance;  ///< the ground's resistance at the wheel centre
+    GroundContact ground;                             ///< the contact's shear state and joint (sim_vehicle_base.hpp)
+    ResistanceMotor resistance;                       ///< the ground's resistance at the wheel centre
     Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< m, where the contact acts this step
-    bool fault_reported = false;  ///< a non-finite contact force was reported once
+    bool fault_reported = false;                      ///< a non-finite contact force was reported once
   };
 
   /// Two wheels a locked differential turns at the same speed: an ODE angular motor between
@@ -495,8 +495,7 @@ void SimVehicle::updateSuspension()
   }
 }
 
-void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts,
-                             StepTimes* times)
+void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
 {
   const double h = options_.step;
   w.contact = false;
@@ -634,7 +633,9 @@ void SimVehicle::afterStep(double time, bool stepped)
 // ---------------------------------------------------------------------------------------
 
 World::World(terrain::DeformableTerrain& terrain, const WorldOptions& options)
-  : terrain_(terrain), options_(options), ode_(std::make_unique<Ode>()),
+  : terrain_(terrain),
+    options_(options),
+    ode_(std::make_unique<Ode>()),
     collision_(std::make_unique<ObstacleCollision>(options.step))
 {
   auto require = [](bool ok, const std::string& what) {
@@ -871,7 +872,7 @@ std::size_t World::addProxy(const VehicleModel& model, const std::string& name)
   dMassSetParameters(&mass, lumped.mass, 0.0, 0.0, 0.0, i(0, 0), i(1, 1), i(2, 2), i(0, 1), i(0, 2), i(1, 2));
   dBodySetMass(c.body, &mass);
   dBodySetGravityMode(c.body, 0);
-  dBodySetFiniteRotationMode(c.body, 1);  // a yawing proxy turns by omega dt exactly each step
+  dBodySetFiniteRotationMode(c.body, 1);     // a yawing proxy turns by omega dt exactly each step
   dBodySetPosition(c.body, 0.0, 0.0, -1e4);  // out of reach until placed
   ode_->proxy_bodies.push_back(c.body);
   ode_->proxy_geoms.push_back(std::move(c));
@@ -953,7 +954,8 @@ Eigen::Isometry3d World::agentPose(std::size_t agent) const
   const dBodyID body = ode_->agent_bodies[agent];
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = rotationOf(body);
-  pose.translation() = vec(dBodyGetPosition(body)) - pose.linear() * terrain::agentBoundsCentre(agents_[agent].spec().type);
+  pose.translation() =
+      vec(dBodyGetPosition(body)) - pose.linear() * terrain::agentBoundsCentre(agents_[agent].spec().type);
   return pose;
 }
 
@@ -993,11 +995,11 @@ void World::driveAgents()
     const Eigen::Vector3d omega_target(0.0, 0.0, std::remainder(b.yaw - a.yaw, 2.0 * M_PI) / h);
     dMass m;
     dBodyGetMass(body, &m);
-    const Eigen::Matrix3d inertia_body = (Eigen::Matrix3d() << m.I[0], m.I[1], m.I[2], m.I[4], m.I[5], m.I[6], m.I[8],
-                                          m.I[9], m.I[10])
-                                             .finished();
-    const Eigen::Vector3d torque = r * inertia_body * r.transpose() *
-                                   (kOmega * kOmega * error.angle() * error.axis() + 2.0 * kZeta * kOmega * (omega_target - omega));
+    const Eigen::Matrix3d inertia_body =
+        (Eigen::Matrix3d() << m.I[0], m.I[1], m.I[2], m.I[4], m.I[5], m.I[6], m.I[8], m.I[9], m.I[10]).finished();
+    const Eigen::Vector3d torque =
+        r * inertia_body * r.transpose() *
+        (kOmega * kOmega * error.angle() * error.axis() + 2.0 * kZeta * kOmega * (omega_target - omega));
     dBodyAddTorque(body, torque.x(), torque.y(), torque.z());
   }
 }
@@ -1098,8 +1100,7 @@ const WheelState& World::wheel(std::size_t vehicle, const std::string& wheel_nam
   throw std::out_of_range("vehicle '" + s.name + "' has no wheel '" + wheel_name + "' (wheels: " + known + ")");
 }
 
-Eigen::Isometry3d World::restingPose(const VehicleModel& model, double x, double y, double yaw,
-                                     double clearance) const
+Eigen::Isometry3d World::restingPose(const VehicleModel& model, double x, double y, double yaw, double clearance) const
 {
   const std::vector<std::pair<Eigen::Vector3d, double>> gear = runningGear(model);
   if (gear.empty())
@@ -1117,8 +1118,9 @@ Eigen::Isometry3d World::restingPose(const VehicleModel& model, double x, double
     if (!ground)
     {
       std::ostringstream why;
-      why << "World::restingPose: " << (k < model.wheels.size() ? "wheel '" + model.wheels[k].name + "'" : "a road wheel")
-          << " of '" << model.model << "' at (" << p.x() << ", " << p.y() << ") is off the terrain";
+      why << "World::restingPose: "
+          << (k < model.wheels.size() ? "wheel '" + model.wheels[k].name + "'" : "a road wheel") << " of '"
+          << model.model << "' at (" << p.x() << ", " << p.y() << ") is off the terrain";
       throw std::invalid_argument(why.str());
     }
     fit.row(static_cast<Eigen::Index>(k)) << 1.0, gear[k].first.x(), gear[k].first.y();

@@ -11,7 +11,7 @@ namespace dem_test
 inline avsp::dynamics::dem::DemParameters coarseParameters()
 {
   avsp::dynamics::dem::DemParameters p;
-  p.particles = {{0.010, 0.5}, {0.0125, 0.5}};
+  p.particles = { { 0.010, 0.5 }, { 0.0125, 0.5 } };
   p.youngs_modulus = 2.0e7;
   p.timestep = 1.0e-4;
   return p;
@@ -27,7 +27,7 @@ inline const avsp::dynamics::dem::BedTemplate& smallTemplate()
 /// A domain `blocks` template lengths long, the template's width, 0.5 m high, floor at 0.
 inline avsp::dynamics::dem::DemDomain domainFor(const avsp::dynamics::dem::BedTemplate& bed, int blocks)
 {
-  return {0.0, blocks * bed.length(), 0.0, bed.width(), 0.0, 0.5};
+  return { 0.0, blocks * bed.length(), 0.0, bed.width(), 0.0, 0.5 };
 }
 /**
  * @brief A wheel of `radius` and `width` centred across the bed at x, 2 mm above the highest

@@ -51,8 +51,8 @@ std::unique_ptr<terrain::DeformableTerrain> flatGravel()
       terrain::DeformableTerrain::Options{ true });
 }
 
-terrain::Agent agent(const std::string& name, terrain::AgentType type, std::vector<Eigen::Vector2d> path,
-                     double speed, const terrain::ElevationGrid& ground)
+terrain::Agent agent(const std::string& name, terrain::AgentType type, std::vector<Eigen::Vector2d> path, double speed,
+                     const terrain::ElevationGrid& ground)
 {
   terrain::AgentSpec s;
   s.name = name;
@@ -78,8 +78,8 @@ std::vector<Eigen::Vector3d> vehiclePoints(const VehicleModel& m, const VehicleS
       for (double side : { -0.5, 0.5 })
       {
         const double a = k * M_PI / 18.0;
-        const Eigen::Vector3d local = w.rest_position + Eigen::Vector3d(w.radius * std::cos(a), side * w.width,
-                                                                        w.radius * std::sin(a));
+        const Eigen::Vector3d local =
+            w.rest_position + Eigen::Vector3d(w.radius * std::cos(a), side * w.width, w.radius * std::sin(a));
         out.push_back(s.pose * local);
       }
   return out;
@@ -167,9 +167,10 @@ TEST(Agents, TruckCrossingPushesABrakedVehicleAsideWithoutOverlap)
   EXPECT_NEAR(s.pose.translation().y(), front + 0.95, 0.5);
   EXPECT_NEAR(s.linear_velocity.y(), v, 0.3);
   EXPECT_LT(std::abs(s.pose.translation().x()), 1.0);  // pushed straight, not thrown off the side
-  std::printf("[agents] truck push: deepest %.1f mm, truck lag %.3f m, vehicle %.2f m ahead of the front, v_y %.3f "
-              "m/s, x %.3f m\n",
-              1e3 * deepest, lag, s.pose.translation().y() - front, s.linear_velocity.y(), s.pose.translation().x());
+  std::printf(
+      "[agents] truck push: deepest %.1f mm, truck lag %.3f m, vehicle %.2f m ahead of the front, v_y %.3f "
+      "m/s, x %.3f m\n",
+      1e3 * deepest, lag, s.pose.translation().y() - front, s.linear_velocity.y(), s.pose.translation().x());
 }
 
 TEST(Agents, VehicleDrivenIntoACrossingTruckStopsAtItsSide)
@@ -210,11 +211,12 @@ TEST(Agents, VehicleDrivenIntoACrossingTruckStopsAtItsSide)
   const double u = m.total_mass * v0 / (m.total_mass + mt);
   const double drive = 0.3 * wheelTorqueAvailable(m.drivetrain, 0.0, m.wheels[0].radius) / m.wheels[0].radius;
   EXPECT_GT(shoved, 0.0);
-  EXPECT_LT(shoved, 1.25 * (m.total_mass + mt) * u * u /
-                        (2.0 * (terrain::agentPushForce(terrain::AgentType::kTruck) - drive)));
-  std::printf("[agents] into the truck's side: first contact %.3f s, deepest %.1f mm, x %.3f m, v_x %.3f m/s, truck "
-              "shoved %.3f m\n",
-              first_contact, 1e3 * deepest, s.pose.translation().x(), s.linear_velocity.x(), shoved);
+  EXPECT_LT(shoved,
+            1.25 * (m.total_mass + mt) * u * u / (2.0 * (terrain::agentPushForce(terrain::AgentType::kTruck) - drive)));
+  std::printf(
+      "[agents] into the truck's side: first contact %.3f s, deepest %.1f mm, x %.3f m, v_x %.3f m/s, truck "
+      "shoved %.3f m\n",
+      first_contact, 1e3 * deepest, s.pose.translation().x(), s.linear_velocity.x(), shoved);
 }
 
 TEST(Agents, VehicleCoastingIntoAStandingPedestrianShovesIt)
@@ -240,8 +242,8 @@ TEST(Agents, VehicleCoastingIntoAStandingPedestrianShovesIt)
       world.step();
       if (with_pedestrian)
       {
-        out.deepest = std::max(out.deepest, depthInAgent(m, world.state(car), world.agentPose(0),
-                                                         terrain::AgentType::kPedestrian, true));
+        out.deepest = std::max(
+            out.deepest, depthInAgent(m, world.state(car), world.agentPose(0), terrain::AgentType::kPedestrian, true));
         out.pedestrian_x = world.agentPose(0).translation().x();
       }
     }
@@ -300,8 +302,8 @@ TEST(Agents, RunsWithAgentsAreBitIdentical)
     world.setCommand(car, { 0.0, 1.0, 0.0 });
     std::vector<terrain::Agent> agents;
     agents.push_back(agent("truck", terrain::AgentType::kTruck, { { 0.0, -9.0 }, { 0.0, 40.0 } }, 3.0, ground->base()));
-    agents.push_back(agent("deer", terrain::AgentType::kDeer, { { 5.0, -5.0 }, { 5.0, 5.0 }, { 9.0, 9.0 } }, 4.0,
-                           ground->base()));
+    agents.push_back(
+        agent("deer", terrain::AgentType::kDeer, { { 5.0, -5.0 }, { 5.0, 5.0 }, { 9.0, 9.0 } }, 4.0, ground->base()));
     world.setAgents(agents);
     world.advance(2.5);
     const VehicleState& s = world.state(car);

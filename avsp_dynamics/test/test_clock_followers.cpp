@@ -23,7 +23,7 @@ TEST(ClockFollowers, HoldsTheClockUntilEveryFollowerIsWithinTheLag)
   EXPECT_EQ(f.done("sensors", 0.0), Report::kAccepted);
   EXPECT_EQ(f.holding(0.02), std::vector<std::string>{ "environment" });
   EXPECT_EQ(f.done("environment", 0.0), Report::kAccepted);
-  EXPECT_TRUE(f.allows(0.05));   // exactly the lag ahead
+  EXPECT_TRUE(f.allows(0.05));    // exactly the lag ahead
   EXPECT_FALSE(f.allows(0.051));  // more than the lag ahead
   EXPECT_EQ(f.holding(0.051), (std::vector<std::string>{ "sensors", "environment" }));
   EXPECT_EQ(f.done("sensors", 0.03), Report::kAccepted);

@@ -48,7 +48,8 @@ std::unique_ptr<dem::DemWorld> freshBed()
   const auto& bed = dem_test::smallTemplate();
   const int blocks = 3;
   auto world = std::make_unique<dem::DemWorld>(bed.parameters(), dem_test::domainFor(bed, blocks), bed);
-  world->addBed(0.0, blocks * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
+  world->addBed(
+      0.0, blocks * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
   world->setBedEnds(0.0, blocks * bed.length());
   world->settle(0.2);
   return world;
@@ -59,7 +60,8 @@ TEST(DemBevameter, FitBekkerRecoversAKnownSoil)
 {
   // Wong's dry sand (Terramechanics, 2008, table 2.3): n 1.1, k_c 0.99 kN/m^(n+1), k_phi 1528 kN/m^(n+2).
   const double n = 1.1, kc = 0.99e3, kphi = 1528e3;
-  const auto fit = dem::fitBekker({syntheticPlate(0.05, n, kc, kphi), syntheticPlate(0.10, n, kc, kphi)}, 0.005, 0.05);
+  const auto fit =
+      dem::fitBekker({ syntheticPlate(0.05, n, kc, kphi), syntheticPlate(0.10, n, kc, kphi) }, 0.005, 0.05);
   EXPECT_NEAR(fit.n, n, 1e-9);
   EXPECT_NEAR(fit.k_c, kc, 1e-6 * kphi);
   EXPECT_NEAR(fit.k_phi, kphi, 1e-6 * kphi);
@@ -69,7 +71,7 @@ TEST(DemBevameter, FitBekkerRecoversAKnownSoil)
 TEST(DemBevameter, FitShearRecoversAKnownSoil)
 {
   const double c = 1.0e3, phi = 30.0 * M_PI / 180.0, K = 0.02;
-  const auto fit = dem::fitShear({syntheticShear(5e3, c, phi, K), syntheticShear(15e3, c, phi, K)});
+  const auto fit = dem::fitShear({ syntheticShear(5e3, c, phi, K), syntheticShear(15e3, c, phi, K) });
   // The plateau is the mean over the last quarter: within e^-15 of tau_max.
   EXPECT_NEAR(fit.cohesion, c, 1e-3 * c);
   EXPECT_NEAR(fit.friction_angle, phi, 1e-5);
@@ -80,7 +82,7 @@ TEST(DemBevameter, OnePlateIsRefusedByName)
 {
   try
   {
-    dem::fitBekker({syntheticPlate(0.05, 1, 1e3, 1e6)}, 0.005, 0.05);
+    dem::fitBekker({ syntheticPlate(0.05, 1, 1e3, 1e6) }, 0.005, 0.05);
     FAIL() << "no error";
   }
   catch (const dem::DemParameterError& e)

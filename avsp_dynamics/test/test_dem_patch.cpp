@@ -21,8 +21,9 @@ namespace
 terrain::DeformableTerrain flatTerrain()
 {
   const std::size_t columns = 71, rows = 23;
-  terrain::ElevationGrid grid(-0.1, -0.1, 0.02, 0.02, columns, rows,
-                              std::vector<float>(columns * rows, static_cast<float>(dem_test::smallTemplate().depth())));
+  terrain::ElevationGrid grid(
+      -0.1, -0.1, 0.02, 0.02, columns, rows,
+      std::vector<float>(columns * rows, static_cast<float>(dem_test::smallTemplate().depth())));
   return terrain::DeformableTerrain(std::move(grid), terrain::SoilLibrary::load(AVSP_SOILS_YAML).get("dry_sand"), {});
 }
 

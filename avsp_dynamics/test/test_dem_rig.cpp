@@ -17,7 +17,8 @@ std::unique_ptr<dem::DemWorld> freshBed(int blocks)
 {
   const auto& bed = dem_test::smallTemplate();
   auto world = std::make_unique<dem::DemWorld>(bed.parameters(), dem_test::domainFor(bed, blocks), bed);
-  world->addBed(0.0, blocks * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
+  world->addBed(
+      0.0, blocks * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
   world->setBedEnds(0.0, blocks * bed.length());
   world->settle(0.2);
   return world;

@@ -27,7 +27,10 @@ std::string errorOf(F f)
 }
 }  // namespace
 
-TEST(DemParameters, DefaultsAreValid) { EXPECT_NO_THROW(dem::validate(dem::DemParameters{})); }
+TEST(DemParameters, DefaultsAreValid)
+{
+  EXPECT_NO_THROW(dem::validate(dem::DemParameters{}));
+}
 
 TEST(DemParameters, ParticleSizeNotPositiveIsNamed)
 {
@@ -102,7 +105,8 @@ TEST(DemWorld, RestingWheelCarriesItsWeight)
 {
   const auto& bed = dem_test::smallTemplate();
   dem::DemWorld world(bed.parameters(), dem_test::domainFor(bed, 3), bed);
-  world.addBed(0.0, 3 * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
+  world.addBed(
+      0.0, 3 * bed.length(), [&](double, double) { return bed.depth(); }, true, true);
   world.setBedEnds(0.0, 3 * bed.length());
   world.settle(0.2);
   const double radius = 0.15, width = 0.1, mass = 15.0, g = 9.81;
@@ -150,8 +154,8 @@ TEST(DemWorld, SpinAxisMovesWithTheBody)
   const auto& bed = dem_test::smallTemplate();
   dem::DemWorld world(bed.parameters(), dem_test::domainFor(bed, 4), bed);
   const Eigen::Vector3d centre(1.5 * bed.length(), 0.5 * bed.width(), bed.depth() + 0.2);
-  const int wheel = world.addBody(dem::wheelMesh(centre, Eigen::Vector3d::UnitY(), 0.1, 0.05, 24), centre,
-                                  Eigen::Vector3d::UnitY());
+  const int wheel =
+      world.addBody(dem::wheelMesh(centre, Eigen::Vector3d::UnitY(), 0.1, 0.05, 24), centre, Eigen::Vector3d::UnitY());
   world.setBodyVelocity(wheel, Eigen::Vector3d(0.5, 0.0, 0.0), 10.0);
   for (int i = 0; i < 50; ++i)
     world.step();
@@ -165,8 +169,8 @@ TEST(DemWorld, ABodyLeavingTheDomainIsRefusedByName)
   const auto& bed = dem_test::smallTemplate();
   dem::DemWorld world(bed.parameters(), dem_test::domainFor(bed, 3), bed);
   const Eigen::Vector3d centre(2.5 * bed.length(), 0.5 * bed.width(), 0.3);
-  const int wheel = world.addBody(dem::wheelMesh(centre, Eigen::Vector3d::UnitY(), 0.05, 0.05, 24), centre,
-                                  Eigen::Vector3d::UnitY());
+  const int wheel =
+      world.addBody(dem::wheelMesh(centre, Eigen::Vector3d::UnitY(), 0.05, 0.05, 24), centre, Eigen::Vector3d::UnitY());
   // 0.05 m from the end of the domain, at 100 m/s: 0.1 m in one interval.
   world.setBodyVelocity(wheel, Eigen::Vector3d(100.0, 0.0, 0.0), 0.0);
   const std::string e = errorOf([&] { world.step(); });

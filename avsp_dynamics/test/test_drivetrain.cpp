@@ -50,8 +50,7 @@ TEST(WheelTorqueAvailable, GearRatioEfficiencyAndGovernor)
   const double w = 10.0 / r;
   EXPECT_NEAR(wheelTorqueAvailable(d, w, r), 0.85 * 150000.0 / w, 1e-6);
   // The governor: full torque below 95 % of max_speed, none at max_speed.
-  EXPECT_NEAR(wheelTorqueAvailable(d, 0.94 * d.max_speed / r, r),
-              0.85 * 150000.0 / (0.94 * d.max_speed / r), 1e-6);
+  EXPECT_NEAR(wheelTorqueAvailable(d, 0.94 * d.max_speed / r, r), 0.85 * 150000.0 / (0.94 * d.max_speed / r), 1e-6);
   EXPECT_EQ(wheelTorqueAvailable(d, d.max_speed / r, r), 0.0);
   EXPECT_EQ(wheelTorqueAvailable(d, 1.2 * d.max_speed / r, r), 0.0);
   EXPECT_NEAR(governorFactor(0.975, 1.0), 0.5, 1e-12);

@@ -72,9 +72,9 @@ struct Ego
   std::vector<nav_msgs::Odometry> odom;
   std::vector<avsp_msgs::TerrainPatch> ruts;
   std::vector<std::string> warnings;
-  avsp_msgs::VehicleTelemetry telemetry;  ///< the latest
+  avsp_msgs::VehicleTelemetry telemetry;                                           ///< the latest
   std::vector<diagnostic_msgs::DiagnosticStatus> ego_reports, simulation_reports;  ///< node "dynamics"
-  std::size_t nan_sent = 0;               ///< NaN commands published on cmd_vel
+  std::size_t nan_sent = 0;  ///< NaN commands published on cmd_vel
   std::vector<nav_msgs::Odometry> wheel_odom, truth;
   ros::Subscriber odom_sub, ruts_sub, log_sub, telemetry_sub, diagnostics_sub, wheel_sub, truth_sub;
   ros::Publisher cmd_pub, drive_pub;
@@ -82,7 +82,7 @@ struct Ego
   Ego()
   {
     odom_sub = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 1000,
-                                               [this](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
+                                                [this](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
     // Only the ego's node: the determinism nodes (det_a_sim, det_b_sim) publish ruts too.
     using RutsEvent = ros::MessageEvent<avsp_msgs::TerrainPatch const>;
     const boost::function<void(const RutsEvent&)> on_ruts = [this](const RutsEvent& e) {
@@ -104,10 +104,10 @@ struct Ego
             else if (s.name == "dynamics: simulation")
               simulation_reports.push_back(s);
         });
-    wheel_sub = nh.subscribe<nav_msgs::Odometry>("/ego/wheel_odometry", 1000,
-                                                 [this](const nav_msgs::Odometry::ConstPtr& m) { wheel_odom.push_back(*m); });
-    truth_sub = nh.subscribe<nav_msgs::Odometry>("/ego/ground_truth/odometry", 1000,
-                                                 [this](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); });
+    wheel_sub = nh.subscribe<nav_msgs::Odometry>(
+        "/ego/wheel_odometry", 1000, [this](const nav_msgs::Odometry::ConstPtr& m) { wheel_odom.push_back(*m); });
+    truth_sub = nh.subscribe<nav_msgs::Odometry>(
+        "/ego/ground_truth/odometry", 1000, [this](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); });
     cmd_pub = nh.advertise<geometry_msgs::Twist>("/ego/avt_341/cmd_vel", 10);
     drive_pub = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 10);
   }
@@ -204,12 +204,15 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
   EXPECT_GT(v_end, v_mid + 0.5) << "speed did not keep increasing under throttle";
   EXPECT_GT(ego.odom.back().twist.twist.linear.x, 0.0) << "twist must be forward in base_link";
   EXPECT_LT(std::abs(ego.odom.back().pose.pose.position.y), 0.5) << "drove off straight";
-  ASSERT_TRUE(spinUntil([&] {
-    for (const auto& w : ego.warnings)
-      if (w.find("/ego/avt_341/cmd_vel") != std::string::npos && w.find("rejected") != std::string::npos)
-        return true;
-    return false;
-  }, 10.0)) << "no warning naming /ego/avt_341/cmd_vel for the NaN commands";
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        for (const auto& w : ego.warnings)
+          if (w.find("/ego/avt_341/cmd_vel") != std::string::npos && w.find("rejected") != std::string::npos)
+            return true;
+        return false;
+      },
+      10.0))
+      << "no warning naming /ego/avt_341/cmd_vel for the NaN commands";
 
   // Positive steering turns left: yaw rate > 0, heading increases.
   const double yaw0 = yawOf(ego.odom.back());
@@ -312,11 +315,14 @@ TEST(DynamicsNode, DrivesThroughCmdVel)
     return std::string("(absent)");
   };
   ASSERT_GT(ego.nan_sent, 10u);
-  ASSERT_TRUE(spinUntil([&] {
-    return !ego.ego_reports.empty() &&
-           value(ego.ego_reports.back(), "commands refused") == std::to_string(ego.nan_sent);
-  }, 30.0)) << "refused " << (ego.ego_reports.empty() ? "(no report)" : value(ego.ego_reports.back(), "commands refused"))
-            << ", NaN commands sent " << ego.nan_sent;
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        return !ego.ego_reports.empty() &&
+               value(ego.ego_reports.back(), "commands refused") == std::to_string(ego.nan_sent);
+      },
+      30.0))
+      << "refused " << (ego.ego_reports.empty() ? "(no report)" : value(ego.ego_reports.back(), "commands refused"))
+      << ", NaN commands sent " << ego.nan_sent;
   const diagnostic_msgs::DiagnosticStatus& last = ego.ego_reports.back();
   EXPECT_EQ(last.level, diagnostic_msgs::DiagnosticStatus::OK) << last.message;
   EXPECT_EQ(last.message, "commanded");
@@ -345,12 +351,12 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
   // it goes stale after 0.5 s, so each run is throttle + steering, then braking.
   ros::NodeHandle nh;
   std::vector<nav_msgs::Odometry> a, b, c;
-  ros::Subscriber sc = nh.subscribe<nav_msgs::Odometry>("/det_c/avt_341/odometry", 1000,
-                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { c.push_back(*m); });
-  ros::Subscriber sa = nh.subscribe<nav_msgs::Odometry>("/det_a/avt_341/odometry", 1000,
-                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { a.push_back(*m); });
-  ros::Subscriber sb = nh.subscribe<nav_msgs::Odometry>("/det_b/avt_341/odometry", 1000,
-                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { b.push_back(*m); });
+  ros::Subscriber sc = nh.subscribe<nav_msgs::Odometry>(
+      "/det_c/avt_341/odometry", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) { c.push_back(*m); });
+  ros::Subscriber sa = nh.subscribe<nav_msgs::Odometry>(
+      "/det_a/avt_341/odometry", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) { a.push_back(*m); });
+  ros::Subscriber sb = nh.subscribe<nav_msgs::Odometry>(
+      "/det_b/avt_341/odometry", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) { b.push_back(*m); });
   // det_b's node runs with ~publish_odom_tf false: no odom -> det_b/base_link on /tf (a
   // localisation stack owns it), while det_a's comes with each odometry message.
   // det_c's node has ~per_vehicle_odom_frames: det_c/odom -> det_c/base_link, and map -> det_c/odom
@@ -365,8 +371,8 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
     }
   });
   std::vector<geometry_msgs::TransformStamped> statics;
-  ros::Subscriber static_sub = nh.subscribe<tf2_msgs::TFMessage>(
-      "/tf_static", 10, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+  ros::Subscriber static_sub =
+      nh.subscribe<tf2_msgs::TFMessage>("/tf_static", 10, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
         for (const auto& t : m->transforms)
           statics.push_back(t);
       });
@@ -434,8 +440,7 @@ TEST(DynamicsNode, SameCommandsGiveIdenticalOdometry)
 /// fresh name on the master (lists cannot be given on the command line; `more` adds or
 /// overrides some) and returns the command line that runs it.
 std::string nodeCommand(const std::string& vehicles_yaml_model, const std::string& vehicle_name,
-                        const std::string& args,
-                        const std::function<void(ros::NodeHandle&, const std::string&)>& more)
+                        const std::string& args, const std::function<void(ros::NodeHandle&, const std::string&)>& more)
 {
   static int run = 0;
   const std::string name = "bad_dynamics_" + std::to_string(getpid()) + "_" + std::to_string(run++);
@@ -474,7 +479,7 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
   std::stringstream text;
   text << in.rdbuf();
   std::remove(log.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
 }
 
 // The tracked carrier in the same world: robot_state_publisher gets every URDF joint of its
@@ -494,7 +499,7 @@ TEST(DynamicsNode, TrackedCarrierPublishesRunningGearAndSegments)
   auto t_sub = nh.subscribe<avsp_msgs::VehicleTelemetry>(
       "/carrier/telemetry", 100, [&](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { telemetry.push_back(*m); });
   auto o_sub = nh.subscribe<nav_msgs::Odometry>("/carrier/avt_341/odometry", 100,
-                                               [&](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
+                                                [&](const nav_msgs::Odometry::ConstPtr& m) { odom.push_back(*m); });
   ros::Publisher cmd = nh.advertise<geometry_msgs::Twist>("/carrier/avt_341/cmd_vel", 10);
   // At rest (no command: full brake) once settled.
   ASSERT_TRUE(spinUntil([&] {
@@ -644,8 +649,8 @@ TEST(DynamicsNodeStartup, LockstepVehicleThatNeverAnswersStopsTheRunNamingIt)
     nh.setParam(ns + "/lockstep_vehicles", list);
   };
   const ros::WallTime start = ros::WallTime::now();
-  auto [code, out] = runBadNode("fed_alpha", "mute", "_publish_clock:=true _lockstep_timeout:=1.0 /clock:=/mute_clock",
-                                lockstep);
+  auto [code, out] =
+      runBadNode("fed_alpha", "mute", "_publish_clock:=true _lockstep_timeout:=1.0 /clock:=/mute_clock", lockstep);
   EXPECT_EQ(code, 1);
   EXPECT_NE(out.find("lockstep: no command for t = 0.000 s on /mute/cmd_drive"), std::string::npos) << out;
   EXPECT_LT((ros::WallTime::now() - start).toSec(), 30.0) << "the run hung instead of stopping";
@@ -724,14 +729,15 @@ TEST(RunControl, PauseStepResumeKeepThePhysics)
   std::vector<nav_msgs::Odometry> ego, twin;
   double clock = 0.0;
   std::size_t clocks = 0;
-  ros::Subscriber se = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 10000,
-                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { ego.push_back(*m); });
-  ros::Subscriber st = nh.subscribe<nav_msgs::Odometry>("/twin/avt_341/odometry", 10000,
-                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { twin.push_back(*m); });
-  ros::Subscriber sc = nh.subscribe<rosgraph_msgs::Clock>("/clock", 10000, [&](const rosgraph_msgs::Clock::ConstPtr& c) {
-    clock = c->clock.toSec();
-    ++clocks;
-  });
+  ros::Subscriber se = nh.subscribe<nav_msgs::Odometry>(
+      "/ego/avt_341/odometry", 10000, [&](const nav_msgs::Odometry::ConstPtr& m) { ego.push_back(*m); });
+  ros::Subscriber st = nh.subscribe<nav_msgs::Odometry>(
+      "/twin/avt_341/odometry", 10000, [&](const nav_msgs::Odometry::ConstPtr& m) { twin.push_back(*m); });
+  ros::Subscriber sc =
+      nh.subscribe<rosgraph_msgs::Clock>("/clock", 10000, [&](const rosgraph_msgs::Clock::ConstPtr& c) {
+        clock = c->clock.toSec();
+        ++clocks;
+      });
   ASSERT_TRUE(spinUntil([&] { return se.getNumPublishers() > 0 && st.getNumPublishers() > 0; }, 60.0));
   ros::ServiceClient pause = nh.serviceClient<std_srvs::Trigger>("/dynamics/pause");
   ros::ServiceClient resume = nh.serviceClient<std_srvs::Trigger>("/dynamics/resume");
@@ -816,8 +822,9 @@ TEST(RunControl, PauseStepResumeKeepThePhysics)
   EXPECT_GT(std::hypot(ego[149].pose.pose.position.x - ego[0].pose.pose.position.x,
                        ego[149].pose.pose.position.y - ego[0].pose.pose.position.y),
             0.5);  // it drove
-  std::printf("[run control] paused at %.3f s, 25 steps to %.3f s, %zu odometry messages crossed, 150 equal to the twin\n",
-              held, clock >= held + 0.025 ? held + 0.025 : clock, crossed);
+  std::printf(
+      "[run control] paused at %.3f s, 25 steps to %.3f s, %zu odometry messages crossed, 150 equal to the twin\n",
+      held, clock >= held + 0.025 ? held + 0.025 : clock, crossed);
 }
 
 // ~set_vehicle_pose (run_control.test): refusals name what is wrong and change nothing (the next
@@ -828,8 +835,8 @@ TEST(RunControl, SetVehiclePose)
 {
   ros::NodeHandle nh;
   std::vector<nav_msgs::Odometry> ego;
-  ros::Subscriber se = nh.subscribe<nav_msgs::Odometry>("/ego/avt_341/odometry", 10000,
-                                                        [&](const nav_msgs::Odometry::ConstPtr& m) { ego.push_back(*m); });
+  ros::Subscriber se = nh.subscribe<nav_msgs::Odometry>(
+      "/ego/avt_341/odometry", 10000, [&](const nav_msgs::Odometry::ConstPtr& m) { ego.push_back(*m); });
   ros::ServiceClient set = nh.serviceClient<avsp_msgs::SetVehiclePose>("/dynamics/set_vehicle_pose");
   ros::ServiceClient course = nh.serviceClient<avsp_msgs::SetVehiclePose>("/course_sim/set_vehicle_pose");
   ASSERT_TRUE(set.waitForExistence(ros::Duration(60.0)));
@@ -943,12 +950,11 @@ TEST(ParkingBrake, ZeroCommandsHoldOnTheCoursePlane)
   for (auto [name, t] : { std::make_pair("held", &held), std::make_pair("free", &free) })
   {
     Track* track = t;
-    track->sub = nh.subscribe<nav_msgs::Odometry>(std::string("/") + name + "/avt_341/odometry", 1000,
-                                                  [track](const nav_msgs::Odometry::ConstPtr& m) {
-                                                    track->samples.emplace_back(
-                                                        m->header.stamp.toSec(),
-                                                        Eigen::Vector2d(m->pose.pose.position.x, m->pose.pose.position.y));
-                                                  });
+    track->sub = nh.subscribe<nav_msgs::Odometry>(
+        std::string("/") + name + "/avt_341/odometry", 1000, [track](const nav_msgs::Odometry::ConstPtr& m) {
+          track->samples.emplace_back(m->header.stamp.toSec(),
+                                      Eigen::Vector2d(m->pose.pose.position.x, m->pose.pose.position.y));
+        });
     // Latched: each node waits for its first command (~wait_for_command) and keeps it.
     track->cmd = nh.advertise<geometry_msgs::Twist>(std::string("/") + name + "/avt_341/cmd_vel", 1, true);
     track->cmd.publish(twist(0.0, 0.0, 0.0));

@@ -96,7 +96,7 @@ TEST(LockstepBarrier, LookaheadLetsTheTimeRunThatManyIntervalsAheadOfTheSlowest)
   b.advance();  // 0.01
   EXPECT_DOUBLE_EQ(b.needed(), 0.0);
   EXPECT_TRUE(b.complete());  // 0.01 -> 0.02 needs only 0.00
-  b.advance();  // 0.02
+  b.advance();                // 0.02
   EXPECT_DOUBLE_EQ(b.needed(), 0.01);
   EXPECT_FALSE(b.complete());
   EXPECT_EQ(b.waitingFor(), (std::vector<std::string>{ "p1", "p2" }));

@@ -75,8 +75,8 @@ TEST_P(MobilityMatrix, MeetsItsReference)
       const double lo = std::isnan(r.reference_low) ? hi : r.reference_low;
       const double nearest = r.value < lo ? lo : (r.value > hi ? hi : r.value);
       const double allowed = std::isfinite(c.tolerance_abs) ? c.tolerance_abs : c.tolerance * std::fabs(nearest);
-      EXPECT_NEAR(r.value, nearest, allowed) << c.id << " (" << c.unit << ") against [" << lo << ", " << hi
-                                             << "]: " << c.source << "; " << r.detail;
+      EXPECT_NEAR(r.value, nearest, allowed)
+          << c.id << " (" << c.unit << ") against [" << lo << ", " << hi << "]: " << c.source << "; " << r.detail;
       break;
     }
   }
@@ -136,9 +136,9 @@ TEST(CoursePlane, BrakedVehiclesStayOnTheSideSlope)
   const avsp::terrain::SoilLibrary soils = avsp::terrain::SoilLibrary::load(AVSP_SOILS_YAML);
   avsp::terrain::Course course = avsp::terrain::makeDefaultCourse(avsp::terrain::CourseOptions{});
   const avsp::terrain::CourseFeature plane = course.feature("side_slope");
-  avsp::terrain::DeformableTerrain ground(std::move(course.heights),
-                                          avsp::terrain::paletteFromNames(course.soil_names, soils),
-                                          std::move(course.soil_map), avsp::terrain::DeformableTerrain::Options{ true });
+  avsp::terrain::DeformableTerrain ground(
+      std::move(course.heights), avsp::terrain::paletteFromNames(course.soil_names, soils), std::move(course.soil_map),
+      avsp::terrain::DeformableTerrain::Options{ true });
   const double theta = 17.5 * M_PI / 180.0;
   World world(ground);
   struct Parked
@@ -233,30 +233,38 @@ TEST(MatrixFile, GoodOneCaseFileLoads)
 TEST(MatrixFile, BadFilesAreRefusedNamingTheKey)
 {
   expectRefused(std::string("cases:\n  - ") + kGood + "\n  - " + kGood, { "id", "twice" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: moonwalk, check: closed_form, "
-                "unit: m/s, source: s}",
-                { "manoeuvre", "moonwalk" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: roughly, "
-                "unit: m/s, source: s}",
-                { "check", "roughly" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
-                "unit: m/s, source: s, colour: red}",
-                { "colour" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
-                "unit: m/s, source: s, step: 0}",
-                { "step" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
-                "unit: m/s, source: s, slope_deg: -3}",
-                { "slope_deg" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: at_most, "
-                "unit: m/s, source: s}",
-                { "value" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: at_most, "
-                "value: 1, tolerance_abs: 0.1, unit: m/s, source: s}",
-                { "tolerance_abs" });
-  expectRefused("cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
-                "unit: m/s, source: s, tolerance: fast}",
-                { "tolerance" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: moonwalk, check: closed_form, "
+      "unit: m/s, source: s}",
+      { "manoeuvre", "moonwalk" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: roughly, "
+      "unit: m/s, source: s}",
+      { "check", "roughly" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+      "unit: m/s, source: s, colour: red}",
+      { "colour" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+      "unit: m/s, source: s, step: 0}",
+      { "step" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+      "unit: m/s, source: s, slope_deg: -3}",
+      { "slope_deg" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: at_most, "
+      "unit: m/s, source: s}",
+      { "value" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: at_most, "
+      "value: 1, tolerance_abs: 0.1, unit: m/s, source: s}",
+      { "tolerance_abs" });
+  expectRefused(
+      "cases:\n  - {id: a, vehicle: fed_alpha, soil: asphalt, manoeuvre: top_speed, check: closed_form, "
+      "unit: m/s, source: s, tolerance: fast}",
+      { "tolerance" });
 }
 
 TEST(MatrixFile, UnknownVehicleOrSoilIsRefusedWhenRun)

@@ -55,8 +55,8 @@ std::unique_ptr<terrain::DeformableTerrain> flatGround(double x0, double size_x,
       soils().get("gravel"), terrain::DeformableTerrain::Options{ true });
 }
 
-terrain::TerrainObject object(terrain::ObjectType type, double x, double y, double length, double width,
-                              double height, double strength)
+terrain::TerrainObject object(terrain::ObjectType type, double x, double y, double length, double width, double height,
+                              double strength)
 {
   terrain::TerrainObject o;
   o.type = type;
@@ -146,8 +146,8 @@ Eigen::Vector3d comVelocity(const Eigen::Vector3d& before, const Eigen::Vector3d
 struct LaunchRun
 {
   double max_reach = -std::numeric_limits<double>::infinity();  ///< m past the face, or into the cylinder
-  double first_contact_time = -1.0;  ///< s
-  double impact_impulse_x = 0.0;     ///< N s, obstacle impulse over the first 20 ms of contact
+  double first_contact_time = -1.0;                             ///< s
+  double impact_impulse_x = 0.0;        ///< N s, obstacle impulse over the first 20 ms of contact
   double impact_momentum_change = 0.0;  ///< N s, m_total x change of the COM x-velocity over the same steps
   VehicleState final;
   std::vector<std::vector<double>> trace;  ///< fingerprint per step
@@ -161,8 +161,8 @@ enum class Target
   kCylinder
 };
 
-LaunchRun launch(terrain::ObjectSet* objects, double speed, const DriveCommand& command, double seconds,
-                 Target target, double face_or_x, double radius = 0.0)
+LaunchRun launch(terrain::ObjectSet* objects, double speed, const DriveCommand& command, double seconds, Target target,
+                 double face_or_x, double radius = 0.0)
 {
   const VehicleModel m = vehicle("fed_alpha");
   auto ground = flatGround(-50.0, 80.0, 30.0);
@@ -189,8 +189,8 @@ LaunchRun launch(terrain::ObjectSet* objects, double speed, const DriveCommand& 
     run.rigid_contact_steps += s.obstacle_rigid_contacts > 0;
     const Eigen::Vector3d v = comVelocity(com, s.centre_of_mass, h);
     com = s.centre_of_mass;
-    const double reach = target == Target::kPlane ? reachPast(m, s, face_or_x) :
-                                                    depthInCylinder(m, s, face_or_x, 0.0, radius);
+    const double reach =
+        target == Target::kPlane ? reachPast(m, s, face_or_x) : depthInCylinder(m, s, face_or_x, 0.0, radius);
     run.max_reach = std::max(run.max_reach, reach);
     if (s.obstacle_contacts > 0 && run.first_contact_time < 0.0)
       run.first_contact_time = world.time();
@@ -214,13 +214,14 @@ TEST(Obstacles, BuildingStopsAVehicleAt15MetresPerSecondWithoutTunnelling)
 {
   terrain::ObjectSet objects;
   // Near face at x = 0: 10 m deep, 14 m wide, 6 m tall.
-  objects.add(object(terrain::ObjectType::kBuilding, 5.0, 0.0, 10.0, 14.0, 6.0,
-                     std::numeric_limits<double>::infinity()));
+  objects.add(
+      object(terrain::ObjectType::kBuilding, 5.0, 0.0, 10.0, 14.0, 6.0, std::numeric_limits<double>::infinity()));
   const LaunchRun run = launch(&objects, 15.0, DriveCommand{ 1.0, 0.0, 0.0 }, 3.5, Target::kPlane, 0.0);
   ASSERT_GT(run.first_contact_time, 0.0) << "never reached the wall";
-  std::printf("building at 15 m/s: deepest reach past the wall %.1f mm; impulse over the first 20 ms %.0f N s, "
-              "momentum change %.0f N s\n",
-              1e3 * run.max_reach, run.impact_impulse_x, run.impact_momentum_change);
+  std::printf(
+      "building at 15 m/s: deepest reach past the wall %.1f mm; impulse over the first 20 ms %.0f N s, "
+      "momentum change %.0f N s\n",
+      1e3 * run.max_reach, run.impact_impulse_x, run.impact_momentum_change);
   EXPECT_LT(run.max_reach, kMaxPenetration);
   // Stopped on the near side, still pushing with full throttle.
   EXPECT_LT(run.final.linear_velocity.norm(), 0.1);
@@ -299,9 +300,10 @@ TEST(Obstacles, WheelsClimbALowRock)
     }
     max_roll = std::max(max_roll, std::abs(std::atan2(s.pose.linear()(2, 1), s.pose.linear()(2, 2))));
   }
-  std::printf("0.25 m rock at 3 m/s: front left wheel's lowest point over the rock's middle %.1f mm above its top "
-              "(%d steps in contact), largest roll %.3f rad\n",
-              1e3 * lowest_on_top, contact_steps_on_top, max_roll);
+  std::printf(
+      "0.25 m rock at 3 m/s: front left wheel's lowest point over the rock's middle %.1f mm above its top "
+      "(%d steps in contact), largest roll %.3f rad\n",
+      1e3 * lowest_on_top, contact_steps_on_top, max_roll);
   EXPECT_GT(lowest_on_top, -0.005);
   EXPECT_LT(lowest_on_top, 0.05);  // on it, not flying over it
   EXPECT_GT(contact_steps_on_top, 0);
@@ -362,10 +364,11 @@ TEST(Obstacles, ShrubToppleseAndTheVehiclePassesLosingLittleSpeed)
   // Momentum lost against the run without the shrub, 50 ms after the shrub went down.
   const std::size_t k = last + 50;
   const double lost = mass * (b[k].linear_velocity.x() - a[k].linear_velocity.x());
-  std::printf("shrub %.0f N at %.0f m/s: in contact %.0f ms, peak force %.0f N, impulse %.2f N s, momentum lost "
-              "against the run without it %.2f N s\n",
-              strength, speed, 1e3 * contact_time, peak_force, -impulse, lost);
-  EXPECT_LE(peak_force, strength * (1.0 + 1e-9));       // resists with at most its strength
+  std::printf(
+      "shrub %.0f N at %.0f m/s: in contact %.0f ms, peak force %.0f N, impulse %.2f N s, momentum lost "
+      "against the run without it %.2f N s\n",
+      strength, speed, 1e3 * contact_time, peak_force, -impulse, lost);
+  EXPECT_LE(peak_force, strength * (1.0 + 1e-9));  // resists with at most its strength
   EXPECT_LE(-impulse, strength * contact_time);
   // Elastic up to its strength over <= 0.1 m: about strength * 0.1 m / v / 2.
   EXPECT_GT(-impulse, 0.25 * strength * 0.1 / speed);
@@ -475,9 +478,10 @@ TEST(Obstacles, TwoVehiclesCollideRatherThanPassThrough)
   }
   ASSERT_GE(contact_step, 0) << "the vehicles never touched";
   const double p_after = m.total_mass * (va_after + vb_after);
-  std::printf("rear-end at %.0f m/s: deepest overlap %.1f mm; |impulse a + impulse b| <= %.3g N s (largest %.0f N s); "
-              "total momentum %.0f -> %.0f N s 30 ms later, a %.2f m/s, b %.2f m/s\n",
-              speed, 1e3 * max_overlap, worst_third_law, largest_impulse, p_before, p_after, va_after, vb_after);
+  std::printf(
+      "rear-end at %.0f m/s: deepest overlap %.1f mm; |impulse a + impulse b| <= %.3g N s (largest %.0f N s); "
+      "total momentum %.0f -> %.0f N s 30 ms later, a %.2f m/s, b %.2f m/s\n",
+      speed, 1e3 * max_overlap, worst_third_law, largest_impulse, p_before, p_after, va_after, vb_after);
   EXPECT_LT(max_overlap, kMaxPenetration);
   EXPECT_LT(worst_third_law, 1e-9 * largest_impulse);
   EXPECT_NEAR(p_after, p_before, 0.03 * p_before);
@@ -506,7 +510,7 @@ TEST(CollisionCounter, CountsContactsBegunAfterASeparation)
   EXPECT_EQ(c.count(), 0u);
   EXPECT_TRUE(c.update(3, 0.002, at(0.0)));  // first contact: a collision
   EXPECT_TRUE(c.inContact());
-  EXPECT_FALSE(c.update(2, 0.003, at(0.0)));  // the same one goes on
+  EXPECT_FALSE(c.update(2, 0.003, at(0.0)));    // the same one goes on
   EXPECT_FALSE(c.update(0, 0.004, at(-0.01)));  // bounces off ...
   EXPECT_FALSE(c.inContact());
   EXPECT_FALSE(c.update(1, 0.010, at(0.0)));  // ... and touches again 7 ms later: the same collision

@@ -77,8 +77,8 @@ TEST(BoundingBox, HoldsEveryPartOfTheReferenceVehicles)
     };
     for (const CollisionBox& c : m.collision_boxes)
       for (int s = 0; s < 8; ++s)
-        EXPECT_TRUE(inside(c.pose * Eigen::Vector3d(s & 1 ? 0.5 : -0.5, s & 2 ? 0.5 : -0.5, s & 4 ? 0.5 : -0.5)
-                                        .cwiseProduct(c.size)));
+        EXPECT_TRUE(inside(
+            c.pose * Eigen::Vector3d(s & 1 ? 0.5 : -0.5, s & 2 ? 0.5 : -0.5, s & 4 ? 0.5 : -0.5).cwiseProduct(c.size)));
     for (const WheelSpec& w : m.wheels)
       for (double dx : { -w.radius, w.radius })
         EXPECT_TRUE(inside(w.rest_position + Eigen::Vector3d(dx, 0.5 * w.width, -w.radius)));

@@ -447,8 +447,8 @@ TEST(PartitionRunner, ASoilPointBothPartitionsChangedIsMerged)
   ASSERT_EQ(s.p.runner->prepare(0.3, 0.31), PartitionRunner::Ready::kReady);
   EXPECT_EQ(s.p.runner->mergedPoints(), 1u);
   const terrain::PointDeformation merged = s.p.sim.ground->deformation(i, j);
-  EXPECT_EQ(merged.plastic, ours.plastic + 0.05f);            // the larger of the two
-  EXPECT_EQ(merged.sigma_max, ours.sigma_max);                // ours, the larger
+  EXPECT_EQ(merged.plastic, ours.plastic + 0.05f);             // the larger of the two
+  EXPECT_EQ(merged.sigma_max, ours.sigma_max);                 // ours, the larger
   EXPECT_FLOAT_EQ(merged.displaced, ours.displaced + 0.002f);  // ours plus the peer's change
   ASSERT_GE(s.log.size(), 2u);
   EXPECT_NE(s.log.back().find("1 soil point(s) changed by both this partition and 'p2' before t = 0.300 s: merged"),
@@ -561,11 +561,11 @@ TEST(PartitionRunnerRefuses, ItsOwnNameAmongThePeers)
 {
   Sim sim({});
   MemoryTransport t;
-  EXPECT_THROW(PartitionRunner(PartitionOptions{ "p1", { "p1" }, kInterval, 4 }, *sim.world, sim.objects, {}, {},
+  EXPECT_THROW(
+      PartitionRunner(PartitionOptions{ "p1", { "p1" }, kInterval, 4 }, *sim.world, sim.objects, {}, {}, model, t),
+      std::invalid_argument);
+  EXPECT_THROW(PartitionRunner(PartitionOptions{ "p1", { "p2", "p2" }, kInterval, 4 }, *sim.world, sim.objects, {}, {},
                                model, t),
-               std::invalid_argument);
-  EXPECT_THROW(PartitionRunner(PartitionOptions{ "p1", { "p2", "p2" }, kInterval, 4 }, *sim.world, sim.objects, {},
-                               {}, model, t),
                std::invalid_argument);
 }
 

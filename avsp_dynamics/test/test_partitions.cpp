@@ -259,10 +259,11 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
   // Without the other, each would have driven well past the meeting point (x = 0) by now.
   EXPECT_LT(e[n - 1].pose.pose.position.x, 0.0);
   EXPECT_GT(w[n - 1].pose.pose.position.x, 0.0);
-  std::printf("[ partitions ] head-on across partitions: closest base_links %.3f m (chassis reach 2 x %.3f m), "
-              "collisions %u / %u, final x %.2f / %.2f m\n",
-              closest, reach, collisions["east"], collisions["west"], e[n - 1].pose.pose.position.x,
-              w[n - 1].pose.pose.position.x);
+  std::printf(
+      "[ partitions ] head-on across partitions: closest base_links %.3f m (chassis reach 2 x %.3f m), "
+      "collisions %u / %u, final x %.2f / %.2f m\n",
+      closest, reach, collisions["east"], collisions["west"], e[n - 1].pose.pose.position.x,
+      w[n - 1].pose.pose.position.x);
   if (strict_ns.empty())
     return;
   // Stepping ahead: while apart, pe stepped before pw's latest exchanges (peers_applied up to
@@ -327,10 +328,11 @@ TEST(PartitionCollide, VehiclesOfTwoPartitionsCollideHeadOn)
     ASSERT_GE(m, static_cast<std::size_t>(100.0 * until)) << v;
     const std::size_t differ = differingMessages(a, b, m, v);
     EXPECT_EQ(differ, 0u) << v << ": " << differ << " of " << m << " odometry messages differ from the strict pair's";
-    std::printf("[ partitions ] %s: %zu messages, %zu differ from the strict lockstep; pe stepped ahead in %zu "
-                "intervals, in %zu of the %zu with the chassis within 0.3 m; held its soil back in %zu, in %zu of "
-                "the %zu within 1 m\n",
-                v.c_str(), m, differ, ahead, ahead_near, near, soil_held, soil_held_near, near_1m);
+    std::printf(
+        "[ partitions ] %s: %zu messages, %zu differ from the strict lockstep; pe stepped ahead in %zu "
+        "intervals, in %zu of the %zu with the chassis within 0.3 m; held its soil back in %zu, in %zu of "
+        "the %zu within 1 m\n",
+        v.c_str(), m, differ, ahead, ahead_near, near, soil_held, soil_held_near, near_1m);
   }
 }
 

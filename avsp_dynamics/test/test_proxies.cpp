@@ -79,8 +79,8 @@ double depthInto(const VehicleModel& m, const Eigen::Isometry3d& a, const Eigen:
 
 struct HeadOn
 {
-  double deepest = -1.0;       ///< m, worst overlap of the true vehicles over the run
-  double closest = 1e9;        ///< m, least distance between the base_links
+  double deepest = -1.0;                     ///< m, worst overlap of the true vehicles over the run
+  double closest = 1e9;                      ///< m, least distance between the base_links
   int contacts_east = 0, contacts_west = 0;  ///< steps with rigid contacts
   VehicleState east, west;
 };
@@ -157,9 +157,10 @@ TEST(Proxies, VehiclesInTwoWorldsCollideHeadOnWithoutPassingThrough)
   EXPECT_GT(met.closest, 2.0 * half_length - 0.05);
   EXPECT_LT(met.deepest, 0.05);
   EXPECT_LT(met.east.pose.translation().x(), met.west.pose.translation().x());
-  std::printf("[proxies] head-on: closest base_links %.3f m (chassis reach 2 x %.3f m), deepest overlap %.1f mm, "
-              "contact steps %d / %d; without proxies overlap %.2f m\n",
-              met.closest, half_length, 1e3 * met.deepest, met.contacts_east, met.contacts_west, apart.deepest);
+  std::printf(
+      "[proxies] head-on: closest base_links %.3f m (chassis reach 2 x %.3f m), deepest overlap %.1f mm, "
+      "contact steps %d / %d; without proxies overlap %.2f m\n",
+      met.closest, half_length, 1e3 * met.deepest, met.contacts_east, met.contacts_west, apart.deepest);
 
   // The same head-on run in one world (both vehicles, no proxies): the layouts differ by the
   // 10 ms delay only (proxies carry the peer's mass). Both stop nose to nose; the difference
@@ -175,10 +176,11 @@ TEST(Proxies, VehiclesInTwoWorldsCollideHeadOnWithoutPassingThrough)
   const double dw = met.west.pose.translation().x() - one.state(west).pose.translation().x();
   EXPECT_LT(std::fabs(de), 0.02);
   EXPECT_LT(std::fabs(dw), 0.02);
-  std::printf("[proxies] one world: east ends at x %.3f m, west at %.3f m; two worlds with proxies: %.3f / %.3f m "
-              "(differences %.3f / %.3f m)\n",
-              one.state(east).pose.translation().x(), one.state(west).pose.translation().x(),
-              met.east.pose.translation().x(), met.west.pose.translation().x(), de, dw);
+  std::printf(
+      "[proxies] one world: east ends at x %.3f m, west at %.3f m; two worlds with proxies: %.3f / %.3f m "
+      "(differences %.3f / %.3f m)\n",
+      one.state(east).pose.translation().x(), one.state(west).pose.translation().x(), met.east.pose.translation().x(),
+      met.west.pose.translation().x(), de, dw);
 }
 
 TEST(Proxies, AProxyFarAwayChangesNothing)

@@ -76,8 +76,8 @@ TEST(RealTimeFactorWindow, BadInputsAreRefused)
 
 TEST(Pacer, PacesAndRestartsAfterAStallInsteadOfSprinting)
 {
-  Pacer p(2.0, 0.1);  // 2x real time
-  EXPECT_EQ(p.due(10.0), -INFINITY);  // no pace yet
+  Pacer p(2.0, 0.1);                    // 2x real time
+  EXPECT_EQ(p.due(10.0), -INFINITY);    // no pace yet
   EXPECT_EQ(p.wait(10.0, 100.0), 0.0);  // anchors: sim 10 s at wall 100 s
   EXPECT_DOUBLE_EQ(p.due(11.0), 100.5);
   EXPECT_NEAR(p.wait(11.0, 100.1), 0.4, 1e-9);  // sim 11 due at wall 100.5

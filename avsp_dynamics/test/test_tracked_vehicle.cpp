@@ -130,8 +130,8 @@ TEST(TrackedVehicle, RestsOnFirmSoilAtItsRideHeight)
       const double a = rw.arm_angle;
       const double x = arm.x() * std::cos(a) + arm.z() * std::sin(a);
       const double z = -arm.x() * std::sin(a) + arm.z() * std::cos(a);
-      const double expected = (seg.applied_normal_force - body(m, spec.link).mass * kG) * std::abs(x) -
-                              seg.traction_force * (-z);
+      const double expected =
+          (seg.applied_normal_force - body(m, spec.link).mass * kG) * std::abs(x) - seg.traction_force * (-z);
       EXPECT_NEAR(rw.torsion_torque, expected, 0.01 * expected);
       // The bar's twist (the damper's share of a standstill's micrometre jiggle: < 0.1 %).
       EXPECT_NEAR(rw.torsion_torque, k * (m.torsion.preload_angle + a), 1e-3 * expected);
@@ -154,9 +154,9 @@ namespace
 /// Mean sinkage and ground pressure of a vehicle's running gear on soft soil.
 struct OnSoft
 {
-  double sinkage = 0.0;   ///< m, mean over segments (wheels) and samples
-  double pressure = 0.0;  ///< Pa, sum of normal forces / area of the loaded grid cells
-  double load = 0.0;      ///< N, sum of normal forces (mean over samples)
+  double sinkage = 0.0;                  ///< m, mean over segments (wheels) and samples
+  double pressure = 0.0;                 ///< Pa, sum of normal forces / area of the loaded grid cells
+  double load = 0.0;                     ///< N, sum of normal forces (mean over samples)
   std::vector<double> sinkages, forces;  ///< per segment (wheel), mean over samples
 };
 
@@ -239,9 +239,10 @@ TEST(TrackedVehicle, SinkageOnBekkerSoilMatchesFlatPlateAndBeatsTheFourByFour)
   }
   EXPECT_NEAR(track.load, weight, 0.01 * weight);
   EXPECT_NEAR(track.sinkage, z_plate, 0.10 * z_plate);
-  std::printf("M113 at rest on dry sand: mean sinkage %.4f m; flat plate at p = W / (2 b L) = %.0f Pa: %.4f m "
-              "(%+.1f %%)\n",
-              track.sinkage, p, z_plate, 100.0 * (track.sinkage / z_plate - 1.0));
+  std::printf(
+      "M113 at rest on dry sand: mean sinkage %.4f m; flat plate at p = W / (2 b L) = %.0f Pa: %.4f m "
+      "(%+.1f %%)\n",
+      track.sinkage, p, z_plate, 100.0 * (track.sinkage / z_plate - 1.0));
   // Each segment against the plate law at its own load.
   const double segment_area = b * length / m.tracks[0].road_wheels.size();
   for (std::size_t k = 0; k < track.sinkages.size(); ++k)
@@ -263,8 +264,8 @@ TEST(TrackedVehicle, SinkageOnBekkerSoilMatchesFlatPlateAndBeatsTheFourByFour)
     {
       const double error = 0.5 - world.state(id).body_velocity.x();
       integral = std::clamp(integral + 0.3 * error * world.options().step, 0.0, 1.0);
-      world.setCommand(id, DriveCommand{ world.time() > 2.0 ? std::clamp(0.5 * error + integral, 0.0, 1.0) : 0.0,
-                                         0.0, 0.0 });
+      world.setCommand(
+          id, DriveCommand{ world.time() > 2.0 ? std::clamp(0.5 * error + integral, 0.0, 1.0) : 0.0, 0.0, 0.0 });
       world.step();
       if (world.state(id).pose.translation().x() > -2.3)
       {
@@ -275,9 +276,10 @@ TEST(TrackedVehicle, SinkageOnBekkerSoilMatchesFlatPlateAndBeatsTheFourByFour)
     ASSERT_GT(samples, 100);
     finish(wheels, area, samples);
   }
-  std::printf("ground pressure: M113 %.0f Pa (nominal W / (2 b L) %.0f), fed_alpha %.0f Pa; sinkage: M113 %.4f m, "
-              "fed_alpha %.4f m\n",
-              track.pressure, p, wheels.pressure, track.sinkage, wheels.sinkage);
+  std::printf(
+      "ground pressure: M113 %.0f Pa (nominal W / (2 b L) %.0f), fed_alpha %.0f Pa; sinkage: M113 %.4f m, "
+      "fed_alpha %.4f m\n",
+      track.pressure, p, wheels.pressure, track.sinkage, wheels.sinkage);
   // Loaded cells' area counts the cells the tracks and tyres partly cover along their edges:
   // both pressures read low by the same half-cell rims; the carrier's is still within 20 % of
   // W / (2 b L) and well below the 4x4's.
@@ -328,9 +330,10 @@ TEST(TrackedVehicle, DrivesStraightWithT10Slip)
         segment_slip += seg.slip / t.segments.size();
       EXPECT_NEAR(segment_slip, closed, 5e-5 + 0.02 * closed);
       EXPECT_GT(t.slip, -1e-3);
-      std::printf("%s %s track: v = %.4f m/s, r_s omega = %.4f m/s, slip %.5f (closed form %.5f, segments' mean "
-                  "%.5f)\n",
-                  soil.c_str(), t.side.c_str(), v, r_s * t.sprocket_speed, t.slip, closed, segment_slip);
+      std::printf(
+          "%s %s track: v = %.4f m/s, r_s omega = %.4f m/s, slip %.5f (closed form %.5f, segments' mean "
+          "%.5f)\n",
+          soil.c_str(), t.side.c_str(), v, r_s * t.sprocket_speed, t.slip, closed, segment_slip);
     }
     EXPECT_GT(s.body_velocity.x(), 0.85 * target);
     EXPECT_LT(std::abs(s.pose.translation().y()), 0.05) << "it should run straight";
@@ -374,8 +377,8 @@ TEST(TrackedVehicle, SprocketSpeedDifferenceTurnsIt)
     EXPECT_GT(steering * s.angular_velocity.z(), 0.0);
     EXPECT_LT(std::abs(s.angular_velocity.z()), 2.0 * std::abs(v) / gauge);
     EXPECT_LT((s.pose.translation() - start).head<2>().norm(), 0.1);
-    std::printf("turn in place, steering %+.0f: yaw rate %.3f rad/s (no-slip %.3f), centre moved %.3f m\n",
-                steering, s.angular_velocity.z(), 2.0 * v / gauge, (s.pose.translation() - start).head<2>().norm());
+    std::printf("turn in place, steering %+.0f: yaw rate %.3f rad/s (no-slip %.3f), centre moved %.3f m\n", steering,
+                s.angular_velocity.z(), 2.0 * v / gauge, (s.pose.translation() - start).head<2>().norm());
   }
   for (const double steering : { 0.3, -0.3 })
   {
@@ -592,9 +595,8 @@ TEST(TrackedVehicle, BadModelsNameTheKey)
   for (int k = 2; k <= 5; ++k)
   {
     const std::string n = std::to_string(k);
-    one_wheel.emplace_back("      - {arm_joint: left_road_arm_" + n + "_swing, spin_joint: left_road_wheel_" + n +
-                               "_spin}\n",
-                           "");
+    one_wheel.emplace_back(
+        "      - {arm_joint: left_road_arm_" + n + "_swing, spin_joint: left_road_wheel_" + n + "_spin}\n", "");
   }
   what = loadError(one_wheel);
   EXPECT_NE(what.find("road_wheels"), std::string::npos) << what;

@@ -166,10 +166,10 @@ struct Figures
 {
   const char* model;
   DriveType type;
-  double total_mass;   // kg
-  double wheelbase;    // m (tracked: ground contact length)
-  double track_width;  // m (tracked: gauge)
-  double wheel_radius; // m (tracked: road wheel)
+  double total_mass;         // kg
+  double wheelbase;          // m (tracked: ground contact length)
+  double track_width;        // m (tracked: gauge)
+  double wheel_radius;       // m (tracked: road wheel)
   std::size_t running_gear;  // wheels, or road wheels over both tracks
 };
 
@@ -214,13 +214,12 @@ TEST_P(ReferenceVehicle, LoadsWithPublishedFigures)
   EXPECT_GT(m.sensor_mounts.at("lidar").z(), 0.3);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Team, ReferenceVehicle,
-    ::testing::Values(Figures{ "fed_alpha", DriveType::kAckermann, 5710.0, 3.30, 1.90, 0.546, 4 },
-                      Figures{ "mrzr", DriveType::kAckermann, 888.0, 2.90, 1.27, 0.343, 4 },
-                      Figures{ "tracer_x", DriveType::kSkidSteer, 80.0, 0.55, 0.62, 0.165, 4 },
-                      Figures{ "m113", DriveType::kTracked, 12300.0, 2.67, 2.30, 0.305, 10 }),
-    [](const ::testing::TestParamInfo<Figures>& info) { return std::string(info.param.model); });
+INSTANTIATE_TEST_SUITE_P(Team, ReferenceVehicle,
+                         ::testing::Values(Figures{ "fed_alpha", DriveType::kAckermann, 5710.0, 3.30, 1.90, 0.546, 4 },
+                                           Figures{ "mrzr", DriveType::kAckermann, 888.0, 2.90, 1.27, 0.343, 4 },
+                                           Figures{ "tracer_x", DriveType::kSkidSteer, 80.0, 0.55, 0.62, 0.165, 4 },
+                                           Figures{ "m113", DriveType::kTracked, 12300.0, 2.67, 2.30, 0.305, 10 }),
+                         [](const ::testing::TestParamInfo<Figures>& info) { return std::string(info.param.model); });
 
 TEST(VehicleModel, M113SprocketMatchesTrackPitchByT10)
 {
@@ -514,8 +513,9 @@ TEST(VehicleModelPlausible, LinkMassOutsideRangeNamesFileLinkAndRange)
 {
   ScratchConfig huge("mrzr");
   huge.editUrdf("<mass value=\"770\"/>", "<mass value=\"1e308\"/>");
-  EXPECT_CONTAINS(loadError(huge.write()),
-                  huge.urdfPath() + ": link 'chassis': mass 1e+308 kg is outside the plausible range [0.001, 200000] kg");
+  EXPECT_CONTAINS(
+      loadError(huge.write()),
+      huge.urdfPath() + ": link 'chassis': mass 1e+308 kg is outside the plausible range [0.001, 200000] kg");
   ScratchConfig tiny("mrzr");
   tiny.editUrdf("<mass value=\"770\"/>", "<mass value=\"1e-6\"/>");
   EXPECT_CONTAINS(loadError(tiny.write()), ": link 'chassis': mass 1e-06 kg is outside the plausible range");
@@ -523,8 +523,7 @@ TEST(VehicleModelPlausible, LinkMassOutsideRangeNamesFileLinkAndRange)
   ScratchConfig heavy("mrzr");
   heavy.editUrdf("<mass value=\"770\"/>", "<mass value=\"200000\"/>");
   heavy.editUrdf("<mass value=\"15\"/>", "<mass value=\"150000\"/>");
-  EXPECT_CONTAINS(loadError(heavy.write()),
-                  heavy.urdfPath() + ": the links' total mass 350");
+  EXPECT_CONTAINS(loadError(heavy.write()), heavy.urdfPath() + ": the links' total mass 350");
   EXPECT_CONTAINS(loadError(heavy.write()), "kg is outside the plausible range [0.2, 300000] kg");
 }
 
@@ -566,17 +565,19 @@ TEST(VehicleModelPlausible, WheelRadiusAndWidthOutsideRange)
              R"(<collision>
       <origin xyz="0 0 0" rpy="1.5708 0 0"/>
       <geometry><cylinder radius="0.305" length="100"/></geometry>)");
-  EXPECT_CONTAINS(loadError(m.write()), "link 'left_road_wheel_1': collision cylinder length (width) 100 m is outside "
-                                        "the plausible range [0.002, 5] m");
+  EXPECT_CONTAINS(loadError(m.write()),
+                  "link 'left_road_wheel_1': collision cylinder length (width) 100 m is outside "
+                  "the plausible range [0.002, 5] m");
 }
 
 TEST(VehicleModelPlausible, LinksFarFromBaseLinkAreRefused)
 {
   ScratchConfig chassis("fed_alpha");
   chassis.editUrdf(R"(<origin xyz="0 0 0.55" rpy="0 0 0"/>)", R"(<origin xyz="1e308 0 0.55" rpy="0 0 0"/>)");
-  EXPECT_CONTAINS(loadError(chassis.write()), chassis.urdfPath() + ": joint 'chassis_mount': link 'chassis' at rest is "
-                                                                   "inf m from base_link, outside the plausible range "
-                                                                   "[0, 50] m");
+  EXPECT_CONTAINS(loadError(chassis.write()), chassis.urdfPath() +
+                                                  ": joint 'chassis_mount': link 'chassis' at rest is "
+                                                  "inf m from base_link, outside the plausible range "
+                                                  "[0, 50] m");
   ScratchConfig lidar("fed_alpha");
   lidar.editUrdf(R"(<origin xyz="1 0 1.4" rpy="0 0 0"/>)", R"(<origin xyz="60 0 1.4" rpy="0 0 0"/>)");
   EXPECT_CONTAINS(loadError(lidar.write()), "joint 'lidar_mount': link 'lidar' at rest is 60.0");
@@ -617,16 +618,19 @@ TEST(VehicleModelPlausible, JointLimitsOutsideRange)
   ScratchConfig susp("fed_alpha");
   susp.editUrdf(R"(<limit lower="-0.15" upper="0.15")", R"(<limit lower="-1e308" upper="0.15")");
   EXPECT_CONTAINS(loadError(susp.write()),
-                  susp.urdfPath() + ": joint 'front_left_suspension': limits [-1e+308, 0.15] m are outside the "
-                                    "plausible range [-2, 2] m (suspension travel)");
+                  susp.urdfPath() +
+                      ": joint 'front_left_suspension': limits [-1e+308, 0.15] m are outside the "
+                      "plausible range [-2, 2] m (suspension travel)");
   ScratchConfig steer("fed_alpha");
   steer.editUrdf(R"(<limit lower="-0.6" upper="0.6")", R"(<limit lower="-0.6" upper="100")");
-  EXPECT_CONTAINS(loadError(steer.write()), "joint 'front_left_steering': limits [-0.6, 100] rad are outside the "
-                                            "plausible range [-3.14159, 3.14159] rad");
+  EXPECT_CONTAINS(loadError(steer.write()),
+                  "joint 'front_left_steering': limits [-0.6, 100] rad are outside the "
+                  "plausible range [-3.14159, 3.14159] rad");
   ScratchConfig arm("m113");
   arm.editUrdf(R"(<limit lower="-0.45" upper="0.45")", R"(<limit lower="-0.45" upper="3")");
-  EXPECT_CONTAINS(loadError(arm.write()), "joint 'left_road_arm_1_swing': limits [-0.45, 3] rad are outside the "
-                                          "plausible range [-1.5708, 1.5708] rad");
+  EXPECT_CONTAINS(loadError(arm.write()),
+                  "joint 'left_road_arm_1_swing': limits [-0.45, 3] rad are outside the "
+                  "plausible range [-1.5708, 1.5708] rad");
 }
 
 // Every physical YAML key outside its range: the refusal names the file, the key and the range.
@@ -759,7 +763,8 @@ void scaleVehicle(ScratchConfig& c, double s)
     else if (line.find("<inertia") != std::string::npos)
     {
       const double i = std::pow(s, 5);
-      line = scaleAttributes(line, { { "ixx", i }, { "ixy", i }, { "ixz", i }, { "iyy", i }, { "iyz", i }, { "izz", i } });
+      line =
+          scaleAttributes(line, { { "ixx", i }, { "ixy", i }, { "ixz", i }, { "iyy", i }, { "iyz", i }, { "izz", i } });
     }
     else if (line.find("<limit") != std::string::npos && joint_type == "prismatic")
       line = scaleAttributes(line, { { "lower", s }, { "upper", s } });
@@ -769,14 +774,30 @@ void scaleVehicle(ScratchConfig& c, double s)
 
   // The power of s of each YAML number's unit.
   static const std::map<std::string, double> exponent{
-    { "stiffness", 2.0 },          { "damping", 2.5 },           { "preload_deflection", 1.0 },
-    { "torsion_stiffness", 4.0 },  { "torsion_damping", 4.5 },   { "preload_angle", 0.0 },
-    { "max_angle", 0.0 },          { "max_rate", -0.5 },         { "pitch", 1.0 },
-    { "sprocket_teeth", 0.0 },     { "shoe_width", 1.0 },        { "coefficient", 0.0 },
-    { "per_speed", -0.5 },         { "engine_max_torque", 4.0 }, { "engine_max_power", 3.5 },
-    { "gear_ratio", 0.0 },         { "efficiency", 0.0 },        { "max_speed", 0.5 },
-    { "reverse_max_speed", 0.5 },  { "max_torque", 4.0 },        { "vertical_stiffness", 2.0 },
-    { "longitudinal_stiffness", 0.0 }, { "cornering_stiffness", 0.0 }, { "relaxation_length", 1.0 },
+    { "stiffness", 2.0 },
+    { "damping", 2.5 },
+    { "preload_deflection", 1.0 },
+    { "torsion_stiffness", 4.0 },
+    { "torsion_damping", 4.5 },
+    { "preload_angle", 0.0 },
+    { "max_angle", 0.0 },
+    { "max_rate", -0.5 },
+    { "pitch", 1.0 },
+    { "sprocket_teeth", 0.0 },
+    { "shoe_width", 1.0 },
+    { "coefficient", 0.0 },
+    { "per_speed", -0.5 },
+    { "engine_max_torque", 4.0 },
+    { "engine_max_power", 3.5 },
+    { "gear_ratio", 0.0 },
+    { "efficiency", 0.0 },
+    { "max_speed", 0.5 },
+    { "reverse_max_speed", 0.5 },
+    { "max_torque", 4.0 },
+    { "vertical_stiffness", 2.0 },
+    { "longitudinal_stiffness", 0.0 },
+    { "cornering_stiffness", 0.0 },
+    { "relaxation_length", 1.0 },
   };
   static const std::regex key_number(R"re(^(\s*)([a-z_]+): ([-+0-9.eE]+)(\s.*)?$)re");
   std::istringstream yaml(c.yaml());

@@ -292,8 +292,8 @@ TEST(VehicleSim, StaticSinkageOnBekkerSoilMatchesT13)
   const RollingAverage avg = rollAndAverage(world, id, -2.3, -1.3);
   for (std::size_t i = 0; i < m.wheels.size(); ++i)
   {
-    const double z_t13 = terrain::bekkerStaticSinkageClosedForm(soil, 2 * m.wheels[i].radius, m.wheels[i].width,
-                                                                avg.normal_force[i]);
+    const double z_t13 =
+        terrain::bekkerStaticSinkageClosedForm(soil, 2 * m.wheels[i].radius, m.wheels[i].width, avg.normal_force[i]);
     EXPECT_NEAR(avg.sinkage[i], z_t13, 0.10 * z_t13) << m.wheels[i].name << " rolling, N = " << avg.normal_force[i];
   }
 }
@@ -709,9 +709,9 @@ TEST(VehicleSim, ClimbsBelowTheSoilsTractionLimitAndGetsStuckAboveIt)
   // sin(theta) = (c A - 4 R(theta)) / W + cos(theta) tan(phi): fixed point, a few rounds.
   double theta_max = 0.5 * sand.friction_angle;
   for (int k = 0; k < 30; ++k)
-    theta_max = std::asin(std::clamp((sand.cohesion * area - compaction(theta_max)) / weight +
-                                         std::cos(theta_max) * std::tan(sand.friction_angle),
-                                     0.0, 1.0));
+    theta_max = std::asin(std::clamp(
+        (sand.cohesion * area - compaction(theta_max)) / weight + std::cos(theta_max) * std::tan(sand.friction_angle),
+        0.0, 1.0));
   // One motor per side (the YAML's figures are per motor): two of driveForceAvailable().
   const double engine_limit = std::asin(std::min(1.0, 2.0 * driveForceAvailable(m, 0.5) / weight));
   ASSERT_GT(engine_limit, theta_max + 4.0 * M_PI / 180.0) << "the engine, not the soil, would limit the climb";
@@ -720,8 +720,8 @@ TEST(VehicleSim, ClimbsBelowTheSoilsTractionLimitAndGetsStuckAboveIt)
   for (const bool above : { false, true })
   {
     const double theta = above ? theta_max + 3.0 * M_PI / 180.0 : 0.3 * theta_max;
-    SCOPED_TRACE(::testing::Message() << "slope " << theta * 180.0 / M_PI << " deg, limit "
-                                      << theta_max * 180.0 / M_PI << " deg");
+    SCOPED_TRACE(::testing::Message() << "slope " << theta * 180.0 / M_PI << " deg, limit " << theta_max * 180.0 / M_PI
+                                      << " deg");
     auto ground = makeTerrain(sand, 40, 10, res, std::tan(theta));
     World world(*ground);
     const std::size_t id = world.addVehicle(m, onSlope(m, theta));
@@ -922,9 +922,10 @@ TEST(VehicleSim, SkidToAStopDoesNotSpringBack)
   for (const char* name : { "asphalt", "sandy_loam" })
   {
     const terrain::SoilParameters soil = soils().get(name);
-    const double bound = soil.model == terrain::SinkageModel::kRigid ?
-                             soil.friction_peak * m.firm_ground.relaxation_length / m.firm_ground.longitudinal_stiffness :
-                             soil.shear_modulus;
+    const double bound =
+        soil.model == terrain::SinkageModel::kRigid
+            ? soil.friction_peak * m.firm_ground.relaxation_length / m.firm_ground.longitudinal_stiffness
+            : soil.shear_modulus;
     auto ground = makeTerrain(soil, 60, 8, 0.1);
     World world(*ground);
     const std::size_t id = world.addVehicle(m, world.restingPose(m, -25.0, 0.0, 0.0, 0.005));

@@ -114,9 +114,9 @@ TEST(WheelOdometry, StartsAtTheGivenPoseAndHeading)
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
   start.translation() = Eigen::Vector3d(10.0, -5.0, 1.2);
   // Heading 30 deg, pitched 10 deg: only the heading is kept.
-  start.linear() = (Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ()) *
-                    Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitY()))
-                       .toRotationMatrix();
+  start.linear() =
+      (Eigen::AngleAxisd(M_PI / 6, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitY()))
+          .toRotationMatrix();
   WheelOdometry o(start);
   EXPECT_NEAR(o.yaw(), M_PI / 6, 1e-12);
   o.step(1.0, 0.0, 2.0);

@@ -124,10 +124,11 @@ int main(int argc, char** argv)
           hits += cls != kClassNone;
         pixels += frame.semantic.size();
       }
-      std::printf("640x480 RGB+depth+semantic, shadows %s, %u thread(s): %.1f fps mean (%.1f ms/frame), best %.1f ms; "
-                  "%.0f %% of pixels hit something; CPU %.1f ms/frame (all threads)\n",
-                  shadows ? "on " : "off", threads, frames / total, 1e3 * total / frames, 1e3 * best,
-                  100.0 * hits / pixels, 1e3 * cpu / frames);
+      std::printf(
+          "640x480 RGB+depth+semantic, shadows %s, %u thread(s): %.1f fps mean (%.1f ms/frame), best %.1f ms; "
+          "%.0f %% of pixels hit something; CPU %.1f ms/frame (all threads)\n",
+          shadows ? "on " : "off", threads, frames / total, 1e3 * total / frames, 1e3 * best, 100.0 * hits / pixels,
+          1e3 * cpu / frames);
     }
   }
   return 0;

@@ -24,12 +24,12 @@ namespace
 void time(const char* name, const std::vector<Eigen::Vector3d>& p, double eps, std::size_t m)
 {
   DbscanResult grid;
-  for (const NeighbourSearch s : { NeighbourSearch::kGrid, NeighbourSearch::kKdTree, NeighbourSearch::kPclKdTree,
-                                   NeighbourSearch::kPclOctree })
+  for (const NeighbourSearch s :
+       { NeighbourSearch::kGrid, NeighbourSearch::kKdTree, NeighbourSearch::kPclKdTree, NeighbourSearch::kPclOctree })
   {
     double best = 1e300, first = 0.0;
     DbscanResult r;
-    Dbscan clusterer;  // as a radar keeps it: buffers reused from scan to scan
+    Dbscan clusterer;                   // as a radar keeps it: buffers reused from scan to scan
     for (int rep = 0; rep < 15; ++rep)  // best of 15: the machine is shared
     {
       const auto t0 = Clock::now();
@@ -44,10 +44,11 @@ void time(const char* name, const std::vector<Eigen::Vector3d>& p, double eps, s
       noise += l < 0;
     if (s == NeighbourSearch::kGrid)
       grid = r;
-    std::printf("dbscan %-10s %-36s %zu points, eps %.2f m, min %zu: %6.2f ms (first call, allocating: %.2f ms), "
-                "%zu clusters, %zu noise%s\n",
-                toString(s), name, p.size(), eps, m, 1e3 * best, 1e3 * first, r.clusters, noise,
-                r.labels == grid.labels ? "" : "  LABELS DIFFER FROM THE GRID'S");
+    std::printf(
+        "dbscan %-10s %-36s %zu points, eps %.2f m, min %zu: %6.2f ms (first call, allocating: %.2f ms), "
+        "%zu clusters, %zu noise%s\n",
+        toString(s), name, p.size(), eps, m, 1e3 * best, 1e3 * first, r.clusters, noise,
+        r.labels == grid.labels ? "" : "  LABELS DIFFER FROM THE GRID'S");
   }
 }
 }  // namespace

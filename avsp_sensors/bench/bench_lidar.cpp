@@ -45,11 +45,12 @@ int main(int argc, char** argv)
           scan = lidar.scan(scene, req);
           best = std::min(best, std::chrono::duration<double>(Clock::now() - t0).count());
         }
-        std::printf("%-8s %s %u thread%s: %6.1f ms/sweep (%4.2f x real time), %zu pulses x %zu sub-rays, "
-                    "%.2f M rays/s, %zu points (%zu from snow)\n",
-                    name.c_str(), snow ? "snow 2 mm/h" : "clear      ", threads, threads > 1 ? "s" : " ", 1e3 * best,
-                    scan.duration / best, scan.pulses, lidar.subRays(), scan.rays / best / 1e6, scan.points.size(),
-                    scan.clutter);
+        std::printf(
+            "%-8s %s %u thread%s: %6.1f ms/sweep (%4.2f x real time), %zu pulses x %zu sub-rays, "
+            "%.2f M rays/s, %zu points (%zu from snow)\n",
+            name.c_str(), snow ? "snow 2 mm/h" : "clear      ", threads, threads > 1 ? "s" : " ", 1e3 * best,
+            scan.duration / best, scan.pulses, lidar.subRays(), scan.rays / best / 1e6, scan.points.size(),
+            scan.clutter);
       }
   }
   return 0;

@@ -63,10 +63,11 @@ int main(int argc, char** argv)
   std::sort(times.begin(), times.end());
   std::printf("VLP-16 sweep at (%.0f, %.0f), 2 m up, 5 m/s: %zu points; %zu ground, %zu above %.2f m\n", x, y,
               scan.points.size(), r.ground_points, r.object_points, config.ground_clearance);
-  std::printf("lidar clustering (1 thread, tolerance %.2f m on x-y, min %zu points): best %.2f ms, median %.2f ms "
-              "per sweep; %zu clusters (largest %zu points), %zu groups joined by ring links\n",
-              config.cluster_tolerance, config.min_points, 1e3 * times.front(), 1e3 * times[times.size() / 2],
-              r.clusters.size(), r.clusters.empty() ? std::size_t{ 0 } : r.clusters.front().size(), r.ring_links);
+  std::printf(
+      "lidar clustering (1 thread, tolerance %.2f m on x-y, min %zu points): best %.2f ms, median %.2f ms "
+      "per sweep; %zu clusters (largest %zu points), %zu groups joined by ring links\n",
+      config.cluster_tolerance, config.min_points, 1e3 * times.front(), 1e3 * times[times.size() / 2],
+      r.clusters.size(), r.clusters.empty() ? std::size_t{ 0 } : r.clusters.front().size(), r.ring_links);
   {
     LidarClusterConfig plain = config;
     plain.ring_link_angle = 0.5 * 3.14159265358979323846;  // no ring links: the plan tolerance alone
@@ -133,8 +134,9 @@ int main(int argc, char** argv)
     double g = 0.0;
     wrong += terrain(p.x, p.y, g) && p.z - g >= config.ground_clearance;
   }
-  std::printf("progressive morphological filter: %.1f ms, %zu ground points, %zu of them more than %.2f m above "
-              "the terrain (object points lost)\n",
-              1e3 * pmf_time, ground.size(), wrong, config.ground_clearance);
+  std::printf(
+      "progressive morphological filter: %.1f ms, %zu ground points, %zu of them more than %.2f m above "
+      "the terrain (object points lost)\n",
+      1e3 * pmf_time, ground.size(), wrong, config.ground_clearance);
   return 0;
 }

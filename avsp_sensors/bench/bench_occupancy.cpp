@@ -116,11 +116,12 @@ int main(int argc, char** argv)
     std::size_t occupied = 0;
     for (const OccupiedCell& c : map.occupiedCells())
       occupied += c.size <= config.resolution * 1.5;
-    std::printf("insert at 0.2 m, max_range %5.0f m, discretize %-3s, voxel filter %-3s, %u thread%s: first sweep "
-                "%6.1f ms; next %d sweeps mean %6.1f ms, worst %6.1f ms; %zu leaves, %zu occupied voxels, %.1f MB\n",
-                max_range, discretize ? "yes" : "no", v.voxel_filter ? "yes" : "no", v.threads,
-                v.threads > 1 ? "s" : " ", 1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst,
-                map.leafCount(), occupied, map.memoryUsage() / 1e6);
+    std::printf(
+        "insert at 0.2 m, max_range %5.0f m, discretize %-3s, voxel filter %-3s, %u thread%s: first sweep "
+        "%6.1f ms; next %d sweeps mean %6.1f ms, worst %6.1f ms; %zu leaves, %zu occupied voxels, %.1f MB\n",
+        max_range, discretize ? "yes" : "no", v.voxel_filter ? "yes" : "no", v.threads, v.threads > 1 ? "s" : " ",
+        1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst, map.leafCount(), occupied,
+        map.memoryUsage() / 1e6);
     if (max_range == 30.0 && !discretize && v.threads == 1 && !v.voxel_filter)
     {
       GridProjection g;

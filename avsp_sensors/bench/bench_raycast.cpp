@@ -35,8 +35,8 @@ int main(int argc, char** argv)
   const int azimuths = argc > 2 ? std::atoi(argv[2]) : 1024;
   auto t0 = Clock::now();
   const avsp::terrain::Course course = avsp::terrain::makeDefaultCourse(avsp::terrain::CourseOptions());
-  std::printf("default course built in %.1f s: %zu x %zu points, %zu objects\n", seconds(t0),
-              course.heights.columns(), course.heights.rows(), course.objects.size());
+  std::printf("default course built in %.1f s: %zu x %zu points, %zu objects\n", seconds(t0), course.heights.columns(),
+              course.heights.rows(), course.objects.size());
   t0 = Clock::now();
   Scene scene(HeightField::fromGrid(course.heights));
   const double build_s = seconds(t0);
@@ -108,13 +108,14 @@ int main(int argc, char** argv)
       if (h.hit())
         range_sum += h.range;
     }
-    std::printf("%u thread%s: %zu rays in %.3f s = %.2f M rays/s (%.2f M/s per thread); hits: %.1f%% terrain, "
-                "%.1f%% objects, %.1f%% none; mean hit range %.1f m; CPU %.3f s (all threads) = %.2f M rays per "
-                "CPU-second\n",
-                threads, threads > 1 ? "s" : "", rays.size(), best, rays.size() / best / 1e6,
-                rays.size() / best / 1e6 / threads, 100.0 * terrain / hits.size(), 100.0 * objects / hits.size(),
-                100.0 * none / hits.size(), range_sum / std::max<std::size_t>(1, terrain + objects), best_cpu,
-                rays.size() / best_cpu / 1e6);
+    std::printf(
+        "%u thread%s: %zu rays in %.3f s = %.2f M rays/s (%.2f M/s per thread); hits: %.1f%% terrain, "
+        "%.1f%% objects, %.1f%% none; mean hit range %.1f m; CPU %.3f s (all threads) = %.2f M rays per "
+        "CPU-second\n",
+        threads, threads > 1 ? "s" : "", rays.size(), best, rays.size() / best / 1e6,
+        rays.size() / best / 1e6 / threads, 100.0 * terrain / hits.size(), 100.0 * objects / hits.size(),
+        100.0 * none / hits.size(), range_sum / std::max<std::size_t>(1, terrain + objects), best_cpu,
+        rays.size() / best_cpu / 1e6);
   }
   return 0;
 }

@@ -17,9 +17,18 @@ namespace
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-float luminance(const Eigen::Vector3f& c) { return 0.2126f * c.x() + 0.7152f * c.y() + 0.0722f * c.z(); }
-Eigen::Vector3f normalised(const Eigen::Vector3f& c) { return c / luminance(c); }
-double clamp01(double x) { return std::min(1.0, std::max(0.0, x)); }
+float luminance(const Eigen::Vector3f& c)
+{
+  return 0.2126f * c.x() + 0.7152f * c.y() + 0.0722f * c.z();
+}
+Eigen::Vector3f normalised(const Eigen::Vector3f& c)
+{
+  return c / luminance(c);
+}
+double clamp01(double x)
+{
+  return std::min(1.0, std::max(0.0, x));
+}
 
 /// Kasten-Young relative air mass at elevation h (deg, > -6).
 double airMass(double h_deg)
@@ -144,15 +153,18 @@ void CameraMaterials::setSoils(std::vector<SoilLook> palette, std::vector<std::u
   {
     const SoilLook& s = palette[k];
     if (!(s.wetness >= 0.f && s.wetness <= 1.f))
-      throw std::invalid_argument("CameraMaterials::setSoils: palette[" + std::to_string(k) + "].wetness must be in [0, 1]");
+      throw std::invalid_argument("CameraMaterials::setSoils: palette[" + std::to_string(k) +
+                                  "].wetness must be in [0, 1]");
     if (!(s.albedo.minCoeff() >= 0.f && s.albedo.maxCoeff() <= 1.f))
-      throw std::invalid_argument("CameraMaterials::setSoils: palette[" + std::to_string(k) + "].albedo must be in [0, 1]");
-    classes.push_back(s.name == "asphalt" ? static_cast<std::uint8_t>(kClassRoad) : static_cast<std::uint8_t>(kClassSoilBase + k));
+      throw std::invalid_argument("CameraMaterials::setSoils: palette[" + std::to_string(k) +
+                                  "].albedo must be in [0, 1]");
+    classes.push_back(s.name == "asphalt" ? static_cast<std::uint8_t>(kClassRoad)
+                                          : static_cast<std::uint8_t>(kClassSoilBase + k));
   }
   for (std::size_t k = 0; k < soil_map.size(); ++k)
     if (soil_map[k] >= palette.size())
-      throw std::invalid_argument("CameraMaterials::setSoils: soil_map[" + std::to_string(k) + "] = " +
-                                  std::to_string(soil_map[k]) + " is not in the palette");
+      throw std::invalid_argument("CameraMaterials::setSoils: soil_map[" + std::to_string(k) +
+                                  "] = " + std::to_string(soil_map[k]) + " is not in the palette");
   soils_ = std::move(palette);
   soil_map_ = std::move(soil_map);
   soil_class_ = std::move(classes);
@@ -185,7 +197,8 @@ std::size_t CameraMaterials::soilAt(const HeightField& terrain, double x, double
     return 0;
   const double fi = std::round((x - terrain.originX()) / terrain.dx());
   const double fj = std::round((y - terrain.originY()) / terrain.dy());
-  const std::size_t i = static_cast<std::size_t>(std::min(std::max(fi, 0.0), static_cast<double>(terrain.columns() - 1)));
+  const std::size_t i =
+      static_cast<std::size_t>(std::min(std::max(fi, 0.0), static_cast<double>(terrain.columns() - 1)));
   const std::size_t j = static_cast<std::size_t>(std::min(std::max(fj, 0.0), static_cast<double>(terrain.rows() - 1)));
   const std::size_t k = j * terrain.columns() + i;
   return k < soil_map_.size() ? soil_map_[k] : 0;
@@ -215,10 +228,12 @@ std::uint8_t CameraMaterials::classOf(const RayHit& hit, const HeightField& terr
 
 std::vector<ClassEntry> CameraMaterials::classTable() const
 {
-  std::vector<ClassEntry> t{ { kClassNone, "sky" },       { kClassTerrain, "terrain" }, { kClassRoad, "road" },
-                             { kClassVegetation, "vegetation" }, { kClassRock, "rock" },   { kClassBuilding, "building" },
-                             { kClassBarrier, "barrier" }, { kClassFence, "fence" },     { kClassVehicle, "vehicle" },
-                             { kClassPerson, "person" },   { kClassAnimal, "animal" },   { kClassPole, "pole" } };
+  std::vector<ClassEntry> t{ { kClassNone, "sky" },        { kClassTerrain, "terrain" },
+                             { kClassRoad, "road" },       { kClassVegetation, "vegetation" },
+                             { kClassRock, "rock" },       { kClassBuilding, "building" },
+                             { kClassBarrier, "barrier" }, { kClassFence, "fence" },
+                             { kClassVehicle, "vehicle" }, { kClassPerson, "person" },
+                             { kClassAnimal, "animal" },   { kClassPole, "pole" } };
   for (std::size_t k = 0; k < soils_.size(); ++k)
     if (soil_class_[k] != kClassRoad)
       t.push_back({ soil_class_[k], "terrain/" + soils_[k].name });
@@ -298,9 +313,7 @@ SkyLight skyLight(const CameraEnvironment& env)
 // ---- configuration -----------------------------------------------------------------------
 void validateCameraConfig(const CameraConfig& c)
 {
-  auto fail = [&](const std::string& what) {
-    throw std::invalid_argument("CameraConfig '" + c.name + "': " + what);
-  };
+  auto fail = [&](const std::string& what) { throw std::invalid_argument("CameraConfig '" + c.name + "': " + what); };
   if (c.width < 1 || c.width > 8192)
     fail("width must be in [1, 8192], got " + std::to_string(c.width));
   if (c.height < 1 || c.height > 8192)
@@ -461,8 +474,8 @@ struct SrgbThresholds
       t[k - 1] = static_cast<float>(s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4));
     }
     for (int b = 0; b < kBuckets; ++b)
-      start[b] = static_cast<std::uint8_t>(
-          std::upper_bound(t.begin(), t.end(), static_cast<float>(b) / kBuckets) - t.begin());
+      start[b] =
+          static_cast<std::uint8_t>(std::upper_bound(t.begin(), t.end(), static_cast<float>(b) / kBuckets) - t.begin());
   }
 };
 const SrgbThresholds kSrgb;
@@ -562,11 +575,11 @@ CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials,
   const double v = env.weather.fog_visibility;
   // Fog: alpha = -ln(eps) / V (eps = 0.02: Koschmieder's 3.912 / V, the lidar's); rain and snow
   // add their extinction at 550 nm.
-  const double alpha = (std::isfinite(v) ? -std::log(c.fog_contrast_threshold) / v : 0.0) +
-                       precipitationExtinction(env.weather, 550e-9);
+  const double alpha =
+      (std::isfinite(v) ? -std::log(c.fog_contrast_threshold) / v : 0.0) + precipitationExtinction(env.weather, 550e-9);
   const float haze = static_cast<float>(std::isfinite(v) ? clamp01(1.0 - v / 10000.0) : 0.0);
   const double t_air = env.air_temperature;
-  const double sky_cooling = 20.0 * (1.0 - haze);  // K, clear sky below air temperature
+  const double sky_cooling = 20.0 * (1.0 - haze);   // K, clear sky below air temperature
   const double night_cooling = 3.0 * (1.0 - haze);  // K, surfaces radiating to a clear sky
   const float sky_scale = static_cast<float>(c.sky_gain * sky.sky_horizontal) * inv_exposure;
   const Eigen::Matrix3d rot = pose.linear();

@@ -459,8 +459,8 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr floatCloud(const std::vector<Eigen::Vector3d
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   cloud->resize(pts.size());
   for (std::size_t k = 0; k < pts.size(); ++k)
-    (*cloud)[k] = pcl::PointXYZ(static_cast<float>(pts[k].x()), static_cast<float>(pts[k].y()),
-                                static_cast<float>(pts[k].z()));
+    (*cloud)[k] =
+        pcl::PointXYZ(static_cast<float>(pts[k].x()), static_cast<float>(pts[k].y()), static_cast<float>(pts[k].z()));
   return cloud;
 }
 
@@ -528,7 +528,9 @@ struct Dbscan::Workspace
   DbscanResult result;
 };
 
-Dbscan::Dbscan() : ws_(new Workspace) {}
+Dbscan::Dbscan() : ws_(new Workspace)
+{
+}
 Dbscan::~Dbscan() = default;
 Dbscan::Dbscan(Dbscan&&) noexcept = default;
 Dbscan& Dbscan::operator=(Dbscan&&) noexcept = default;

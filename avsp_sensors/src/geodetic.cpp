@@ -13,16 +13,14 @@ namespace sensors
 Eigen::Vector3d geodeticToEcef(const Geodetic& g)
 {
   Eigen::Vector3d ecef;
-  GeographicLib::Geocentric::WGS84().Forward(g.latitude_deg, g.longitude_deg, g.altitude, ecef.x(), ecef.y(),
-                                             ecef.z());
+  GeographicLib::Geocentric::WGS84().Forward(g.latitude_deg, g.longitude_deg, g.altitude, ecef.x(), ecef.y(), ecef.z());
   return ecef;
 }
 
 Geodetic ecefToGeodetic(const Eigen::Vector3d& ecef)
 {
   Geodetic g{};
-  GeographicLib::Geocentric::WGS84().Reverse(ecef.x(), ecef.y(), ecef.z(), g.latitude_deg, g.longitude_deg,
-                                             g.altitude);
+  GeographicLib::Geocentric::WGS84().Reverse(ecef.x(), ecef.y(), ecef.z(), g.latitude_deg, g.longitude_deg, g.altitude);
   return g;
 }
 
@@ -30,12 +28,12 @@ EnuFrame::EnuFrame(const Geodetic& origin) : origin_(origin)
 {
   // LocalCartesian takes any input and turns a latitude beyond the poles into NaN: refuse such
   // a reference here, where the caller can still name it.
-  if (!std::isfinite(origin.latitude_deg) || !std::isfinite(origin.longitude_deg) ||
-      !std::isfinite(origin.altitude) || std::abs(origin.latitude_deg) > 90.0)
+  if (!std::isfinite(origin.latitude_deg) || !std::isfinite(origin.longitude_deg) || !std::isfinite(origin.altitude) ||
+      std::abs(origin.latitude_deg) > 90.0)
   {
     std::ostringstream why;
-    why << "geodetic reference (lat " << origin.latitude_deg << " deg, lon " << origin.longitude_deg
-        << " deg, alt " << origin.altitude << " m) is not a valid position";
+    why << "geodetic reference (lat " << origin.latitude_deg << " deg, lon " << origin.longitude_deg << " deg, alt "
+        << origin.altitude << " m) is not a valid position";
     throw GeodeticError(why.str());
   }
   local_.Reset(origin.latitude_deg, origin.longitude_deg, origin.altitude);

@@ -65,8 +65,8 @@ double decimalYear(const std::string& date)
 
 GeomagneticModel::GeomagneticModel(const std::string& wmm_file) : file_(wmm_file), model_(load(wmm_file))
 {
-  if (!std::isfinite(model_->MinTime()) || !std::isfinite(model_->MaxTime()) ||
-      !std::isfinite(model_->MinHeight()) || !std::isfinite(model_->MaxHeight()))
+  if (!std::isfinite(model_->MinTime()) || !std::isfinite(model_->MaxTime()) || !std::isfinite(model_->MinHeight()) ||
+      !std::isfinite(model_->MaxHeight()))
     throw GeomagneticModelError("magnetic model file " + file_ +
                                 ": MinTime, MaxTime, MinHeight and MaxHeight must be given (the model's validity)");
 }
@@ -106,8 +106,8 @@ void GeomagneticModel::checkYear(double year, const std::string& what) const
   // GeographicLib extrapolates outside the validity without a word: the secular variation is a
   // five-year linear fit, and beyond it the model is not the model.
   if (!(year >= minYear() && year <= maxYear()))
-    throw GeomagneticModelError(name() + " (" + file_ + ") is valid for decimal years " + fixed(minYear(), 1) +
-                                " to " + fixed(maxYear(), 1) + ": " + what + " is " + fixed(year, 3));
+    throw GeomagneticModelError(name() + " (" + file_ + ") is valid for decimal years " + fixed(minYear(), 1) + " to " +
+                                fixed(maxYear(), 1) + ": " + what + " is " + fixed(year, 3));
 }
 
 Eigen::Vector3d GeomagneticModel::fieldEnu(const Geodetic& p, double year) const

@@ -54,9 +54,14 @@ constexpr BlockSizes kBlockSize;
 }
 }  // namespace
 
-HeightField::HeightField(double origin_x, double origin_y, double dx, double dy, std::size_t columns,
-                         std::size_t rows, std::vector<float> heights)
-  : origin_x_(origin_x), origin_y_(origin_y), dx_(dx), dy_(dy), columns_(columns), rows_(rows),
+HeightField::HeightField(double origin_x, double origin_y, double dx, double dy, std::size_t columns, std::size_t rows,
+                         std::vector<float> heights)
+  : origin_x_(origin_x),
+    origin_y_(origin_y),
+    dx_(dx),
+    dy_(dy),
+    columns_(columns),
+    rows_(rows),
     heights_(std::move(heights))
 {
   if (!std::isfinite(origin_x) || !std::isfinite(origin_y))
@@ -70,8 +75,8 @@ HeightField::HeightField(double origin_x, double origin_y, double dx, double dy,
   if (rows < 2)
     bad("rows must be >= 2, got " + std::to_string(rows));
   if (heights_.size() != columns * rows)
-    bad("heights has " + std::to_string(heights_.size()) + " values, expected columns * rows = " +
-        std::to_string(columns * rows));
+    bad("heights has " + std::to_string(heights_.size()) +
+        " values, expected columns * rows = " + std::to_string(columns * rows));
   for (std::size_t k = 0; k < heights_.size(); ++k)
     if (!std::isfinite(heights_[k]))
       bad("heights[" + std::to_string(k) + "] is not finite");
@@ -253,14 +258,15 @@ void HeightField::setHeights(std::size_t i0, std::size_t j0, std::size_t width, 
                              const std::vector<float>& heights)
 {
   if (width == 0 || height == 0)
-    bad("setHeights: the rectangle is empty (width " + std::to_string(width) + ", height " + std::to_string(height) + ")");
+    bad("setHeights: the rectangle is empty (width " + std::to_string(width) + ", height " + std::to_string(height) +
+        ")");
   if (i0 >= columns_ || width > columns_ - i0 || j0 >= rows_ || height > rows_ - j0)
-    bad("setHeights: points [" + std::to_string(i0) + ", " + std::to_string(i0 + width) + ") x [" +
-        std::to_string(j0) + ", " + std::to_string(j0 + height) + ") leave the " + std::to_string(columns_) + " x " +
-        std::to_string(rows_) + " grid");
+    bad("setHeights: points [" + std::to_string(i0) + ", " + std::to_string(i0 + width) + ") x [" + std::to_string(j0) +
+        ", " + std::to_string(j0 + height) + ") leave the " + std::to_string(columns_) + " x " + std::to_string(rows_) +
+        " grid");
   if (heights.size() != width * height)
-    bad("setHeights: heights has " + std::to_string(heights.size()) + " values, expected width * height = " +
-        std::to_string(width * height));
+    bad("setHeights: heights has " + std::to_string(heights.size()) +
+        " values, expected width * height = " + std::to_string(width * height));
   for (std::size_t k = 0; k < heights.size(); ++k)
     if (!std::isfinite(heights[k]))
       bad("setHeights: heights[" + std::to_string(k) + "] is not finite");

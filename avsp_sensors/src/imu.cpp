@@ -86,7 +86,7 @@ ImuSample Imu::measure(const ImuInput& in)
   const Eigen::Vector3d& w = in.angular_velocity;
   const Eigen::Vector3d r = rb * config_.mount.translation();  // lever arm, map
   const Eigen::Vector3d a_imu = a + alpha.cross(r) + w.cross(w.cross(r));
-  const Eigen::Matrix3d rot = rb * config_.mount.linear();     // IMU frame -> map
+  const Eigen::Matrix3d rot = rb * config_.mount.linear();  // IMU frame -> map
   const Eigen::Vector3d g(0.0, 0.0, -config_.gravity);
   true_force_ = rot.transpose() * (a_imu - g);
   true_rate_ = rot.transpose() * w;

@@ -92,7 +92,8 @@ LidarClusterer::LidarClusterer(LidarClusterConfig config) : config_(config)
 LidarClustering LidarClusterer::cluster(const LidarCloud& points, const Eigen::Vector3d& origin,
                                         const TerrainHeightFn& terrain) const
 {
-  return clusterFrom(points, origin, [&origin](float) { return origin; }, terrain);
+  return clusterFrom(
+      points, origin, [&origin](float) { return origin; }, terrain);
 }
 
 LidarClustering LidarClusterer::clusterFrom(const LidarCloud& points, const Eigen::Vector3d& origin,
@@ -171,7 +172,8 @@ LidarClustering LidarClusterer::clusterFrom(const LidarCloud& points, const Eige
       for (std::size_t n = 0; n < sums.size(); ++n)
       {
         const Eigen::Vector3d c = sums[n] / static_cast<double>(counts[n]);
-        nodes->push_back(pcl::PointXYZ(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())));
+        nodes->push_back(
+            pcl::PointXYZ(static_cast<float>(c.x()), static_cast<float>(c.y()), static_cast<float>(c.z())));
       }
     }
     else
@@ -238,7 +240,8 @@ LidarClustering LidarClusterer::clusterFrom(const LidarCloud& points, const Eige
       {
         // The neighbours of q's (time, bearing) in the lower ring: the nearer in time, then in bearing.
         const Key& kq = key(q);
-        const auto it = std::lower_bound(lower.begin(), lower.end(), kq, [&](int a, const Key& k) { return key(a) < k; });
+        const auto it =
+            std::lower_bound(lower.begin(), lower.end(), kq, [&](int a, const Key& k) { return key(a) < k; });
         int p = -1;
         double best_dt = std::numeric_limits<double>::infinity(), best_da = best_dt;
         for (const auto c : { it, it == lower.begin() ? lower.end() : std::prev(it) })

@@ -68,8 +68,8 @@ MagSample Magnetometer::measure(double t, const Eigen::Isometry3d& body_pose)
   if (!std::isfinite(t))
     throw std::invalid_argument(ctx + ": time is not finite");
   const Eigen::Matrix3d body_rot = body_pose.linear();
-  if (!body_pose.matrix().allFinite() || !(body_rot.transpose() * body_rot).isApprox(Eigen::Matrix3d::Identity(), 1e-6) ||
-      body_rot.determinant() < 0.0)
+  if (!body_pose.matrix().allFinite() ||
+      !(body_rot.transpose() * body_rot).isApprox(Eigen::Matrix3d::Identity(), 1e-6) || body_rot.determinant() < 0.0)
     throw std::invalid_argument(ctx + ": body_pose is not finite or its rotation is not a rotation matrix");
   if (started_ && t < last_time_)
     throw std::invalid_argument(ctx + ": time " + std::to_string(t) + " s is earlier than the last sample (" +

@@ -294,7 +294,9 @@ const OccupancyConfig& validated(const OccupancyConfig& c)
 }
 }  // namespace
 
-OccupancyMap::OccupancyMap(const OccupancyConfig& config) : config_(validated(config)), tree_(makeTree(config_)) {}
+OccupancyMap::OccupancyMap(const OccupancyConfig& config) : config_(validated(config)), tree_(makeTree(config_))
+{
+}
 std::vector<Eigen::Vector3f> voxelGridCentroids(const std::vector<Eigen::Vector3f>& points, double leaf)
 {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
@@ -337,7 +339,7 @@ void OccupancyMap::insert(const std::vector<Eigen::Vector3f>& points, const std:
   if (points.empty() && clear_ends.empty())
     return;
   const octomap::point3d o(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
-                          static_cast<float>(origin.z()));
+                           static_cast<float>(origin.z()));
   const octomap::OcTree& tree = *tree_;
 
   // Optional PCL pre-filter of the returns: the centroid of the returns in each voxel
@@ -438,10 +440,10 @@ void OccupancyMap::insertWithOctomap(const std::vector<Eigen::Vector3f>& points,
   cloud.reserve(points.size());
   for (const Eigen::Vector3f& p : points)
     cloud.push_back(p.x(), p.y(), p.z());
-  tree_->insertPointCloud(cloud,
-                          octomap::point3d(static_cast<float>(origin.x()), static_cast<float>(origin.y()),
-                                           static_cast<float>(origin.z())),
-                          std::isfinite(config_.max_range) ? config_.max_range : -1.0, false, config_.discretize);
+  tree_->insertPointCloud(
+      cloud,
+      octomap::point3d(static_cast<float>(origin.x()), static_cast<float>(origin.y()), static_cast<float>(origin.z())),
+      std::isfinite(config_.max_range) ? config_.max_range : -1.0, false, config_.discretize);
 }
 
 void OccupancyMap::insert(const LidarScan& scan, const SensorMotion& motion, std::size_t slices)
@@ -555,8 +557,7 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
       double z = 0.0;
       const double cx = g.origin_x + (static_cast<double>(i) + 0.5) * r;
       const double cy = g.origin_y + (static_cast<double>(j) + 0.5) * r;
-      if (terrain(cx, cy, z) &&
-          std::isfinite(z))
+      if (terrain(cx, cy, z) && std::isfinite(z))
         ground[j * g.width + i] = z;
     }
   std::vector<std::uint8_t> obstacle(grid.data.size(), 0), observed(grid.data.size(), 0);
@@ -569,8 +570,7 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
     const double x1 = g.origin_x + static_cast<double>(g.width) * r;
     const double y1 = g.origin_y + static_cast<double>(g.height) * r;
     const octomap::point3d bmin(static_cast<float>(std::max(xmin, g.origin_x)),
-                                static_cast<float>(std::max(ymin, g.origin_y)),
-                                static_cast<float>(zmin));
+                                static_cast<float>(std::max(ymin, g.origin_y)), static_cast<float>(zmin));
     const octomap::point3d bmax(static_cast<float>(std::min(xmax, x1)), static_cast<float>(std::min(ymax, y1)),
                                 static_cast<float>(zmax));
     const double half_voxel = 0.5 * config_.resolution;
@@ -610,8 +610,8 @@ OccupancyGrid2D OccupancyMap::projectGrid(const GridProjection& g, const Terrain
       }
   }
   for (std::size_t k = 0; k < grid.data.size(); ++k)
-    grid.data[k] = obstacle[k] ? OccupancyGrid2D::kOccupied
-                               : (observed[k] ? OccupancyGrid2D::kFree : OccupancyGrid2D::kUnknown);
+    grid.data[k] =
+        obstacle[k] ? OccupancyGrid2D::kOccupied : (observed[k] ? OccupancyGrid2D::kFree : OccupancyGrid2D::kUnknown);
   return grid;
 }
 

@@ -15,8 +15,8 @@ namespace
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Slab interval of the ray o + t d against |x_k| <= e_k for every axis k; false if empty.
-bool slabs(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& e, double& t_in,
-           double& t_out, int& axis_in, double& sign_in)
+bool slabs(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& e, double& t_in, double& t_out,
+           int& axis_in, double& sign_in)
 {
   t_in = -kInf;
   t_out = kInf;
@@ -230,8 +230,8 @@ PrimitiveBvh::PrimitiveBvh(std::vector<Primitive> primitives) : primitives_(std:
 namespace
 {
 /// Whether the segment (x0, y0) + s (ux, uy), s in [0, length], meets the box [lo, hi] (x, y).
-bool segmentMeetsBox2d(double x0, double y0, double ux, double uy, double length, double lox, double loy,
-                       double hix, double hiy)
+bool segmentMeetsBox2d(double x0, double y0, double ux, double uy, double length, double lox, double loy, double hix,
+                       double hiy)
 {
   double s0 = 0.0, s1 = length;
   auto axis = [&](double p, double u, double lo, double hi) {
@@ -389,15 +389,15 @@ bool PrimitiveBvh::intersect(const Eigen::Vector3d& origin, const Eigen::Vector3
   return traverse(origin, direction, t_min, t_max, hit, skip_id, false);
 }
 
-bool PrimitiveBvh::occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
-                            double t_max, std::uint32_t skip_id) const
+bool PrimitiveBvh::occluded(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min, double t_max,
+                            std::uint32_t skip_id) const
 {
   PrimitiveHit hit;
   return traverse(origin, direction, t_min, t_max, hit, skip_id, true);
 }
 
-bool PrimitiveBvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min,
-                            double t_max, PrimitiveHit& hit, std::uint32_t skip_id, bool any) const
+bool PrimitiveBvh::traverse(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double t_min, double t_max,
+                            PrimitiveHit& hit, std::uint32_t skip_id, bool any) const
 {
   if (nodes_.empty())
     return false;

@@ -124,8 +124,8 @@ void Scene::setTerrainReflectivity(std::vector<std::uint8_t> soil_map, std::vect
                                   "] must be in [0, 1]");
   for (std::size_t k = 0; k < soil_map.size(); ++k)
     if (soil_map[k] >= palette.size())
-      throw std::invalid_argument("Scene::setTerrainReflectivity: soil_map[" + std::to_string(k) + "] = " +
-                                  std::to_string(soil_map[k]) + " is not in the palette of " +
+      throw std::invalid_argument("Scene::setTerrainReflectivity: soil_map[" + std::to_string(k) +
+                                  "] = " + std::to_string(soil_map[k]) + " is not in the palette of " +
                                   std::to_string(palette.size()));
   soil_map_ = std::move(soil_map);
   soil_reflectivity_ = std::move(palette);
@@ -330,7 +330,7 @@ void Scene::fanCandidates(const std::vector<Ray>& rays, const double* hz, std::s
 
 // Inlined into both casts: a call per ray cost ~4 % of bench_raycast.
 __attribute__((always_inline)) inline double Scene::castTerrain(const Ray& ray, double t_clear, double& terrain_reach,
-                                                                 RayHit& out) const
+                                                                RayHit& out) const
 {
   double best = ray.max_range;
   TerrainHit th;
@@ -397,8 +397,7 @@ void Scene::castSolids(const Ray& ray, double h, double best, RayHit& out,
       if (std::min(za, zb) > c.z_hi || std::max(za, zb) < c.z_lo)
         continue;  // above or below the primitive all along its footprint
       PrimitiveHit h_c;
-      if (intersectPrimitive(prims[c.index], ray.origin, ray.direction, 0.0, best, h_c) &&
-          (h_c.t < best || !found))
+      if (intersectPrimitive(prims[c.index], ray.origin, ray.direction, 0.0, best, h_c) && (h_c.t < best || !found))
       {
         best = h_c.t;
         ph = h_c;

@@ -68,7 +68,9 @@ void validateState(const VehicleState& s, const char* context)
 }
 
 // ---------------------------------------------------------------------------------------------
-GridClock::GridClock(double rate) : period_(1.0 / rate) {}
+GridClock::GridClock(double rate) : period_(1.0 / rate)
+{
+}
 
 bool GridClock::due(double t)
 {
@@ -374,7 +376,8 @@ OccupancyGrid2D VehicleSensors::occupancyGrid(double x, double y, const HeightFi
   g.width = g.height = cells;
   g.origin_x = std::floor((x - 0.5 * cells * res) / res) * res;
   g.origin_y = std::floor((y - 0.5 * cells * res) / res) * res;
-  return occupancy_->projectGrid(g, [&terrain](double px, double py, double& pz) { return terrain.heightAt(px, py, pz); });
+  return occupancy_->projectGrid(g,
+                                 [&terrain](double px, double py, double& pz) { return terrain.heightAt(px, py, pz); });
 }
 
 LidarClustering VehicleSensors::clusterSweep(const LidarSweep& sweep, const HeightField& terrain) const
@@ -387,10 +390,10 @@ LidarClustering VehicleSensors::clusterSweep(const LidarSweep& sweep, const Heig
 
 // ---------------------------------------------------------------------------------------------
 StateSynchronizer::StateSynchronizer(std::size_t vehicles, double timeout)
-  : timeout_(timeout)
-  , queues_(vehicles)
-  , latest_(vehicles)
-  , last_pushed_(vehicles, -std::numeric_limits<double>::infinity())
+  : timeout_(timeout),
+    queues_(vehicles),
+    latest_(vehicles),
+    last_pushed_(vehicles, -std::numeric_limits<double>::infinity())
 {
   if (!(timeout >= 0.0))
     throw std::invalid_argument("StateSynchronizer: timeout must be >= 0");
@@ -470,7 +473,8 @@ std::optional<terrain::PointRange> applyHeightPatch(HeightField& field, const te
   // Patch column c is grid column ri + c; keep the part inside the grid.
   const long i_first = std::max(0L, -static_cast<long>(ri));
   const long j_first = std::max(0L, -static_cast<long>(rj));
-  const long i_end = std::min(static_cast<long>(patch.width), static_cast<long>(field.columns()) - static_cast<long>(ri));
+  const long i_end =
+      std::min(static_cast<long>(patch.width), static_cast<long>(field.columns()) - static_cast<long>(ri));
   const long j_end = std::min(static_cast<long>(patch.height), static_cast<long>(field.rows()) - static_cast<long>(rj));
   if (i_first >= i_end || j_first >= j_end)
     return std::nullopt;
@@ -478,8 +482,8 @@ std::optional<terrain::PointRange> applyHeightPatch(HeightField& field, const te
   std::vector<float> part(w * h);
   for (std::size_t r = 0; r < h; ++r)
     for (std::size_t c = 0; c < w; ++c)
-      part[r * w + c] = patch.heights[(static_cast<std::size_t>(j_first) + r) * patch.width +
-                                      static_cast<std::size_t>(i_first) + c];
+      part[r * w + c] =
+          patch.heights[(static_cast<std::size_t>(j_first) + r) * patch.width + static_cast<std::size_t>(i_first) + c];
   terrain::PointRange range;
   range.i0 = static_cast<std::size_t>(ri + i_first);
   range.j0 = static_cast<std::size_t>(rj + j_first);

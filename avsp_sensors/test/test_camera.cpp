@@ -35,9 +35,9 @@ Eigen::Isometry3d opticalPose(const Vector3d& p, double yaw, double pitch = 0.0)
 {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.translation() = p;
-  t.linear() = (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Vector3d::UnitY()))
-                   .toRotationMatrix() *
-               opticalFromBody();
+  t.linear() =
+      (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Vector3d::UnitY())).toRotationMatrix() *
+      opticalFromBody();
   return t;
 }
 
@@ -197,8 +197,8 @@ TEST(Camera, SphereProjectsToThePixelKPredicts)
   const Camera cam(c);
   const Eigen::Isometry3d pose = opticalPose(Vector3d(1.0, -2.0, 1.5), 0.4, 0.1);
   int checked = 0;
-  for (const Vector3d& centre : { Vector3d(12.0, 3.0, 1.0), Vector3d(8.0, 0.0, 2.0), Vector3d(20.0, 10.0, 0.0),
-                                  Vector3d(6.0, 2.5, 0.5) })
+  for (const Vector3d& centre :
+       { Vector3d(12.0, 3.0, 1.0), Vector3d(8.0, 0.0, 2.0), Vector3d(20.0, 10.0, 0.0), Vector3d(6.0, 2.5, 0.5) })
   {
     scene.setBodies({ sphereBody(centre, 0.35, 7) });
     const CameraFrame f = cam.render(scene, mat, pose, noon(), 2);
@@ -335,11 +335,12 @@ TEST(Camera, EveryPixelsClassIsTheClassOfWhatItsCentreRayHits)
       if (std::abs(scene.terrain().originY() + j * scene.terrain().dy()) < 2.0)
         soil_map[j * n + i] = 0;
   CameraMaterials mat;
-  mat.setSoils({ { "asphalt", soilAlbedo("asphalt"), 0.f }, { "sandy_loam", soilAlbedo("sandy_loam"), 0.2f } }, soil_map);
+  mat.setSoils({ { "asphalt", soilAlbedo("asphalt"), 0.f }, { "sandy_loam", soilAlbedo("sandy_loam"), 0.2f } },
+               soil_map);
   avsp::terrain::ObjectSet objects;
-  const avsp::terrain::ObjectType types[] = { avsp::terrain::ObjectType::kTree, avsp::terrain::ObjectType::kShrub,
-                                              avsp::terrain::ObjectType::kRock, avsp::terrain::ObjectType::kPole,
-                                              avsp::terrain::ObjectType::kFence, avsp::terrain::ObjectType::kBarrier,
+  const avsp::terrain::ObjectType types[] = { avsp::terrain::ObjectType::kTree,    avsp::terrain::ObjectType::kShrub,
+                                              avsp::terrain::ObjectType::kRock,    avsp::terrain::ObjectType::kPole,
+                                              avsp::terrain::ObjectType::kFence,   avsp::terrain::ObjectType::kBarrier,
                                               avsp::terrain::ObjectType::kBuilding };
   for (int k = 0; k < 7; ++k)
   {
@@ -380,8 +381,9 @@ TEST(Camera, EveryPixelsClassIsTheClassOfWhatItsCentreRayHits)
     }
   // Every class of the scene is in the image (the check above is not vacuous), with the
   // object-kind mapping checked by name.
-  for (int cls : std::vector<int>{ kClassNone, kClassRoad, kClassSoilBase + 1, kClassVegetation, kClassRock, kClassPole,
-                                   kClassFence, kClassBarrier, kClassBuilding, kClassPerson, kClassAnimal, kClassVehicle })
+  for (int cls :
+       std::vector<int>{ kClassNone, kClassRoad, kClassSoilBase + 1, kClassVegetation, kClassRock, kClassPole,
+                         kClassFence, kClassBarrier, kClassBuilding, kClassPerson, kClassAnimal, kClassVehicle })
     EXPECT_GT(seen[cls], 0) << "class " << cls;
   const std::vector<ClassEntry> table = mat.classTable();
   bool has_loam = false, has_road = false;
@@ -442,7 +444,8 @@ TEST(Camera, BoxShadowFallsOppositeTheSunAzimuth)
       EXPECT_TRUE(cam.project(pose.inverse() * p, uv));
       return lum(f, std::lround(uv.y()) * c.width + std::lround(uv.x()));
     };
-    const float shadow = at(-2.0 * toward), sunny = at(2.0 * toward), side = at(2.5 * across), other = at(-2.5 * across);
+    const float shadow = at(-2.0 * toward), sunny = at(2.0 * toward), side = at(2.5 * across),
+                other = at(-2.5 * across);
     EXPECT_LT(shadow, 0.5f * sunny) << "azimuth " << az;
     EXPECT_LT(shadow, 0.5f * side) << "azimuth " << az;
     EXPECT_LT(shadow, 0.5f * other) << "azimuth " << az;
@@ -481,7 +484,8 @@ TEST(Camera, NightIsFarDarkerThanNoonAndDuskInBetween)
   // The light itself: noon > dawn/dusk > moonlit night > moonless night.
   CameraEnvironment moonless = night;
   moonless.moon_illumination = 0.0;
-  const double e_noon = skyLight(noon()).horizontal_total, e_dusk = skyLight(sunAt(1.0, -3.0 * kPi / 180.0)).horizontal_total;
+  const double e_noon = skyLight(noon()).horizontal_total,
+               e_dusk = skyLight(sunAt(1.0, -3.0 * kPi / 180.0)).horizontal_total;
   EXPECT_GT(e_noon, 50000.0);
   EXPECT_GT(e_dusk, 1.0);
   EXPECT_LT(e_dusk, 800.0);
@@ -711,7 +715,7 @@ TEST(CameraRig, FramesOnTheirSimTimeGridsFromTheMountAtThatState)
       if (o.index == 0)
       {
         const std::size_t centre = 12 * 32 + 16;
-        EXPECT_EQ(o.frame.semantic[centre], kClassVehicle);      // the other body, not the own box
+        EXPECT_EQ(o.frame.semantic[centre], kClassVehicle);   // the other body, not the own box
         EXPECT_NEAR(o.frame.depth[centre], 5.5 - 1.0, 1e-5);  // from the camera at x = 1
       }
     }
@@ -794,12 +798,13 @@ TEST(Camera, RainStreaksAndSnowflakesAreSeededAndOnlyInRgb)
   const CameraFrame h1 = cam.render(scene, mat, pose, heavy, 2, PrimitiveBvh::kNoId, 7);
   const CameraFrame h_plain = cam_plain.render(scene, mat, pose, heavy, 2, PrimitiveBvh::kNoId, 7);
   const CameraFrame s1 = cam.render(scene, mat, pose, snow, 2, PrimitiveBvh::kNoId, 7);
-  EXPECT_EQ(changed(f_dry, cam.render(scene, mat, pose, dry, 2, PrimitiveBvh::kNoId, 99)), 0);  // no weather: no key effect
+  EXPECT_EQ(changed(f_dry, cam.render(scene, mat, pose, dry, 2, PrimitiveBvh::kNoId, 99)),
+            0);  // no weather: no key effect
   EXPECT_GT(changed(r_plain, r1), 100);
-  EXPECT_EQ(r1.rgb, r1_again.rgb);              // same key, same streaks (any thread count)
-  EXPECT_GT(changed(r1, r2), 100);              // another frame, other streaks
+  EXPECT_EQ(r1.rgb, r1_again.rgb);                            // same key, same streaks (any thread count)
+  EXPECT_GT(changed(r1, r2), 100);                            // another frame, other streaks
   EXPECT_GT(changed(h_plain, h1), 3 * changed(r_plain, r1));  // heavier rain, more streaks
   EXPECT_GT(changed(f_dry, s1), 100);
-  EXPECT_EQ(r1.semantic, f_dry.semantic);       // streaks are in the RGB image only
+  EXPECT_EQ(r1.semantic, f_dry.semantic);  // streaks are in the RGB image only
   EXPECT_EQ(std::memcmp(r1.depth.data(), f_dry.depth.data(), r1.depth.size() * sizeof(float)), 0);
 }

@@ -122,8 +122,8 @@ bool samePartition(const std::vector<int>& a, const std::vector<int>& b)
 void expectSame(const std::vector<Vector3d>& p, double eps, std::size_t m, const std::string& what)
 {
   const DbscanResult want = reference(p, eps, m);
-  for (const NeighbourSearch s : { NeighbourSearch::kGrid, NeighbourSearch::kKdTree, NeighbourSearch::kPclKdTree,
-                                   NeighbourSearch::kPclOctree })
+  for (const NeighbourSearch s :
+       { NeighbourSearch::kGrid, NeighbourSearch::kKdTree, NeighbourSearch::kPclKdTree, NeighbourSearch::kPclOctree })
   {
     const std::string how = what + " [" + toString(s) + "]";
     const DbscanResult got = dbscan(p, eps, m, s);

@@ -72,8 +72,8 @@ TEST(Geodetic, NorthOffsetMatchesMeridianRadius)
   const EnuFrame frame({ lat, 7.0, 300.0 });
   const Geodetic g = frame.toGeodetic({ 0.0, 10.0, 0.0 });
   const double s = std::sin(lat * M_PI / 180.0);
-  const double m = wgs84::kSemiMajorAxis * (1 - wgs84::kEccentricitySq) /
-                   std::pow(1 - wgs84::kEccentricitySq * s * s, 1.5);
+  const double m =
+      wgs84::kSemiMajorAxis * (1 - wgs84::kEccentricitySq) / std::pow(1 - wgs84::kEccentricitySq * s * s, 1.5);
   EXPECT_NEAR((g.latitude_deg - lat) * M_PI / 180.0, 10.0 / (m + 300.0), 1e-12);
   EXPECT_NEAR(g.longitude_deg, 7.0, 1e-12);
 }
@@ -86,7 +86,7 @@ TEST_P(GeodeticRoundTrip, EnuToGeodeticAndBackIsExact)
 {
   const EnuFrame frame({ GetParam(), -83.2, 180.0 });
   for (const Eigen::Vector3d& p : { Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(600, 400, 20),
-                                   Eigen::Vector3d(-1200, 1900, -35), Eigen::Vector3d(5000, -3000, 100) })
+                                    Eigen::Vector3d(-1200, 1900, -35), Eigen::Vector3d(5000, -3000, 100) })
   {
     const Eigen::Vector3d back = frame.toEnu(frame.toGeodetic(p));
     EXPECT_NEAR((back - p).norm(), 0.0, 1e-6) << "lat " << GetParam() << " p " << p.transpose();

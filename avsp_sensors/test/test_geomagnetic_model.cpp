@@ -218,8 +218,12 @@ TEST(MapMagneticField, IsTheModelAtTheOriginAndTurnsIntoTheMapAxesAway)
 TEST(MapMagneticField, RefusesADateOrAnOriginOutsideTheModel)
 {
   const GeomagneticModel m(kWmm2025);
-  EXPECT_MENTIONS(thrown([&] { MapMagneticField(m, EnuFrame({ 39.7, -105.2, 1829.0 }), 2031.0); }),
+  EXPECT_MENTIONS(thrown([&] {
+                    MapMagneticField(m, EnuFrame({ 39.7, -105.2, 1829.0 }), 2031.0);
+                  }),
                   "the date is 2031.000");
-  EXPECT_MENTIONS(thrown([&] { MapMagneticField(m, EnuFrame({ 39.7, -105.2, -5000.0 }), 2026.0); }),
+  EXPECT_MENTIONS(thrown([&] {
+                    MapMagneticField(m, EnuFrame({ 39.7, -105.2, -5000.0 }), 2026.0);
+                  }),
                   "the point is at -5000.0 m");
 }

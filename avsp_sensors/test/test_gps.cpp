@@ -44,7 +44,7 @@ TEST(Gps, NoiseFreeFixIsTheExactGeodeticPosition)
   Gps gps(noiseFree(), frame, 7);
   double t = 0.0;
   for (const Eigen::Vector3d& p : { Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(-189013.869, -128642.040, -4220.171),
-                                   Eigen::Vector3d(250.0, -120.0, 3.5) })
+                                    Eigen::Vector3d(250.0, -120.0, 3.5) })
   {
     const GpsFix fix = gps.measure(t, p);
     t += 0.1;

@@ -121,8 +121,8 @@ struct FlatScene
     // and the lidar resolves two objects there (as a real one would).
     const terrain::Agent deer = standingAgent(terrain::AgentType::kDeer, "deer", 8.0, 3.0, 0.36 + 0.5 * kPi, grid);
     const terrain::Agent truck = standingAgent(terrain::AgentType::kTruck, "truck", -12.0, 6.0, 0.3, grid);
-    for (const auto& [name, agent, id] : { std::tuple<std::string, const terrain::Agent*, std::uint32_t>{ "deer", &deer, 1 },
-                                           { "truck", &truck, 2 } })
+    for (const auto& [name, agent, id] :
+         { std::tuple<std::string, const terrain::Agent*, std::uint32_t>{ "deer", &deer, 1 }, { "truck", &truck, 2 } })
     {
       const std::vector<Body> b = agentBodies(*agent, 0.0, id);
       std::vector<Primitive> parts;
@@ -302,8 +302,8 @@ TEST(LidarClustering, EachObjectOfAKnownSceneIsOneClusterOfItsPoints)
 namespace
 {
 /// A box body on flat ground (its footprint centred at (x, 0), bottom to top), and its bounds.
-Known addBox(std::vector<Body>& bodies, const std::string& name, double x, double length, double width,
-             double bottom, double top, std::uint32_t id)
+Known addBox(std::vector<Body>& bodies, const std::string& name, double x, double length, double width, double bottom,
+             double top, std::uint32_t id)
 {
   VehicleState state;
   state.pose.translation() = Vector3d(x, 0.0, 0.0);

@@ -49,9 +49,9 @@ TEST(Magnetometer, FieldComponentsFromIntensityInclinationDeclination)
   const double f = 50e-6, inc = 60.0, dec = 10.0;
   const Eigen::Vector3d enu = earthFieldEnu({ f, inc, dec });
   const double h = f * std::cos(inc * kDeg);
-  EXPECT_NEAR(enu.x(), h * std::sin(dec * kDeg), 1e-18);  // east
-  EXPECT_NEAR(enu.y(), h * std::cos(dec * kDeg), 1e-18);  // north
-  EXPECT_NEAR(enu.z(), -f * std::sin(inc * kDeg), 1e-18); // up: the field dips down in the north
+  EXPECT_NEAR(enu.x(), h * std::sin(dec * kDeg), 1e-18);   // east
+  EXPECT_NEAR(enu.y(), h * std::cos(dec * kDeg), 1e-18);   // north
+  EXPECT_NEAR(enu.z(), -f * std::sin(inc * kDeg), 1e-18);  // up: the field dips down in the north
   EXPECT_NEAR(enu.norm(), f, 1e-18);
 }
 
@@ -65,8 +65,9 @@ TEST(Magnetometer, CardinalHeadingsWithoutDeclination)
   {
     double yaw_deg;
     Eigen::Vector3d body;
-  } cases[] = { { 0.0, { 0.0, h, -v } }, { 90.0, { h, 0.0, -v } }, { 180.0, { 0.0, -h, -v } },
-                { 270.0, { -h, 0.0, -v } } };
+  } cases[] = {
+    { 0.0, { 0.0, h, -v } }, { 90.0, { h, 0.0, -v } }, { 180.0, { 0.0, -h, -v } }, { 270.0, { -h, 0.0, -v } }
+  };
   double t = 0.0;
   for (const auto& c : cases)
   {

@@ -325,24 +325,25 @@ TEST(Occupancy, BatchedInsertionGivesOctomapsOwnTree)
     scans.emplace_back(pts, Vector3d(0.1 * k, 0.05 * k, 1.0 + 0.02 * k));
   }
   const double inf = std::numeric_limits<double>::infinity();
-  const std::tuple<bool, double, unsigned> variants[] = { { false, 30.0, 1u }, { false, 30.0, 2u }, { false, inf, 1u },
-                                                          { true, 30.0, 3u }, { true, inf, 2u } };
+  const std::tuple<bool, double, unsigned> variants[] = {
+    { false, 30.0, 1u }, { false, 30.0, 2u }, { false, inf, 1u }, { true, 30.0, 3u }, { true, inf, 2u }
+  };
   for (const auto& [discretize, max_range, threads] : variants)
-      {
-        OccupancyConfig c;
-        c.discretize = discretize;
-        c.max_range = max_range;
-        c.threads = threads;
-        OccupancyMap ours(c), reference(c);
-        for (const auto& scan : scans)
-        {
-          ours.insert(scan.first, scan.second);
-          reference.insertWithOctomap(scan.first, scan.second);
-        }
-        expectSameTree(ours.tree(), reference.tree(),
-                       "discretize " + std::to_string(discretize) + " max_range " + std::to_string(max_range) +
-                           " threads " + std::to_string(threads));
-      }
+  {
+    OccupancyConfig c;
+    c.discretize = discretize;
+    c.max_range = max_range;
+    c.threads = threads;
+    OccupancyMap ours(c), reference(c);
+    for (const auto& scan : scans)
+    {
+      ours.insert(scan.first, scan.second);
+      reference.insertWithOctomap(scan.first, scan.second);
+    }
+    expectSameTree(ours.tree(), reference.tree(),
+                   "discretize " + std::to_string(discretize) + " max_range " + std::to_string(max_range) +
+                       " threads " + std::to_string(threads));
+  }
 }
 
 TEST(Occupancy, SaveLoadRoundTripKeepsTheOccupiedCells)

@@ -836,7 +836,8 @@ double segmentBoxGap(double ax, double ay, double ux, double uy, double len, dou
                      double hiy)
 {
   const double bx = ax + len * ux, by = ay + len * uy;
-  double gap = std::max({ lox - std::max(ax, bx), std::min(ax, bx) - hix, loy - std::max(ay, by), std::min(ay, by) - hiy });
+  double gap =
+      std::max({ lox - std::max(ax, bx), std::min(ax, bx) - hix, loy - std::max(ay, by), std::min(ay, by) - hiy });
   // Normal axis: the segment projects to one value, the box to an interval.
   const double nx = -uy, ny = ux;
   const double seg = nx * ax + ny * ay;
@@ -879,8 +880,8 @@ TEST(PrimitiveBvh, CollectAlongSegmentFindsExactlyTheFootprintsTheSegmentMeets)
       primitiveBounds(prims[k], lo, hi);
       EXPECT_EQ(lo, bvh.boundsLo(k));
       EXPECT_EQ(hi, bvh.boundsHi(k));
-      const double gap = segmentBoxGap(ax, ay, ux, uy, len, lo.x() - margin, lo.y() - margin, hi.x() + margin,
-                                       hi.y() + margin);
+      const double gap =
+          segmentBoxGap(ax, ay, ux, uy, len, lo.x() - margin, lo.y() - margin, hi.x() + margin, hi.y() + margin);
       if (std::abs(gap) < 1e-9)
       {
         ++ambiguous;

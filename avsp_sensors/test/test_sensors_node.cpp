@@ -68,13 +68,13 @@ namespace as = avsp::sensors;
 namespace
 {
 // The scenario (sensors_node.test and the placement below).
-constexpr double kStep = 0.01;                  // s, odometry period
-constexpr int kSteps = 650;                     // 0 .. 6.5 s of sim time
-constexpr double kLagJump = 5.0;                // s, /clock ahead of the last odometry at the end
-constexpr double kFrom = 1.0, kTo = 6.0;        // s, the window the rates are counted in
-constexpr double kEgoX = 30.0, kEgoY = 131.0;   // m, on the concrete pad, facing east
-constexpr double kOtherX0 = 45.0, kOtherSpeed = 2.0;  // m, m/s: other drives east from here
-constexpr double kRutStamp = 2.0, kRutDepth = 0.3;    // s, m
+constexpr double kStep = 0.01;                                   // s, odometry period
+constexpr int kSteps = 650;                                      // 0 .. 6.5 s of sim time
+constexpr double kLagJump = 5.0;                                 // s, /clock ahead of the last odometry at the end
+constexpr double kFrom = 1.0, kTo = 6.0;                         // s, the window the rates are counted in
+constexpr double kEgoX = 30.0, kEgoY = 131.0;                    // m, on the concrete pad, facing east
+constexpr double kOtherX0 = 45.0, kOtherSpeed = 2.0;             // m, m/s: other drives east from here
+constexpr double kRutStamp = 2.0, kRutDepth = 0.3;               // s, m
 constexpr double kRutX0 = 24.0, kRutY0 = 122.0, kRutSide = 4.0;  // m, the rut square's corner and side
 constexpr double kFogStamp = 4.5, kFogVisibility = 20.0;         // s, m
 constexpr double kLatitude = 39.7425, kLongitude = -105.1786, kAltitude = 1830.0;
@@ -148,7 +148,7 @@ struct Scenario
 {
   std::unique_ptr<at::Course> course;
   std::string config_dir, soils_file;
-  double ground = 0.0;           // m, the pad's height under ego
+  double ground = 0.0;                // m, the pad's height under ego
   double ego_z = 0.0, other_z = 0.0;  // m, base_link heights
   as::node::VehicleFrames ego_frames, other_frames;
   std::map<std::string, Topic<sensor_msgs::PointCloud2>> clouds;  // by topic
@@ -167,7 +167,7 @@ struct Scenario
   std::vector<std::string> warnings;
   ros::Subscriber log_sub;
   std::vector<diagnostic_msgs::DiagnosticStatus> diagnostics;  // sensors_node's, in arrival order
-  std::size_t diagnostics_in_lockstep = 0;  // how many came before the clock ran ahead
+  std::size_t diagnostics_in_lockstep = 0;                     // how many came before the clock ran ahead
   ros::Subscriber diagnostics_sub;
   bool completed = false;
   std::string failure;
@@ -385,8 +385,7 @@ bool insideBoxes(const as::node::VehicleFrames& f, double x, double y, double z,
 {
   for (const as::BodyBox& b : f.boxes)
   {
-    const Eigen::Vector3d local =
-        b.pose.inverse() * (Eigen::Vector3d(p.x, p.y, p.z) - Eigen::Vector3d(x, y, z));
+    const Eigen::Vector3d local = b.pose.inverse() * (Eigen::Vector3d(p.x, p.y, p.z) - Eigen::Vector3d(x, y, z));
     if ((local.cwiseAbs() - 0.5 * b.size).maxCoeff() < margin)
       return true;
   }
@@ -416,8 +415,8 @@ TEST_F(SensorsNode, EveryOutputArrivesAtItsConfiguredRateInSimTime)
   const double span = kTo - kFrom;
   auto expectRate = [span](const std::string& topic, std::size_t count, double rate) {
     EXPECT_EQ(count, static_cast<std::size_t>(std::lround(rate * span))) << topic;
-    std::printf("[sensors_node test] %-30s %3zu messages in %.1f s of sim time (%.1f Hz configured)\n",
-                topic.c_str(), count, span, rate);
+    std::printf("[sensors_node test] %-30s %3zu messages in %.1f s of sim time (%.1f Hz configured)\n", topic.c_str(),
+                count, span, rate);
   };
   for (const char* v : { "/ego", "/other" })
   {
@@ -534,9 +533,10 @@ TEST_F(SensorsNode, LidarPointsLieOnTheGroundAndShowTheBuildingsAndTheOtherVehic
     }
   }
   ASSERT_GE(used, 15u);
-  std::printf("[sensors_node test] %zu sweeps: %zu ground points, %.3f %% within 0.1 m of the course; %zu on "
-              "building 0, %zu on other, %zu on ego\n",
-              used, ground, 100.0 * on_ground / std::max<std::size_t>(1, ground), building, other, own);
+  std::printf(
+      "[sensors_node test] %zu sweeps: %zu ground points, %.3f %% within 0.1 m of the course; %zu on "
+      "building 0, %zu on other, %zu on ego\n",
+      used, ground, 100.0 * on_ground / std::max<std::size_t>(1, ground), building, other, own);
   EXPECT_GT(ground, 100000u);
   EXPECT_GE(static_cast<double>(on_ground), 0.995 * ground);
   EXPECT_EQ(below, 0u) << "a point 0.3 m under the ground (worst " << worst_below << " m)";
@@ -707,8 +707,7 @@ TEST_F(SensorsNode, GpsFixesAreThePositionThroughTheReferenceOrigin)
   const as::Geodetic expected = origin.toGeodetic(antenna);
   // Independent of the ellipsoid math to ~1e-6 deg: a metre north is 1/111,000 of a degree.
   EXPECT_NEAR(expected.latitude_deg, kLatitude + antenna.y() / 111030.0, 2e-5);
-  EXPECT_NEAR(expected.longitude_deg, kLongitude + antenna.x() / (111320.0 * std::cos(kLatitude * M_PI / 180.0)),
-              2e-5);
+  EXPECT_NEAR(expected.longitude_deg, kLongitude + antenna.x() / (111320.0 * std::cos(kLatitude * M_PI / 180.0)), 2e-5);
   const auto& fixes = run->fixes["/ego/gps/fix"].messages;
   ASSERT_FALSE(fixes.empty());
   for (const auto& f : fixes)
@@ -723,8 +722,8 @@ TEST_F(SensorsNode, GpsFixesAreThePositionThroughTheReferenceOrigin)
   {
     const double t = f.header.stamp.toSec();
     const Eigen::Vector3d enu = origin.toEnu({ f.latitude, f.longitude, f.altitude });
-    const Eigen::Vector3d antenna_other = run->other_frames.link("gps").translation() +
-                                          Eigen::Vector3d(run->otherX(t), kEgoY, run->other_z);
+    const Eigen::Vector3d antenna_other =
+        run->other_frames.link("gps").translation() + Eigen::Vector3d(run->otherX(t), kEgoY, run->other_z);
     EXPECT_LT((enu - antenna_other).head<2>().norm(), 15.0) << t;
     EXPECT_GT(f.position_covariance[0], 4.0);
   }
@@ -1124,14 +1123,24 @@ TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
     { section("imu", "rate", 0.0), true, true, { "~vehicle_sensors/ego/imu", "rate" } },
     { section("lidar", "frame", std::string("periscope")), false, true, { "~sensors/lidar/frame", "periscope" } },
     { section("gps", "rate", 10.0), false, false, { "~latitude" } },
-    { section("magnetometer", "model", std::string("wmm1990")), false, true,
+    { section("magnetometer", "model", std::string("wmm1990")),
+      false,
+      true,
       { "~sensors/magnetometer/model = 'wmm1990'", "wmm1990.wmm" } },
-    { section("magnetometer", "declination_deg", 7.7), false, true,
+    { section("magnetometer", "declination_deg", 7.7),
+      false,
+      true,
       { "~sensors/magnetometer/declination_deg", "only read with model 'fixed'" } },
-    { section("magnetometer", "rate", 15.0), false, true,
-      { "~date '2031-01-01'", "valid for decimal years 2025.0 to 2030.0" }, "2031-01-01" },
+    { section("magnetometer", "rate", 15.0),
+      false,
+      true,
+      { "~date '2031-01-01'", "valid for decimal years 2025.0 to 2030.0" },
+      "2031-01-01" },
     { cameras(cameraEntry("front", "hfov_deg", 200.0)), false, true, { "~sensors/cameras[0]", "hfov" } },
-    { cameras(cameraEntry("front", "outputs", outputsList("infrared"))), false, true, { "~sensors/cameras[0]/outputs" } },
+    { cameras(cameraEntry("front", "outputs", outputsList("infrared"))),
+      false,
+      true,
+      { "~sensors/cameras[0]/outputs" } },
     { cameras(cameraEntry("", "width", 64)), true, true, { "~vehicle_sensors/ego/cameras[0]/name", "required" } },
     { cameras(cameraEntry("front", "lens", 1.0)), false, true, { "~sensors/cameras[0]/lens", "not a known key" } },
   };
@@ -1185,10 +1194,11 @@ TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
   EXPECT_NEAR(static_cast<double>(cloud.countIn(from, until)), 10.0 * span, 1.0 * span);
   EXPECT_NEAR(static_cast<double>(targets.countIn(from, until)), 10.0 * span, 1.0 * span);
   EXPECT_NEAR(static_cast<double>(fixes.countIn(from, until)), 10.0 * span, 1.0 * span);
-  std::printf("[sensors_node test] behind dynamics_node over %.0f s of sim time: %zu + %zu IMU samples, %zu sweeps, "
-              "%zu radar scans, %zu fixes\n",
-              span, imu.countIn(from, until), mule_imu.countIn(from, until), cloud.countIn(from, until),
-              targets.countIn(from, until), fixes.countIn(from, until));
+  std::printf(
+      "[sensors_node test] behind dynamics_node over %.0f s of sim time: %zu + %zu IMU samples, %zu sweeps, "
+      "%zu radar scans, %zu fixes\n",
+      span, imu.countIn(from, until), mule_imu.countIn(from, until), cloud.countIn(from, until),
+      targets.countIn(from, until), fixes.countIn(from, until));
 
   // Braked and settled after the first second: +g and no rotation.
   for (const Topic<sensor_msgs::Imu>* t : { &imu, &mule_imu })
@@ -1372,9 +1382,12 @@ TEST(LockstepFollow, ClockSensorsAndWeatherUnderLoad)
       },
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   // The physics starts on this test's signal (dynamics_node ~start_topic), once it listens.
-  ASSERT_TRUE(spinUntil([&] {
-    return w.imu_sub.getNumPublishers() > 0 && points_sub.getNumPublishers() > 0 && w.clock_sub.getNumPublishers() > 0;
-  }, 60.0));
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        return w.imu_sub.getNumPublishers() > 0 && points_sub.getNumPublishers() > 0 &&
+               w.clock_sub.getNumPublishers() > 0;
+      },
+      60.0));
   ros::Publisher start_pub = nh.advertise<std_msgs::Empty>("/test/start", 1, true);
   start_pub.publish(std_msgs::Empty());
   const ros::WallTime start = ros::WallTime::now();
@@ -1394,7 +1407,8 @@ TEST(LockstepFollow, ClockSensorsAndWeatherUnderLoad)
   EXPECT_LE(sweep_lead, sweep_period + 0.05 + 0.1 + 1e-6);
 
   // The fog: every sweep that ended before fog_start is clear, every one that ended after it foggy.
-  const double boundary = std::ceil(fog_start / sweep_period - 1e-9) * sweep_period - sweep_period;  // first foggy stamp
+  const double boundary =
+      std::ceil(fog_start / sweep_period - 1e-9) * sweep_period - sweep_period;  // first foggy stamp
   std::size_t clear_min = std::numeric_limits<std::size_t>::max(), foggy_max = 0, clear_n = 0, foggy_n = 0;
   for (const auto& [stamp, points] : sweeps)
   {
@@ -1409,10 +1423,10 @@ TEST(LockstepFollow, ClockSensorsAndWeatherUnderLoad)
   ASSERT_GE(foggy_n, 2u);
   EXPECT_LT(2 * foggy_max, clear_min) << "the sweep stamped " << boundary << " s (ending after the fog came at "
                                       << fog_start << " s) is the first foggy one";
-  std::printf("[ follow ] %.1f s of sim time in %.1f s wall with %d busy thread(s); /clock at most %.3f s ahead of the "
-              "IMU, %.3f s of a sweep's stamp; sweeps: clear >= %zu points, foggy (from %.2f s) <= %zu\n",
-              until, (ros::WallTime::now() - start).toSec(), hog_threads, w.lead, sweep_lead, clear_min, boundary,
-              foggy_max);
+  std::printf(
+      "[ follow ] %.1f s of sim time in %.1f s wall with %d busy thread(s); /clock at most %.3f s ahead of the "
+      "IMU, %.3f s of a sweep's stamp; sweeps: clear >= %zu points, foggy (from %.2f s) <= %zu\n",
+      until, (ros::WallTime::now() - start).toSec(), hog_threads, w.lead, sweep_lead, clear_min, boundary, foggy_max);
 }
 
 int main(int argc, char** argv)

@@ -75,11 +75,11 @@ bool mentions(const std::string& text, std::initializer_list<const char*> parts)
 }  // namespace
 
 /// The text contains every one of the strings that follow it.
-#define EXPECT_MENTIONS(text, ...)                              \
-  do                                                            \
-  {                                                             \
-    const std::string said_ = (text);                           \
-    EXPECT_TRUE(mentions(said_, { __VA_ARGS__ })) << said_;     \
+#define EXPECT_MENTIONS(text, ...)                          \
+  do                                                        \
+  {                                                         \
+    const std::string said_ = (text);                       \
+    EXPECT_TRUE(mentions(said_, { __VA_ARGS__ })) << said_; \
   } while (0)
 
 TEST(SensorParams, DefaultsGiveEverySensorButUltrasonicsOnTheStandardLinks)
@@ -106,11 +106,14 @@ TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
   const XmlRpcValue common = map({ { "lidar", map({ { "preset", str("HDL-32E") }, { "max_range", 80.0 } }) },
                                    { "radar", map({ { "rate", 20 }, { "cluster_eps", 1.5 } }) },
                                    { "gps", map({ { "enabled", false } }) } });
-  const XmlRpcValue own = map({ { "lidar", map({ { "registered", false }, { "sub_rays", 2 } }) },
-                                { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 4.8e-5 },
-                                                        { "inclination_deg", 65 }, { "declination_deg", -8.5 } }) },
-                                { "ultrasonic", list({ map({ { "name", str("rear") }, { "x", -2.0 }, { "yaw", 3.14159 },
-                                                             { "max_range", 3.0 } }) }) } });
+  const XmlRpcValue own =
+      map({ { "lidar", map({ { "registered", false }, { "sub_rays", 2 } }) },
+            { "magnetometer", map({ { "model", str("fixed") },
+                                    { "intensity", 4.8e-5 },
+                                    { "inclination_deg", 65 },
+                                    { "declination_deg", -8.5 } }) },
+            { "ultrasonic",
+              list({ map({ { "name", str("rear") }, { "x", -2.0 }, { "yaw", 3.14159 }, { "max_range", 3.0 } }) }) } });
   const SensorsSpec s = parseSensors(&own, "~vehicle_sensors/ego", &common, "~sensors");
   ASSERT_TRUE(s.suite.lidar);
   EXPECT_EQ(s.suite.lidar->config.name, "VLP-16");  // the vehicle's lidar section, not HDL-32E
@@ -135,11 +138,11 @@ TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
   EXPECT_NEAR((s.ultrasonic_mounts[0].pose->linear() * Eigen::Vector3d::UnitX()).x(), -1.0, 1e-9);
 
   // A custom lidar from its channels.
-  const XmlRpcValue custom = map({ { "lidar", map({ { "preset", str("custom") },
-                                                    { "channels", list({ map({ { "elevation", -0.1 } }),
-                                                                         map({ { "elevation", 0.1 },
-                                                                               { "time_offset", 1e-6 } }) }) },
-                                                    { "columns", 360 } }) } });
+  const XmlRpcValue custom =
+      map({ { "lidar", map({ { "preset", str("custom") },
+                             { "channels", list({ map({ { "elevation", -0.1 } }),
+                                                  map({ { "elevation", 0.1 }, { "time_offset", 1e-6 } }) }) },
+                             { "columns", 360 } }) } });
   const SensorsSpec c = parseSensors(nullptr, "", &custom, "~sensors");
   ASSERT_EQ(c.suite.lidar->config.channels.size(), 2u);
   EXPECT_EQ(c.suite.lidar->config.columns, 360u);
@@ -150,34 +153,54 @@ TEST(SensorParams, VehicleSectionsReplaceCommonOnesSectionBySection)
 
 TEST(SensorParams, EveryMalformedKeyIsNamed)
 {
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "presett", str("VLP-16") } }) } })), "~sensors/lidar/presett", "not a known key");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "presett", str("VLP-16") } }) } })), "~sensors/lidar/presett",
+                  "not a known key");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "preset", str("VLP-17") } }) } })), "~sensors/lidar/preset", "VLP-17");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "preset", str("custom") } }) } })), "~sensors/lidar/channels", "required");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "max_range", str("far") } }) } })), "~sensors/lidar/max_range", "must be a number");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "preset", str("custom") } }) } })), "~sensors/lidar/channels",
+                  "required");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "max_range", str("far") } }) } })), "~sensors/lidar/max_range",
+                  "must be a number");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "min_range", 200.0 } }) } })), "~sensors/lidar", "max_range");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "return_mode", str("first") } }) } })), "~sensors/lidar/return_mode", "'strongest' or 'last'");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "return_mode", str("first") } }) } })), "~sensors/lidar/return_mode",
+                  "'strongest' or 'last'");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "columns", -5 } }) } })), "~sensors/lidar/columns");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "registered", 1 } }) } })), "~sensors/lidar/registered", "true or false");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "registered", 1 } }) } })), "~sensors/lidar/registered",
+                  "true or false");
   EXPECT_MENTIONS(error(map({ { "lidar", map({ { "frame", str("a/b") } }) } })), "~sensors/lidar/frame", "URDF link");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", 0.0 } }) } }) } })), "~sensors/lidar/clustering", "cluster_tolerance");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", -1 } }) } }) } })), "~sensors/lidar/clustering", "cluster_tolerance");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "tolerance", 0.5 } }) } }) } })), "~sensors/lidar/clustering/tolerance", "not a known key");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 0 } }) } }) } })), "~sensors/lidar/clustering/min_points");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 10 }, { "max_points", 5 } }) } }) } })), "~sensors/lidar/clustering", "max_points");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ground_clearance", -0.1 } }) } }) } })), "~sensors/lidar/clustering", "ground_clearance");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "use_height", 1 } }) } }) } })), "~sensors/lidar/clustering/use_height", "true or false");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 0.0 } }) } }) } })), "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 95.0 } }) } }) } })), "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_gap", -1.0 } }) } }) } })), "~sensors/lidar/clustering", "ring_link_gap");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", 0.5 } }) } })), "~sensors/lidar/clustering", "must be a map");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", 0.0 } }) } }) } })),
+                  "~sensors/lidar/clustering", "cluster_tolerance");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", -1 } }) } }) } })),
+                  "~sensors/lidar/clustering", "cluster_tolerance");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "tolerance", 0.5 } }) } }) } })),
+                  "~sensors/lidar/clustering/tolerance", "not a known key");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 0 } }) } }) } })),
+                  "~sensors/lidar/clustering/min_points");
+  EXPECT_MENTIONS(
+      error(map({ { "lidar", map({ { "clustering", map({ { "min_points", 10 }, { "max_points", 5 } }) } }) } })),
+      "~sensors/lidar/clustering", "max_points");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ground_clearance", -0.1 } }) } }) } })),
+                  "~sensors/lidar/clustering", "ground_clearance");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "use_height", 1 } }) } }) } })),
+                  "~sensors/lidar/clustering/use_height", "true or false");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 0.0 } }) } }) } })),
+                  "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_angle_deg", 95.0 } }) } }) } })),
+                  "~sensors/lidar/clustering/ring_link_angle_deg", "(0, 90]");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", map({ { "ring_link_gap", -1.0 } }) } }) } })),
+                  "~sensors/lidar/clustering", "ring_link_gap");
+  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "clustering", 0.5 } }) } })), "~sensors/lidar/clustering",
+                  "must be a map");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "max_range", -5.0 } }) } })), "~sensors/radar", "max_range");
   EXPECT_MENTIONS(error(map({ { "radar", map({ { "rate", 0 } }) } })), "~sensors/radar", "rate");
-  EXPECT_MENTIONS(error(map({ { "radar", map({ { "cluster_min_points", 0 } }) } })), "~sensors/radar/cluster_min_points");
+  EXPECT_MENTIONS(error(map({ { "radar", map({ { "cluster_min_points", 0 } }) } })),
+                  "~sensors/radar/cluster_min_points");
   EXPECT_MENTIONS(error(map({ { "gps", map({ { "rate", str("fast") } }) } })), "~sensors/gps/rate", "must be a number");
   EXPECT_MENTIONS(error(map({ { "gps", map({ { "horizontal_noise", -1.0 } }) } })), "~sensors/gps", "horizontal_noise");
   EXPECT_MENTIONS(error(map({ { "imu", map({ { "rate", 0.0 } }) } })), "~sensors/imu", "rate");
-  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 5e-5 }, { "inclination_deg", 95 },
-                                                     { "declination_deg", 0 } }) } })),
+  EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("fixed") },
+                                                      { "intensity", 5e-5 },
+                                                      { "inclination_deg", 95 },
+                                                      { "declination_deg", 0 } }) } })),
                   "~sensors/magnetometer", "inclination_deg");
   EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 5e-5 } }) } })),
                   "~sensors/magnetometer/inclination_deg", "required with model 'fixed'");
@@ -189,13 +212,21 @@ TEST(SensorParams, EveryMalformedKeyIsNamed)
                   "~sensors/magnetometer/model", "magnetic model file /nonexistent/site.wmm");
   EXPECT_MENTIONS(error(map({ { "magnetometer", map({ { "model", 2025 } }) } })), "~sensors/magnetometer/model",
                   "must be a string");
-  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "x", 1.0 } }) }) } })), "~sensors/ultrasonic[0]/name", "required");
-  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })), "~sensors/ultrasonic[1]/name", "used twice");
-  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") }, { "max_range", 0.01 } }) }) } })), "~sensors/ultrasonic[0]", "max_range");
-  EXPECT_MENTIONS(error(map({ { "ultrasonic", map({ { "name", str("a") } }) } })), "~sensors/ultrasonic", "must be a list");
-  EXPECT_MENTIONS(error(map({ { "lidar", map({ { "enabled", false } }) }, { "occupancy", map({ { "enabled", true } }) } })), "~sensors/occupancy/enabled", "needs a lidar");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "x", 1.0 } }) }) } })), "~sensors/ultrasonic[0]/name",
+                  "required");
+  EXPECT_MENTIONS(
+      error(map({ { "ultrasonic", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })),
+      "~sensors/ultrasonic[1]/name", "used twice");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", list({ map({ { "name", str("a") }, { "max_range", 0.01 } }) }) } })),
+                  "~sensors/ultrasonic[0]", "max_range");
+  EXPECT_MENTIONS(error(map({ { "ultrasonic", map({ { "name", str("a") } }) } })), "~sensors/ultrasonic",
+                  "must be a list");
+  EXPECT_MENTIONS(
+      error(map({ { "lidar", map({ { "enabled", false } }) }, { "occupancy", map({ { "enabled", true } }) } })),
+      "~sensors/occupancy/enabled", "needs a lidar");
   EXPECT_MENTIONS(error(map({ { "occupancy", map({ { "resolution", 0.0 } }) } })), "~sensors/occupancy", "resolution");
-  EXPECT_MENTIONS(error(map({ { "occupancy", map({ { "obstacle_height", 5.0 } }) } })), "~sensors/occupancy", "max_height");
+  EXPECT_MENTIONS(error(map({ { "occupancy", map({ { "obstacle_height", 5.0 } }) } })), "~sensors/occupancy",
+                  "max_height");
   EXPECT_MENTIONS(error(map({ { "sonar", map({}) } })), "~sensors/sonar", "not a known key");
   EXPECT_MENTIONS(error(map({ { "lidar", 3 } })), "~sensors/lidar", "must be a map");
   // The vehicle's own section is named as such.
@@ -205,18 +236,19 @@ TEST(SensorParams, EveryMalformedKeyIsNamed)
 
 TEST(SensorParams, CamerasParseWithTheirMountOutputsAndStereoPairs)
 {
-  const XmlRpcValue common = map({ { "cameras",
-                                     list({ map({ { "name", str("front") },
-                                                  { "width", 320 },
-                                                  { "height", 200 },
-                                                  { "hfov_deg", 60.0 },
-                                                  { "rate", 3 },
-                                                  { "x", 1.5 },
-                                                  { "z", 1.2 },
-                                                  { "yaw", 0.5 },
-                                                  { "outputs", list({ str("depth"), str("thermal") }) } }),
-                                            map({ { "name", str("stereo") }, { "stereo_baseline", 0.4 }, { "y", 0.2 } }),
-                                            map({ { "name", str("fish") }, { "projection", str("fisheye") }, { "hfov_deg", 190 } }) }) } });
+  const XmlRpcValue common =
+      map({ { "cameras",
+              list({ map({ { "name", str("front") },
+                           { "width", 320 },
+                           { "height", 200 },
+                           { "hfov_deg", 60.0 },
+                           { "rate", 3 },
+                           { "x", 1.5 },
+                           { "z", 1.2 },
+                           { "yaw", 0.5 },
+                           { "outputs", list({ str("depth"), str("thermal") }) } }),
+                     map({ { "name", str("stereo") }, { "stereo_baseline", 0.4 }, { "y", 0.2 } }),
+                     map({ { "name", str("fish") }, { "projection", str("fisheye") }, { "hfov_deg", 190 } }) }) } });
   const SensorsSpec s = parseSensors(nullptr, "~vehicle_sensors/ego", &common, "~sensors");
   ASSERT_EQ(s.cameras.size(), 4u);
   const CameraConfig& f = s.cameras[0];
@@ -241,14 +273,25 @@ TEST(SensorParams, CamerasParseWithTheirMountOutputsAndStereoPairs)
   EXPECT_TRUE(s.cameras[1].rgb && s.cameras[1].depth && s.cameras[1].semantic && !s.cameras[1].thermal);
   EXPECT_TRUE(parseSensors(nullptr, "", nullptr, "~sensors").cameras.empty());
   // Malformed cameras, each named.
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "width", 64 } }) }) } })), "~sensors/cameras[0]/name", "required");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "width", 0 } }) }) } })), "~sensors/cameras[0]/width");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "rate", -1.0 } }) }) } })), "~sensors/cameras[0]", "rate");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "projection", str("orthographic") } }) }) } })), "~sensors/cameras[0]/projection");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "outputs", list({ str("lidar") }) } }) }) } })), "~sensors/cameras[0]/outputs");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "distortion", list({ 0.1, 0.2 }) } }) }) } })), "~sensors/cameras[0]/distortion", "5 numbers");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })), "~sensors/cameras[1]/name", "used twice");
-  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "stereo_baseline", -0.1 } }) }) } })), "~sensors/cameras[0]/stereo_baseline");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "width", 64 } }) }) } })), "~sensors/cameras[0]/name",
+                  "required");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "width", 0 } }) }) } })),
+                  "~sensors/cameras[0]/width");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "rate", -1.0 } }) }) } })),
+                  "~sensors/cameras[0]", "rate");
+  EXPECT_MENTIONS(
+      error(map({ { "cameras", list({ map({ { "name", str("a") }, { "projection", str("orthographic") } }) }) } })),
+      "~sensors/cameras[0]/projection");
+  EXPECT_MENTIONS(
+      error(map({ { "cameras", list({ map({ { "name", str("a") }, { "outputs", list({ str("lidar") }) } }) }) } })),
+      "~sensors/cameras[0]/outputs");
+  EXPECT_MENTIONS(
+      error(map({ { "cameras", list({ map({ { "name", str("a") }, { "distortion", list({ 0.1, 0.2 }) } }) }) } })),
+      "~sensors/cameras[0]/distortion", "5 numbers");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") } }), map({ { "name", str("a") } }) }) } })),
+                  "~sensors/cameras[1]/name", "used twice");
+  EXPECT_MENTIONS(error(map({ { "cameras", list({ map({ { "name", str("a") }, { "stereo_baseline", -0.1 } }) }) } })),
+                  "~sensors/cameras[0]/stereo_baseline");
   EXPECT_MENTIONS(error(map({ { "cameras", map({ { "name", str("a") } }) } })), "~sensors/cameras", "must be a list");
 }
 
@@ -326,17 +369,20 @@ TEST(SensorParams, VehicleListIsCheckedEntryByEntry)
     }
     return std::string("(no error)");
   };
-  const std::vector<VehicleEntry> ok = parseVehicles(list({ map({ { "name", str("a") }, { "model", str("fed_alpha") },
-                                                                  { "x", 3.0 } }),
-                                                            map({ { "name", str("b") }, { "model", str("mrzr") } }) }));
+  const std::vector<VehicleEntry> ok =
+      parseVehicles(list({ map({ { "name", str("a") }, { "model", str("fed_alpha") }, { "x", 3.0 } }),
+                           map({ { "name", str("b") }, { "model", str("mrzr") } }) }));
   ASSERT_EQ(ok.size(), 2u);
   EXPECT_EQ(ok[1].model, "mrzr");
   EXPECT_MENTIONS(fails(XmlRpcValue(3)), "~vehicles", "non-empty list");
   EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") } }) })), "~vehicles[0]", "'model'");
   EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") } }),
-                            map({ { "name", str("a") }, { "model", str("m") } }) })), "~vehicles[1]/name", "used twice");
-  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a/b") }, { "model", str("m") } }) })), "~vehicles[0]/name", "without '/'");
-  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") }, { "colour", str("red") } }) })), "~vehicles[0]/colour", "not a known key");
+                               map({ { "name", str("a") }, { "model", str("m") } }) })),
+                  "~vehicles[1]/name", "used twice");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a/b") }, { "model", str("m") } }) })), "~vehicles[0]/name",
+                  "without '/'");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") }, { "colour", str("red") } }) })),
+                  "~vehicles[0]/colour", "not a known key");
 }
 
 TEST(VehicleFrames, ReferenceVehiclesHaveTheSensorLinksAndCollisionBoxes)
@@ -628,7 +674,8 @@ TEST(Conversions, RadarOccupancyAndSampledSensorsFillTheirMessages)
   EXPECT_EQ(m.markers[0].action, visualization_msgs::Marker::DELETEALL);
   EXPECT_EQ(m.markers[1].scale.x, 0.2);
 
-  const std::vector<OccupiedCell> cells{ { Eigen::Vector3d(1, 2, 3), 0.2, 0.9 }, { Eigen::Vector3d(0, 0, 0), 0.4, 0.8 },
+  const std::vector<OccupiedCell> cells{ { Eigen::Vector3d(1, 2, 3), 0.2, 0.9 },
+                                         { Eigen::Vector3d(0, 0, 0), 0.4, 0.8 },
                                          { Eigen::Vector3d(1, 1, 1), 0.2, 0.7 } };
   const visualization_msgs::MarkerArray cm = occupiedCellMarkers(cells, h, 0.0, 3.0);
   ASSERT_EQ(cm.markers.size(), 3u);  // DELETEALL + one list per size
@@ -692,8 +739,10 @@ TEST(SensorParams, MagnetometerGetsTheModelOnTheRunsDateAtTheOrigin)
   EXPECT_MENTIONS(summary, "World Magnetic Model 2025 on 2025-10-15 (2025.786)", "F 51.06 uT", "I 65.86 deg",
                   "D 7.67 deg");
   // A fixed field needs neither the date nor the origin.
-  const XmlRpcValue fixed = map({ { "magnetometer", map({ { "model", str("fixed") }, { "intensity", 5e-5 },
-                                                          { "inclination_deg", 60 }, { "declination_deg", 0 } }) } });
+  const XmlRpcValue fixed = map({ { "magnetometer", map({ { "model", str("fixed") },
+                                                          { "intensity", 5e-5 },
+                                                          { "inclination_deg", 60 },
+                                                          { "declination_deg", 0 } }) } });
   std::vector<SensorsSpec> fixed_specs{ parseSensors(nullptr, "", &fixed, "~sensors") };
   EXPECT_EQ(placeMagnetometers(fixed_specs, std::nullopt, ""), "");
   EXPECT_FALSE(fixed_specs[0].suite.magnetometer->model);
@@ -722,12 +771,12 @@ TEST(SensorParams, LidarClusteringDefaultsOnAndReadsItsKeys)
   EXPECT_EQ(d.suite.lidar->clustering->cluster_tolerance, defaults.cluster_tolerance);
   EXPECT_EQ(d.suite.lidar->clustering->ground_clearance, defaults.ground_clearance);
   const XmlRpcValue common = map({ { "lidar", map({ { "clustering", map({ { "cluster_tolerance", 0.8 },
-                                                                           { "min_points", 3 },
-                                                                           { "max_points", 900 },
-                                                                           { "ground_clearance", 0.5 },
-                                                                           { "use_height", true },
-                                                                           { "ring_link_angle_deg", 20.0 },
-                                                                           { "ring_link_gap", 0.7 } }) } }) } });
+                                                                          { "min_points", 3 },
+                                                                          { "max_points", 900 },
+                                                                          { "ground_clearance", 0.5 },
+                                                                          { "use_height", true },
+                                                                          { "ring_link_angle_deg", 20.0 },
+                                                                          { "ring_link_gap", 0.7 } }) } }) } });
   const SensorsSpec s = parseSensors(nullptr, "~vehicle_sensors/ego", &common, "~sensors");
   ASSERT_TRUE(s.suite.lidar->clustering);
   EXPECT_EQ(s.suite.lidar->clustering->cluster_tolerance, 0.8);

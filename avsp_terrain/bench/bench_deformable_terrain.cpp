@@ -90,23 +90,24 @@ int main(int argc, char** argv)
   {  // Patch update cost at 0.05 m cells, each figure on fresh terrain, best and median of 5.
     const std::size_t n = 400;
     const auto fresh = [&](const char* soil) {
-      return DeformableTerrain(ElevationGrid(0, 0, 0.05, 0.05, n, n, std::vector<float>(n * n, 0.f)),
-                               soils.get(soil), DeformableTerrain::Options{ true });
+      return DeformableTerrain(ElevationGrid(0, 0, 0.05, 0.05, n, n, std::vector<float>(n * n, 0.f)), soils.get(soil),
+                               DeformableTerrain::Options{ true });
     };
     const int steps = 20000;
     for (const char* soil : { "sandy_loam", "dry_sand" })
     {
       int points = 0;
-      const Timing t = timeSteps(
-          [&] { return fresh(soil); },
-          [&](DeformableTerrain& t, int k) {
-            points += t.wheelContact(wheel(2.0 + 1e-4 * k, 10.0, 0.02, 1.0), 0.001, true).contact_points;
-          },
-          steps);
-      std::printf("wheel patch update, %s (%s; 0.70 m x 0.30 m footprint, 0.05 m cells, %.1f loaded points): "
-                  "%.2f us, median %.2f us  (target <= 5 us)\n",
-                  soil, soils.get(soil).model == SinkageModel::kBekker ? "Bekker" : "simple",
-                  double(points) / (kRepeats * steps), t.best, t.median);
+      const Timing t =
+          timeSteps([&] { return fresh(soil); },
+                    [&](DeformableTerrain& t, int k) {
+                      points += t.wheelContact(wheel(2.0 + 1e-4 * k, 10.0, 0.02, 1.0), 0.001, true).contact_points;
+                    },
+                    steps);
+      std::printf(
+          "wheel patch update, %s (%s; 0.70 m x 0.30 m footprint, 0.05 m cells, %.1f loaded points): "
+          "%.2f us, median %.2f us  (target <= 5 us)\n",
+          soil, soils.get(soil).model == SinkageModel::kBekker ? "Bekker" : "simple",
+          double(points) / (kRepeats * steps), t.best, t.median);
     }
     {
       // A 4-wheel vehicle (track 1.9 m, wheelbase 3.3 m) creeping along x: four contacts per step.
@@ -168,12 +169,13 @@ int main(int argc, char** argv)
       driven += 0.1;
     }
     const double s = std::chrono::duration<double>(Clock::now() - t0).count();
-    std::printf("traverse %.1f km at 0.1 m cells (%.1f s): %zu deformed points, %.2f MB of state, %.1f B per deformed "
-                "point (peer: 165 B; target <= 33 B), RSS growth %.1f MB; fixed tile directory %.2f MB, soil map "
-                "%.2f MB (1 B per grid point with several soils, 0 with one)\n",
-                km, s, t.deformedPoints(), t.deformationBytes() / 1e6,
-                double(t.deformationBytes()) / std::max<std::size_t>(t.deformedPoints(), 1), rssMegabytes() - rss0,
-                t.directoryBytes() / 1e6, t.soilMapBytes() / 1e6);
+    std::printf(
+        "traverse %.1f km at 0.1 m cells (%.1f s): %zu deformed points, %.2f MB of state, %.1f B per deformed "
+        "point (peer: 165 B; target <= 33 B), RSS growth %.1f MB; fixed tile directory %.2f MB, soil map "
+        "%.2f MB (1 B per grid point with several soils, 0 with one)\n",
+        km, s, t.deformedPoints(), t.deformationBytes() / 1e6,
+        double(t.deformationBytes()) / std::max<std::size_t>(t.deformedPoints(), 1), rssMegabytes() - rss0,
+        t.directoryBytes() / 1e6, t.soilMapBytes() / 1e6);
   }
 
   {  // Height queries on deformed terrain.

@@ -151,8 +151,9 @@ int main(int argc, char** argv)
   const std::size_t queries = argc > 2 ? std::strtoul(argv[2], nullptr, 10) : 4000000;
   if (n < 200 || queries == 0)
   {
-    std::fprintf(stderr, "bench_elevation_grid: points_per_side must be >= 200 (room for the 10 m window and the "
-                         "vehicle) and queries > 0\n");
+    std::fprintf(stderr,
+                 "bench_elevation_grid: points_per_side must be >= 200 (room for the 10 m window and the "
+                 "vehicle) and queries > 0\n");
     return 2;
   }
   const double d = 0.1;
@@ -165,9 +166,10 @@ int main(int argc, char** argv)
   const std::vector<float> bare = h;
   const ElevationGrid grid(0, 0, d, d, n, n, std::move(h));
   const double grid_mb = n * n * sizeof(float) / 1e6;
-  std::printf("grid %zu x %zu points at %.2f m (%.1f M points, %.1f MB of base heights, %zu B per point); %zu "
-              "queries per pattern, best of %d runs\n",
-              n, n, d, n * n / 1e6, grid_mb, sizeof(float), queries, kRepeats);
+  std::printf(
+      "grid %zu x %zu points at %.2f m (%.1f M points, %.1f MB of base heights, %zu B per point); %zu "
+      "queries per pattern, best of %d runs\n",
+      n, n, d, n * n / 1e6, grid_mb, sizeof(float), queries, kRepeats);
 
   std::mt19937 rng(42);
   std::vector<Pattern> patterns;
@@ -185,32 +187,41 @@ int main(int argc, char** argv)
   {
     const double* xy = p.xy.data();
     double c_opt = 0, c_fast = 0, c_batch = 0;
-    const double r_opt = rate(queries, [&] {
-      double sum = 0;
-      for (std::size_t k = 0; k < queries; ++k)
-        sum += *grid.height(xy[2 * k], xy[2 * k + 1]);
-      return sum;
-    }, c_opt);
-    const double r_fast = rate(queries, [&] {
-      double sum = 0, z = 0;
-      for (std::size_t k = 0; k < queries; ++k)
-        if (grid.heightAt(xy[2 * k], xy[2 * k + 1], z))
-          sum += z;
-      return sum;
-    }, c_fast);
+    const double r_opt = rate(
+        queries,
+        [&] {
+          double sum = 0;
+          for (std::size_t k = 0; k < queries; ++k)
+            sum += *grid.height(xy[2 * k], xy[2 * k + 1]);
+          return sum;
+        },
+        c_opt);
+    const double r_fast = rate(
+        queries,
+        [&] {
+          double sum = 0, z = 0;
+          for (std::size_t k = 0; k < queries; ++k)
+            if (grid.heightAt(xy[2 * k], xy[2 * k + 1], z))
+              sum += z;
+          return sum;
+        },
+        c_fast);
     // Every pattern stays on the grid, so that the three paths sum the same heights.
     if (grid.heights(xy, out.data(), queries) != queries)
     {
       std::fprintf(stderr, "bench_elevation_grid: pattern '%s' left the grid (bug)\n", p.name.c_str());
       return 1;
     }
-    const double r_batch = rate(queries, [&] {
-      grid.heights(xy, out.data(), queries);
-      double sum = 0;
-      for (std::size_t k = 0; k < queries; ++k)
-        sum += out[k];
-      return sum;
-    }, c_batch);
+    const double r_batch = rate(
+        queries,
+        [&] {
+          grid.heights(xy, out.data(), queries);
+          double sum = 0;
+          for (std::size_t k = 0; k < queries; ++k)
+            sum += out[k];
+          return sum;
+        },
+        c_batch);
     identical = identical && c_opt == c_fast && c_opt == c_batch;
     const double best = std::max({ r_opt, r_fast, r_batch });
     const char* verdict = std::min({ r_opt, r_fast, r_batch }) >= kTarget ? "meets target, every path"
@@ -235,26 +246,31 @@ int main(int argc, char** argv)
     for (auto& k : idx)
       k = cell(rng2);
     double checksum = 0;
-    const double r = rate(queries, [&] {
-      double sum = 0;
-      for (std::size_t k = 0; k < queries; ++k)
-        sum += bare[idx[k]] + bare[idx[k] + n];
-      return sum;
-    }, checksum);
-    std::printf("bare random read of 2 floats one row apart from the same %.0f MB array: %.1f M/s (checksum %.1f); "
-                "random queries: one at a time %.1f M/s (%.0f %% of it), batched %.1f M/s (%.0f %%)\n",
-                grid_mb, r, checksum, random_single, 100.0 * random_single / r, random_batch,
-                100.0 * random_batch / r);
+    const double r = rate(
+        queries,
+        [&] {
+          double sum = 0;
+          for (std::size_t k = 0; k < queries; ++k)
+            sum += bare[idx[k]] + bare[idx[k] + n];
+          return sum;
+        },
+        checksum);
+    std::printf(
+        "bare random read of 2 floats one row apart from the same %.0f MB array: %.1f M/s (checksum %.1f); "
+        "random queries: one at a time %.1f M/s (%.0f %% of it), batched %.1f M/s (%.0f %%)\n",
+        grid_mb, r, checksum, random_single, 100.0 * random_single / r, random_batch, 100.0 * random_batch / r);
     const double l3_mb = l3CacheMegabytes();
     if (l3_mb > 0.0 && grid_mb > 2.0 * l3_mb)
-      std::printf("the grid is %.1f x this CPU's %.1f MB L3 cache: random queries miss cache, so memory latency "
-                  "sets their rate (the bare read is the ceiling, not the arithmetic), and heights() is faster because "
-                  "it overlaps the misses of 16 queries; coherent patterns stay in cache\n",
-                  grid_mb / l3_mb, l3_mb);
+      std::printf(
+          "the grid is %.1f x this CPU's %.1f MB L3 cache: random queries miss cache, so memory latency "
+          "sets their rate (the bare read is the ceiling, not the arithmetic), and heights() is faster because "
+          "it overlaps the misses of 16 queries; coherent patterns stay in cache\n",
+          grid_mb / l3_mb, l3_mb);
     else if (l3_mb > 0.0)
-      std::printf("the grid fits in about twice this CPU's %.0f MB L3 cache, so random queries mostly hit cache; "
-                  "run with points_per_side 4900 for the memory-bound case\n",
-                  l3_mb);
+      std::printf(
+          "the grid fits in about twice this CPU's %.0f MB L3 cache, so random queries mostly hit cache; "
+          "run with points_per_side 4900 for the memory-bound case\n",
+          l3_mb);
   }
   return identical ? 0 : 1;
 }

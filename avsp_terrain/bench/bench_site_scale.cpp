@@ -155,8 +155,8 @@ std::string writeSite(const std::string& path, std::size_t cols, std::size_t row
     return "GDAL has no GTiff driver";
   // BIGTIFF: the file is close to 1 GB, and a slightly larger site would pass 4 GB.
   char* options[] = { const_cast<char*>("BIGTIFF=IF_SAFER"), nullptr };
-  GDALDatasetH ds = GDALCreate(driver, path.c_str(), static_cast<int>(cols), static_cast<int>(rows), 1,
-                               GDT_Float32, options);
+  GDALDatasetH ds =
+      GDALCreate(driver, path.c_str(), static_cast<int>(cols), static_cast<int>(rows), 1, GDT_Float32, options);
   if (ds == nullptr)
     return std::string("cannot create: ") + CPLGetLastErrorMsg();
   // The same georeference writeGeoTiff() gives: grid point (0, 0) at map (0, 0), pixel centres.
@@ -297,13 +297,15 @@ int main(int argc, char** argv)
     const double peak_hwm = procStatusMb("VmHWM");
     const double peak_ru = maxRssMb();
     const double base_bytes = static_cast<double>(cols) * rows * sizeof(float);
-    std::printf("load: %.2f s (readGeoTiff %.2f s, fillNoData %.2f s for %zu void points (filled %zu), grid + "
-                "terrain %.2f s)\n",
-                load_s, read_s, fill_s, voids, filled, build_s);
-    std::printf("RSS: %.1f MB before, %.1f MB after reading (peak so far %.1f MB), %.1f MB loaded; peak %.1f MB "
-                "(VmHWM) / %.1f MB (ru_maxrss)  (limit %.0f MB: %s)\n",
-                rss_before, rss_read, peak_read, rss_loaded, peak_hwm, peak_ru, kPeakLimitMb,
-                std::max(peak_hwm, peak_ru) < kPeakLimitMb ? "met" : "EXCEEDED");
+    std::printf(
+        "load: %.2f s (readGeoTiff %.2f s, fillNoData %.2f s for %zu void points (filled %zu), grid + "
+        "terrain %.2f s)\n",
+        load_s, read_s, fill_s, voids, filled, build_s);
+    std::printf(
+        "RSS: %.1f MB before, %.1f MB after reading (peak so far %.1f MB), %.1f MB loaded; peak %.1f MB "
+        "(VmHWM) / %.1f MB (ru_maxrss)  (limit %.0f MB: %s)\n",
+        rss_before, rss_read, peak_read, rss_loaded, peak_hwm, peak_ru, kPeakLimitMb,
+        std::max(peak_hwm, peak_ru) < kPeakLimitMb ? "met" : "EXCEEDED");
     std::printf("base heights: %.1f MB (%zu B per point); deformation tile directory: %.1f MB (fixed)\n",
                 base_bytes / 1e6, sizeof(float), terrain.directoryBytes() / 1e6);
 
@@ -332,14 +334,16 @@ int main(int argc, char** argv)
     const double growth = procStatusMb("VmRSS") - rss_pre;
     const std::size_t deformed = terrain.deformedPoints();
     const std::size_t state = terrain.deformationBytes();
-    std::printf("traverse: %.1f km in %.1f s (%.0f wheel contacts, %.1f loaded points each); RSS growth %.1f MB "
-                "(limit %.0f MB: %s)\n",
-                km, drive_s, 4.0 * driven / step, contacts / (4.0 * driven / step), growth, kGrowthLimitMb,
-                growth < kGrowthLimitMb ? "met" : "EXCEEDED");
-    std::printf("deformed points: %zu; deformation state %.2f MB = %.1f B per deformed point (tiles of %d x %d "
-                "points, %zu B per point slot)\n",
-                deformed, state / 1e6, static_cast<double>(state) / std::max<std::size_t>(deformed, 1),
-                DeformableTerrain::kTileSize, DeformableTerrain::kTileSize, sizeof(PointDeformation));
+    std::printf(
+        "traverse: %.1f km in %.1f s (%.0f wheel contacts, %.1f loaded points each); RSS growth %.1f MB "
+        "(limit %.0f MB: %s)\n",
+        km, drive_s, 4.0 * driven / step, contacts / (4.0 * driven / step), growth, kGrowthLimitMb,
+        growth < kGrowthLimitMb ? "met" : "EXCEEDED");
+    std::printf(
+        "deformed points: %zu; deformation state %.2f MB = %.1f B per deformed point (tiles of %d x %d "
+        "points, %zu B per point slot)\n",
+        deformed, state / 1e6, static_cast<double>(state) / std::max<std::size_t>(deformed, 1),
+        DeformableTerrain::kTileSize, DeformableTerrain::kTileSize, sizeof(PointDeformation));
     std::printf("peak RSS of the whole run: %.1f MB (VmHWM)\n", procStatusMb("VmHWM"));
     const bool ok = std::max(peak_hwm, peak_ru) < kPeakLimitMb && growth < kGrowthLimitMb;
     return ok ? 0 : 1;

@@ -68,17 +68,16 @@ const std::vector<AgentBox>& agentBoxes(AgentType type)
 {
   // Origin on the ground under the torso's (or the body's) centre, x forward.
   static const std::vector<AgentBox> deer = {
-    box(0.0, 0.0, 0.775, 1.3, 0.4, 0.45),         // torso: 0.55-1.0 m (1.0 m at the shoulder)
-    box(0.8, 0.0, 1.15, 0.3, 0.2, 0.6),           // neck and head, up to 1.45 m, nose at 0.95 m
-    box(0.5, 0.12, 0.275, 0.1, 0.1, 0.55),        // legs
-    box(0.5, -0.12, 0.275, 0.1, 0.1, 0.55),
-    box(-0.5, 0.12, 0.275, 0.1, 0.1, 0.55),
+    box(0.0, 0.0, 0.775, 1.3, 0.4, 0.45),   // torso: 0.55-1.0 m (1.0 m at the shoulder)
+    box(0.8, 0.0, 1.15, 0.3, 0.2, 0.6),     // neck and head, up to 1.45 m, nose at 0.95 m
+    box(0.5, 0.12, 0.275, 0.1, 0.1, 0.55),  // legs
+    box(0.5, -0.12, 0.275, 0.1, 0.1, 0.55),  box(-0.5, 0.12, 0.275, 0.1, 0.1, 0.55),
     box(-0.5, -0.12, 0.275, 0.1, 0.1, 0.55),
   };
   static const std::vector<AgentBox> pedestrian = { box(0.0, 0.0, 0.875, 0.3, 0.5, 1.75) };
   static const std::vector<AgentBox> truck = {
-    box(0.0, 0.0, 1.85, 8.0, 2.5, 2.7),   // cab and cargo body, 0.5-3.2 m
-    box(0.0, 0.0, 0.25, 6.5, 2.4, 0.5),   // axles, wheels, frame
+    box(0.0, 0.0, 1.85, 8.0, 2.5, 2.7),  // cab and cargo body, 0.5-3.2 m
+    box(0.0, 0.0, 0.25, 6.5, 2.4, 0.5),  // axles, wheels, frame
   };
   switch (type)
   {
@@ -158,8 +157,8 @@ void validateAgentSpec(const AgentSpec& spec, const std::string& key)
     fail("name", "must not be empty");
   for (char c : spec.name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_'))
-      fail("name", "'" + spec.name + "' must be letters, digits and '_' only (it names the frame agents/" +
-                       spec.name + ")");
+      fail("name",
+           "'" + spec.name + "' must be letters, digits and '_' only (it names the frame agents/" + spec.name + ")");
   if (!std::isalpha(static_cast<unsigned char>(spec.name[0])))
     fail("name", "'" + spec.name + "' must start with a letter");
   if (!std::isfinite(spec.speed) || spec.speed < 0.0)
@@ -172,8 +171,8 @@ void validateAgentSpec(const AgentSpec& spec, const std::string& key)
     fail("path", "needs at least one point");
   for (std::size_t k = 0; k < spec.path.size(); ++k)
     if (!spec.path[k].allFinite())
-      fail("path[" + std::to_string(k) + "]", "must be finite (x, y) m, got (" + str(spec.path[k].x()) + ", " +
-                                                  str(spec.path[k].y()) + ")");
+      fail("path[" + std::to_string(k) + "]",
+           "must be finite (x, y) m, got (" + str(spec.path[k].x()) + ", " + str(spec.path[k].y()) + ")");
   const std::size_t needed = spec.loop ? 3 : 2;
   if (spec.speed > 0.0 && spec.path.size() < needed)
     fail("path", std::string("a moving ") + (spec.loop ? "looping " : "") + "agent needs at least " +
@@ -243,8 +242,8 @@ AgentPath::AgentPath(std::vector<Eigen::Vector2d> points, bool closed) : closed_
     g.s.resize(kSubdivisions + 1);
     g.s[0] = s;
     for (int j = 0; j < kSubdivisions; ++j)
-      g.s[j + 1] = g.s[j] + arcLength(g, static_cast<double>(j) / kSubdivisions,
-                                      static_cast<double>(j + 1) / kSubdivisions);
+      g.s[j + 1] =
+          g.s[j] + arcLength(g, static_cast<double>(j) / kSubdivisions, static_cast<double>(j + 1) / kSubdivisions);
     s = g.s.back();
     segments_.push_back(std::move(g));
   }

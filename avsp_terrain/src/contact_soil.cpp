@@ -104,8 +104,7 @@ double ContactSoil::extraSinkage(double plastic, double deformation, double sigm
   return compaction + flow + elasticSinkage(sigma, deformation);
 }
 
-double ContactSoil::stressForPenetration(double plastic, double deformation, double sigma_max,
-                                         double penetration) const
+double ContactSoil::stressForPenetration(double plastic, double deformation, double sigma_max, double penetration) const
 {
   const double a = elasticSinkage(1.0, deformation);  // m/Pa: T3's (h0 - z)^+ E
   // Virgin points (the common case under a moving wheel) need no curve lookup.

@@ -61,8 +61,8 @@ Format formatOf(const std::string& flag, const std::string& path, bool allowed_a
   if (ext == "asc" && allowed_ascii)
     return Format::kAscii;
   const std::string known = allowed_ascii ? ".asc, .png, .tif or .tiff" : ".png, .tif or .tiff: an 8-bit raster";
-  throw UsageError(flag + " '" + path + "': " + (ext.empty() ? "no file extension" : "unknown extension '." + ext + "'") +
-                   " (need " + known + ")");
+  throw UsageError(flag + " '" + path + "': " +
+                   (ext.empty() ? "no file extension" : "unknown extension '." + ext + "'") + " (need " + known + ")");
 }
 
 /// A complete, finite, positive decimal number, else UsageError naming the flag.

@@ -61,10 +61,10 @@ constexpr double kTrailShoulder = 4.0;
 constexpr double kTrailProfileWindow = 10.0;
 constexpr double kDitchLength = 40.0;
 constexpr double kDitchDepth = 1.5;
-constexpr double kDitchHalfWidth = 1.75;      ///< at the top of the walls
+constexpr double kDitchHalfWidth = 1.75;  ///< at the top of the walls
 constexpr double kDitchBottomHalfWidth = 0.5;
-constexpr double kDitchEndTaper = 3.0;        ///< depth ramps up over this at each end
-constexpr double kDitchBank = 2.0;            ///< level bank beside each wall
+constexpr double kDitchEndTaper = 3.0;  ///< depth ramps up over this at each end
+constexpr double kDitchBank = 2.0;      ///< level bank beside each wall
 constexpr double kDitchBlend = 3.0;
 constexpr double kSlopeAngle_deg = 17.5;
 constexpr double kSlopeLengthX = 40.0;
@@ -72,7 +72,7 @@ constexpr double kSlopeLengthY = 25.0;
 constexpr double kSlopeBlend = 20.0;
 constexpr double kRoughLengthX = 40.0;
 constexpr double kRoughLengthY = 30.0;
-constexpr double kBumpCell = 2.5;             ///< one bump per cell, so bumps never overlap
+constexpr double kBumpCell = 2.5;  ///< one bump per cell, so bumps never overlap
 constexpr double kBumpMinHeight = 0.1, kBumpMaxHeight = 0.3;
 constexpr double kBumpMinRadius = 0.6, kBumpMaxRadius = 1.1;
 constexpr double kStagingLengthX = 50.0, kStagingLengthY = 36.0;
@@ -83,13 +83,13 @@ constexpr double kBarrierLaneHalfWidth = 6.0;
 constexpr double kBarrierBlend = 8.0;
 constexpr double kFenceSegmentLength = 3.0;
 constexpr int kFenceSegments = 12;
-constexpr double kFenceStrength = 3500.0;    ///< N, chain-link panel torn off its poles
-constexpr double kPoleStrength = 6000.0;     ///< N, thin steel line post bent over
+constexpr double kFenceStrength = 3500.0;  ///< N, chain-link panel torn off its poles
+constexpr double kPoleStrength = 6000.0;   ///< N, thin steel line post bent over
 constexpr double kPondSemiAxisX = 15.0, kPondSemiAxisY = 10.0;
 constexpr double kPondDepth = 1.2;
-constexpr double kPondRimEnd = 1.5;          ///< normalised radius up to which the rim is level
-constexpr double kPondBlendEnd = 2.2;        ///< normalised radius where the hills take over
-constexpr double kPatchWobble = 0.12;        ///< ragged edge of soil patches, normalised radius
+constexpr double kPondRimEnd = 1.5;    ///< normalised radius up to which the rim is level
+constexpr double kPondBlendEnd = 2.2;  ///< normalised radius where the hills take over
+constexpr double kPatchWobble = 0.12;  ///< ragged edge of soil patches, normalised radius
 // Small trees topple when the push reaches the bending strength of the trunk: modulus of
 // rupture of green wood times the section modulus pi d^3 / 32, over the bumper height.
 constexpr double kWoodModulusOfRupture = 40.0e6;  ///< Pa
@@ -181,12 +181,12 @@ class GradientNoise
 {
 public:
   GradientNoise(std::uint64_t seed, std::uint64_t stream, double wavelength, double extent_x, double extent_y)
-    : inv_wavelength_(1.0 / wavelength)
-    , nx_(static_cast<std::size_t>(std::floor(extent_x / wavelength)) + 2)
-    , ny_(static_cast<std::size_t>(std::floor(extent_y / wavelength)) + 2)
-    , max_fx_(static_cast<double>(nx_ - 1))
-    , max_fy_(static_cast<double>(ny_ - 1))
-    , gradient_(nx_ * ny_)
+    : inv_wavelength_(1.0 / wavelength),
+      nx_(static_cast<std::size_t>(std::floor(extent_x / wavelength)) + 2),
+      ny_(static_cast<std::size_t>(std::floor(extent_y / wavelength)) + 2),
+      max_fx_(static_cast<double>(nx_ - 1)),
+      max_fy_(static_cast<double>(ny_ - 1)),
+      gradient_(nx_ * ny_)
   {
     static const double kDirections[16][2] = {
       { 1.0, 0.0 },
@@ -322,16 +322,16 @@ Layout makeLayout(double X, double Y)
   l.buildings = { Box{ sx + 29.0, sy + 4.5, sx + 43.0, sy + 13.5 }, Box{ sx + 32.0, sy + 21.0, sx + 42.0, sy + 31.0 },
                   Box{ sx + 7.0, sy + 24.5, sx + 19.0, sy + 31.5 } };
   const double bx = l.staging.max_x + 20.0, by = road_y + 20.0;
-  l.barriers = Box{ bx, by - kBarrierLaneHalfWidth, bx + kBarrierGates * kBarrierGateSpacing,
-                    by + kBarrierLaneHalfWidth };
+  l.barriers =
+      Box{ bx, by - kBarrierLaneHalfWidth, bx + kBarrierGates * kBarrierGateSpacing, by + kBarrierLaneHalfWidth };
   l.side_slope = Box{ 0.62 * X, 0.675 * Y, 0.62 * X + kSlopeLengthX, 0.675 * Y + kSlopeLengthY };
   l.rolling_hills = Box{ 0.84 * X, 0.6 * Y, 0.98 * X, 0.97 * Y };
   l.woods = Box{ 0.04 * X, 0.8 * Y, l.side_slope.min_x - 24.0, 0.98 * Y };
   // South half: ditch and sand in the west, pond, rough patch and fence in the middle, clay,
   // and the trail running north to the road in the east.
   l.ditch = Box{ 0.08 * X, 0.3 * Y - kDitchHalfWidth, 0.08 * X + kDitchLength, 0.3 * Y + kDitchHalfWidth };
-  l.pond = Box{ 0.35 * X - kPondSemiAxisX, 0.2 * Y - kPondSemiAxisY, 0.35 * X + kPondSemiAxisX,
-                0.2 * Y + kPondSemiAxisY };
+  l.pond =
+      Box{ 0.35 * X - kPondSemiAxisX, 0.2 * Y - kPondSemiAxisY, 0.35 * X + kPondSemiAxisX, 0.2 * Y + kPondSemiAxisY };
   const double patch_scale = 1.0 + kPatchWobble;  // the ragged edge reaches this far out
   l.sand = Box{ 0.2 * X - 12.0 * patch_scale, 0.1 * Y - 9.0 * patch_scale, 0.2 * X + 12.0 * patch_scale,
                 0.1 * Y + 9.0 * patch_scale };
@@ -348,21 +348,21 @@ class CourseBuilder
 {
 public:
   CourseBuilder(const CourseOptions& o, std::size_t columns, std::size_t rows)
-    : seed_(o.seed)
-    , cell_(o.cell_size)
-    , columns_(columns)
-    , rows_(rows)
-    , extent_x_(static_cast<double>(columns - 1) * o.cell_size)
-    , extent_y_(static_cast<double>(rows - 1) * o.cell_size)
-    , margin_(std::max(1.0, 2.0 * o.cell_size))
-    , layout_(makeLayout(extent_x_, extent_y_))
-    , hills_{ GradientNoise(seed_, kStreamHills0, kHillsWavelength[0], extent_x_, extent_y_),
+    : seed_(o.seed),
+      cell_(o.cell_size),
+      columns_(columns),
+      rows_(rows),
+      extent_x_(static_cast<double>(columns - 1) * o.cell_size),
+      extent_y_(static_cast<double>(rows - 1) * o.cell_size),
+      margin_(std::max(1.0, 2.0 * o.cell_size)),
+      layout_(makeLayout(extent_x_, extent_y_)),
+      hills_{ GradientNoise(seed_, kStreamHills0, kHillsWavelength[0], extent_x_, extent_y_),
               GradientNoise(seed_, kStreamHills1, kHillsWavelength[1], extent_x_, extent_y_),
-              GradientNoise(seed_, kStreamHills2, kHillsWavelength[2], extent_x_, extent_y_) }
-    , mottle_(seed_, kStreamSoilMottle, kSoilMottleWavelength, extent_x_, extent_y_)
-    , wobble_(seed_, kStreamPatchWobble, 8.0, extent_x_, extent_y_)
-    , heights_(columns * rows)
-    , soil_(columns * rows)
+              GradientNoise(seed_, kStreamHills2, kHillsWavelength[2], extent_x_, extent_y_) },
+      mottle_(seed_, kStreamSoilMottle, kSoilMottleWavelength, extent_x_, extent_y_),
+      wobble_(seed_, kStreamPatchWobble, 8.0, extent_x_, extent_y_),
+      heights_(columns * rows),
+      soil_(columns * rows)
   {
   }
 
@@ -390,13 +390,20 @@ public:
     std::vector<std::string> names(kSoilNames, kSoilNames + kSoilCount);
     const Layout& l = layout_;
     std::vector<CourseFeature> features = {
-      feature("rolling_hills", l.rolling_hills), feature("ditch", l.ditch),
-      feature("side_slope", l.side_slope),       feature("rough_patch", l.rough),
-      feature("dirt_trail", l.trail),            feature("road", l.road),
-      feature("staging_area", l.staging),        feature("barrier_course", l.barriers),
-      feature("fence_line", l.fence),            feature("pond", l.pond),
-      feature("woods", l.woods),                 feature("concrete_pad", l.pad),
-      feature("sand_patch", l.sand),             feature("clay_patch", l.clay),
+      feature("rolling_hills", l.rolling_hills),
+      feature("ditch", l.ditch),
+      feature("side_slope", l.side_slope),
+      feature("rough_patch", l.rough),
+      feature("dirt_trail", l.trail),
+      feature("road", l.road),
+      feature("staging_area", l.staging),
+      feature("barrier_course", l.barriers),
+      feature("fence_line", l.fence),
+      feature("pond", l.pond),
+      feature("woods", l.woods),
+      feature("concrete_pad", l.pad),
+      feature("sand_patch", l.sand),
+      feature("clay_patch", l.clay),
     };
     return Course{ ElevationGrid(0.0, 0.0, cell_, cell_, columns_, rows_, std::move(heights_)), std::move(names),
                    std::move(soil_), std::move(objects), std::move(features) };
@@ -839,10 +846,17 @@ private:
   void scatter(ObjectSet& objects) const
   {
     const Layout& l = layout_;
-    const std::vector<Box> keep_out = { l.road.grown(kRoadShoulder + 2.0), l.trail.grown(kTrailShoulder + 2.0),
-                                        l.staging.grown(4.0),  l.barriers.grown(4.0), l.side_slope.grown(4.0),
-                                        l.woods.grown(4.0),    l.ditch.grown(4.0),    l.pond.grown(4.0),
-                                        l.rough.grown(4.0),    l.fence.grown(4.0),    l.sand.grown(4.0),
+    const std::vector<Box> keep_out = { l.road.grown(kRoadShoulder + 2.0),
+                                        l.trail.grown(kTrailShoulder + 2.0),
+                                        l.staging.grown(4.0),
+                                        l.barriers.grown(4.0),
+                                        l.side_slope.grown(4.0),
+                                        l.woods.grown(4.0),
+                                        l.ditch.grown(4.0),
+                                        l.pond.grown(4.0),
+                                        l.rough.grown(4.0),
+                                        l.fence.grown(4.0),
+                                        l.sand.grown(4.0),
                                         l.clay.grown(4.0) };
     const Box course{ 2.0, 2.0, extent_x_ - 2.0, extent_y_ - 2.0 };
     const double cell = 20.0;

@@ -42,8 +42,7 @@ void requirePositive(const char* function, const char* field, double value)
 
 /// Grid indices first..last of the points with lo <= origin + k d <= hi along one axis,
 /// clamped in floating point before converting (a far-away patch must not overflow a long).
-bool gridRange(double lo, double hi, double origin, double d, std::size_t count, std::size_t& first,
-               std::size_t& last)
+bool gridRange(double lo, double hi, double origin, double d, std::size_t count, std::size_t& first, std::size_t& last)
 {
   const double a = std::max(std::ceil((lo - origin) / d), 0.0);
   const double b = std::min(std::floor((hi - origin) / d), static_cast<double>(count) - 1.0);
@@ -138,25 +137,25 @@ double meanShearFactor(double s_over_k, double x0, double x1, double scale, doub
 }  // namespace
 
 DeformableTerrain::DeformableTerrain(ElevationGrid base, SoilParameters soil, Options options)
-  : base_(std::move(base))
-  , palette_{ std::move(soil) }
-  , contact_soils_(prepareSoils(palette_))
-  , options_(options)
-  , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
-  , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
+  : base_(std::move(base)),
+    palette_{ std::move(soil) },
+    contact_soils_(prepareSoils(palette_)),
+    options_(options),
+    tiles_x_((base_.columns() + kTileSize - 1) / kTileSize),
+    tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
   step_length_ = stepLengths(base_);
 }
 
 DeformableTerrain::DeformableTerrain(ElevationGrid base, std::vector<SoilParameters> palette,
                                      std::vector<std::uint8_t> soil_map, Options options)
-  : base_(std::move(base))
-  , palette_(std::move(palette))
-  , contact_soils_(prepareSoils(palette_))
-  , soil_map_(std::move(soil_map))
-  , options_(options)
-  , tiles_x_((base_.columns() + kTileSize - 1) / kTileSize)
-  , tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
+  : base_(std::move(base)),
+    palette_(std::move(palette)),
+    contact_soils_(prepareSoils(palette_)),
+    soil_map_(std::move(soil_map)),
+    options_(options),
+    tiles_x_((base_.columns() + kTileSize - 1) / kTileSize),
+    tiles_(tiles_x_ * ((base_.rows() + kTileSize - 1) / kTileSize))
 {
   step_length_ = stepLengths(base_);
   const std::size_t points = base_.columns() * base_.rows();
@@ -393,21 +392,21 @@ std::optional<double> DeformableTerrain::height(double x, double y) const
 struct DeformableTerrain::Footprint
 {
   bool wheel = true;
-  double cx = 0.0, cy = 0.0, cz = 0.0;  ///< m: wheel centre, or the track face's centre
-  double ca = 1.0, sa = 0.0;            ///< cos and sin of the heading
-  double half_length = 0.0;             ///< m: the wheel's radius, or half the track patch's length
-  double half_width = 0.0;              ///< m
-  double slope_u = 0.0, slope_v = 0.0;  ///< a track face's dz/du, dz/dv (tilted to its normal)
-  double bekker_b = 0.0;                ///< m, b of k_c / b: wheel width; a track's smaller dimension
-  double track_length = 0.0;            ///< m, whole track's ground contact (tracks)
-  double segment_offset = 0.0;          ///< m, patch centre from the whole track's centre, + forward
-  double v_long = 0.0, v_lat = 0.0;     ///< m/s, in the footprint's frame
-  double v_theoretical = 0.0;           ///< m/s, T9 or T10
-  double travel = 1.0;                  ///< +1 moving forward, -1 backward
+  double cx = 0.0, cy = 0.0, cz = 0.0;       ///< m: wheel centre, or the track face's centre
+  double ca = 1.0, sa = 0.0;                 ///< cos and sin of the heading
+  double half_length = 0.0;                  ///< m: the wheel's radius, or half the track patch's length
+  double half_width = 0.0;                   ///< m
+  double slope_u = 0.0, slope_v = 0.0;       ///< a track face's dz/du, dz/dv (tilted to its normal)
+  double bekker_b = 0.0;                     ///< m, b of k_c / b: wheel width; a track's smaller dimension
+  double track_length = 0.0;                 ///< m, whole track's ground contact (tracks)
+  double segment_offset = 0.0;               ///< m, patch centre from the whole track's centre, + forward
+  double v_long = 0.0, v_lat = 0.0;          ///< m/s, in the footprint's frame
+  double v_theoretical = 0.0;                ///< m/s, T9 or T10
+  double travel = 1.0;                       ///< +1 moving forward, -1 backward
   double shear_long = 0.0, shear_lat = 0.0;  ///< shear slip (WheelPatch::shear_slip), footprint frame
   double shear_cap = std::numeric_limits<double>::infinity();  ///< m, WheelPatch::shear_cap
-  double swept = 0.0;                   ///< m the footprint travels over this step (|v_long| dt)
-  double ground_slope = 0.0;            ///< a wheel's ground dz/du along its heading
+  double swept = 0.0;                                          ///< m the footprint travels over this step (|v_long| dt)
+  double ground_slope = 0.0;                                   ///< a wheel's ground dz/du along its heading
 };
 
 namespace
@@ -459,8 +458,8 @@ Box boxOf(const TerrainObject& o)
 bool overlap(const Box& a, const Box& b)
 {
   const double dx = b.x - a.x, dy = b.y - a.y;
-  for (const auto& [nx, ny] : { std::pair<double, double>{ a.ax, a.ay }, { -a.ay, a.ax }, { b.ax, b.ay },
-                                { -b.ay, b.ax } })
+  for (const auto& [nx, ny] :
+       { std::pair<double, double>{ a.ax, a.ay }, { -a.ay, a.ax }, { b.ax, b.ay }, { -b.ay, b.ax } })
     if (std::abs(dx * nx + dy * ny) > a.reach(nx, ny) + b.reach(nx, ny))
       return false;
   return true;
@@ -491,8 +490,9 @@ void DeformableTerrain::vegetation(const Footprint& fp, bool deform, ObjectSet& 
   v0 = std::max(v0 - across_half, -fp.half_width);
   v1 = std::min(v1 + across_half, fp.half_width);
   const double um = 0.5 * (u0 + u1), vm = 0.5 * (v0 + v1);
-  const Box footprint{ fp.cx + um * fp.ca - vm * fp.sa, fp.cy + um * fp.sa + vm * fp.ca, fp.ca, fp.sa,
-                       0.5 * (u1 - u0), 0.5 * (v1 - v0) };
+  const Box footprint{
+    fp.cx + um * fp.ca - vm * fp.sa, fp.cy + um * fp.sa + vm * fp.ca, fp.ca, fp.sa, 0.5 * (u1 - u0), 0.5 * (v1 - v0)
+  };
   const double reach_x = footprint.reach(1.0, 0.0), reach_y = footprint.reach(0.0, 1.0);
   const std::vector<std::uint32_t> near =
       objects.query(footprint.x - reach_x, footprint.y - reach_y, footprint.x + reach_x, footprint.y + reach_y);
@@ -599,7 +599,7 @@ void DeformableTerrain::spreadFlow()
     under_[(p.j - wj0) * width + (p.i - wi0)] = 1;
   const double area = base_.dx() * base_.dy();
   const long columns = static_cast<long>(base_.columns()), rows = static_cast<long>(base_.rows());
-  double arrived = 0.0;  // summed here, not in the member: the loop would store it every share
+  double arrived = 0.0;                     // summed here, not in the member: the loop would store it every share
   const long w = static_cast<long>(width);  // a window row
   // The 8 neighbours' 1/d weights and window offsets, k = (dj + 1) * 3 + (di + 1) (4: the point
   // itself). A point inside the grid has all 8: its weights and their total are these (summed
@@ -692,7 +692,6 @@ void DeformableTerrain::spreadFlow()
   }
 }
 
-
 ContactForces DeformableTerrain::wheelContact(const WheelPatch& wheel, double dt, bool deform, ObjectSet* objects)
 {
   static const char* const kFn = "DeformableTerrain::wheelContact";
@@ -769,8 +768,7 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
                    track.track_length);
   // The patch must lie on the track (a rounding's worth of slack for segments laid end to end).
   if (std::abs(track.segment_offset) + 0.5 * track.length > 0.5 * whole * (1.0 + 1e-12))
-    rejectArgument(kFn, "track.segment_offset", "such that the patch lies within track_length",
-                   track.segment_offset);
+    rejectArgument(kFn, "track.segment_offset", "such that the patch lies within track_length", track.segment_offset);
 
   Footprint fp;
   fp.wheel = false;
@@ -787,8 +785,7 @@ ContactForces DeformableTerrain::trackContact(const TrackPatch& track, double dt
   fp.v_long = track.velocity.x() * fp.ca + track.velocity.y() * fp.sa;
   fp.v_lat = -track.velocity.x() * fp.sa + track.velocity.y() * fp.ca;
   fp.v_theoretical = trackTheoreticalSpeed(track.sprocket_pitch, track.sprocket_teeth, track.sprocket_spin_rate);
-  fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) :
-                                             (track.sprocket_spin_rate < 0 ? -1.0 : 1.0);
+  fp.travel = (std::abs(fp.v_long) > 1e-6) ? (fp.v_long < 0 ? -1.0 : 1.0) : (track.sprocket_spin_rate < 0 ? -1.0 : 1.0);
   if (track.travel != 0)
     fp.travel = track.travel > 0 ? 1.0 : -1.0;
   // The face through the centre with normal n: z = cz - (n_x dx + n_y dy) / n_z.
@@ -969,7 +966,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
     const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
     const std::uint8_t* soil_row = soil_map_.empty() ? nullptr : soil_map_.data() + j * base_.columns();
     const float* base_row = base_.pointHeights().data() + j * base_.columns();  // (i, j) is in the grid
-    std::size_t tile_column = tiles_x_;  // none yet
+    std::size_t tile_column = tiles_x_;                                         // none yet
     const Tile* tile = nullptr;
     for (std::size_t i = i0; i <= i1; ++i)
     {
@@ -1024,8 +1021,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       const bool bekker = soil.model() == SinkageModel::kBekker;
       const double modulus = bekker ? soil.bekkerModulus(fp.bekker_b) : 0.0;
       const auto load = [&](double penetration) {
-        return bekker ? soil.bekkerLoad(modulus, state.plastic, penetration) :
-                        soil.simpleLoad(state.plastic, deformation, state.sigma_max, penetration);
+        return bekker ? soil.bekkerLoad(modulus, state.plastic, penetration)
+                      : soil.simpleLoad(state.plastic, deformation, state.sigma_max, penetration);
       };
       // Built in place (the point is dropped again where it carries nothing): no copy of it.
       LoadedPoint& p = loaded_.emplace_back();
@@ -1053,8 +1050,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         // bottom's depth (not the rim's flank where it is now): a rut's floor then has no ripple
         // of the step's travel, on which the next wheel would bounce.
         const double along = u * fp.travel;
-        const double recorded = p.deforms && along <= 0.0 && along + fp.swept >= 0.0 ? surface - (fp.cz - r) :
-                                                                                        p.penetration;
+        const double recorded =
+            p.deforms && along <= 0.0 && along + fp.swept >= 0.0 ? surface - (fp.cz - r) : p.penetration;
         const PointLoad at_point = p.deforms ? load(recorded) : PointLoad{};
         p.sigma_point = at_point.sigma;
         p.virgin = at_point.virgin;
@@ -1072,7 +1069,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
           const std::size_t wi = i - window_i0_, wj = j - window_j0_;
           const std::size_t a0 = wi > 0 ? wi - 1 : 0, a1 = std::min(wi + 1, window_columns_ - 1);
           const std::size_t b0 = wj > 0 ? wj - 1 : 0, b1 = std::min(wj + 1, window_rows_ - 1);
-          double top = -std::numeric_limits<double>::infinity(), least_plastic = std::numeric_limits<double>::infinity();
+          double top = -std::numeric_limits<double>::infinity(),
+                 least_plastic = std::numeric_limits<double>::infinity();
           for (std::size_t wb = b0; wb <= b1; ++wb)
             for (std::size_t wa = a0; wa <= a1; ++wa)
             {
@@ -1131,8 +1129,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             pens[g] = w.base - plastic - w.displaced - (fp.cz - rim_depth);
             if (!(pens[g] > 0.0))
               continue;
-            const PointLoad at = bekker ? soil.bekkerLoad(modulus, plastic, pens[g]) :
-                                          soil.simpleLoad(plastic, plastic + w.displaced, w.sigma_max, pens[g]);
+            const PointLoad at = bekker ? soil.bekkerLoad(modulus, plastic, pens[g])
+                                        : soil.simpleLoad(plastic, plastic + w.displaced, w.sigma_max, pens[g]);
             const double share = half / along_spacing;  // of the cell, this sample's
             p.sigma += share * at.sigma;
             p.slope += share * at.slope;
@@ -1143,7 +1141,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             if (bekker)
             {
               const double rim = us * fp.travel / rim_depth, ground = fp.ground_slope * fp.travel;
-              p.rim_slope += share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
+              p.rim_slope +=
+                  share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
             }
           }
           // The pressed part of this stretch: all of it, or up to where the penetration crosses
@@ -1154,8 +1153,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
             double from = breaks[k], to = breaks[k + 1];
             if (in0 != in1)
             {
-              const double root =
-                  at_sample[0] + (at_sample[1] - at_sample[0]) * pens[0] / (pens[0] - pens[1]);
+              const double root = at_sample[0] + (at_sample[1] - at_sample[0]) * pens[0] / (pens[0] - pens[1]);
               (in0 ? to : from) = std::clamp(root, breaks[k], breaks[k + 1]);
             }
             pressed += (to - from) / along_spacing;
@@ -1210,8 +1208,8 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       }
       if (!fp.wheel)
         p.depth = state.plastic + p.penetration;
-      p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0) :
-                           soil.elasticSinkage(p.sigma_point, deformation);
+      p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0)
+                         : soil.elasticSinkage(p.sigma_point, deformation);
       // Sinkage where the gear carries load, pressing on (deforming) or resting on soil it has
       // pressed before (a parked wheel's point at its own imprint).
       if (p.deforms || (p.sigma > 0.0 && (!fp.wheel || std::abs(u) < r)))
@@ -1450,8 +1448,7 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
       {
         if (di == 0 && dj == 0)
           continue;
-        const double cosine =
-            (di * base_.dx() * fx + dj * base_.dy() * fy) / step_length_[(dj + 1) * 3 + (di + 1)];
+        const double cosine = (di * base_.dx() * fx + dj * base_.dy() * fy) / step_length_[(dj + 1) * 3 + (di + 1)];
         if (cosine > best)
         {
           best = cosine;

@@ -177,8 +177,8 @@ void checkWritable(const char* function, const std::string& path, const HeightRa
   checkDimensions(function, path, raster.columns, raster.rows);
   if (raster.heights.size() != raster.columns * raster.rows)
     fail(function, path,
-         "raster has " + std::to_string(raster.heights.size()) + " heights, expected columns*rows = " +
-             std::to_string(raster.columns * raster.rows));
+         "raster has " + std::to_string(raster.heights.size()) +
+             " heights, expected columns*rows = " + std::to_string(raster.columns * raster.rows));
   if (!std::isfinite(raster.origin_x) || !std::isfinite(raster.origin_y))
     fail(function, path, "raster origin is not finite");
   if (!(raster.cell_size > 0.0) || !std::isfinite(raster.cell_size))
@@ -198,8 +198,8 @@ void checkClassWritable(const char* function, const std::string& path, const Cla
   checkDimensions(function, path, raster.columns, raster.rows);
   if (raster.values.size() != raster.columns * raster.rows)
     fail(function, path,
-         "raster has " + std::to_string(raster.values.size()) + " values, expected columns*rows = " +
-             std::to_string(raster.columns * raster.rows));
+         "raster has " + std::to_string(raster.values.size()) +
+             " values, expected columns*rows = " + std::to_string(raster.columns * raster.rows));
   if (!std::isfinite(raster.origin_x) || !std::isfinite(raster.origin_y))
     fail(function, path, "raster origin is not finite");
   if (!(raster.cell_size > 0.0) || !std::isfinite(raster.cell_size))
@@ -315,10 +315,7 @@ struct AsciiHeader
   std::optional<double> xllcorner, xllcenter, yllcorner, yllcenter, cellsize;
   std::optional<float> nodata;
 
-  bool complete() const
-  {
-    return ncols && nrows && (xllcorner || xllcenter) && (yllcorner || yllcenter) && cellsize;
-  }
+  bool complete() const { return ncols && nrows && (xllcorner || xllcenter) && (yllcorner || yllcenter) && cellsize; }
 };
 
 const char* describe(TokenReader::Next status)
@@ -329,8 +326,7 @@ const char* describe(TokenReader::Next status)
 
 std::size_t HeightRaster::noDataCount() const
 {
-  return static_cast<std::size_t>(
-      std::count_if(heights.begin(), heights.end(), [](float h) { return std::isnan(h); }));
+  return static_cast<std::size_t>(std::count_if(heights.begin(), heights.end(), [](float h) { return std::isnan(h); }));
 }
 
 HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
@@ -421,8 +417,7 @@ HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
     fail(fn, path, "both 'yllcorner' and 'yllcenter' given");
   if (*hdr.ncols <= 0 || *hdr.nrows <= 0)
     fail(fn, path,
-         "ncols and nrows must be > 0 (got " + std::to_string(*hdr.ncols) + " x " + std::to_string(*hdr.nrows) +
-             ")");
+         "ncols and nrows must be > 0 (got " + std::to_string(*hdr.ncols) + " x " + std::to_string(*hdr.nrows) + ")");
   if (!(*hdr.cellsize > 0.0))
     fail(fn, path, "cellsize must be > 0 (got " + std::to_string(*hdr.cellsize) + ")");
 
@@ -567,8 +562,7 @@ bool pngReadHeader(PngReadHandle& h, PngErrorState& err, std::FILE* file, PngHea
   png_set_user_limits(h.png, PNG_UINT_31_MAX, PNG_UINT_31_MAX);
   png_read_info(h.png, h.info);
   int interlace = 0;
-  png_get_IHDR(h.png, h.info, &out.width, &out.height, &out.bit_depth, &out.colour_type, &interlace, nullptr,
-               nullptr);
+  png_get_IHDR(h.png, h.info, &out.width, &out.height, &out.bit_depth, &out.colour_type, &interlace, nullptr, nullptr);
   png_set_interlace_handling(h.png);
   png_read_update_info(h.png, h.info);
   out.row_bytes = png_get_rowbytes(h.png, h.info);
@@ -591,8 +585,8 @@ bool pngWriteAll(PngWriteHandle& h, PngErrorState& err, std::FILE* file, png_uin
   if (setjmp(err.jump))
     return false;
   png_init_io(h.png, file);
-  png_set_IHDR(h.png, h.info, width, height, bit_depth, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-               PNG_FILTER_TYPE_DEFAULT);
+  png_set_IHDR(h.png, h.info, width, height, bit_depth, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(h.png, h.info);
   png_write_image(h.png, rows);
   png_write_end(h.png, nullptr);
@@ -647,8 +641,8 @@ void writePngFile(const char* fn, const std::string& path, std::size_t columns, 
     if (h.png != nullptr)
       h.info = png_create_info_struct(h.png);
     if (h.png != nullptr && h.info != nullptr)
-      ok = pngWriteAll(h, err, file.get(), static_cast<png_uint_32>(columns), static_cast<png_uint_32>(rows),
-                       bit_depth, row_pointers.data());
+      ok = pngWriteAll(h, err, file.get(), static_cast<png_uint_32>(columns), static_cast<png_uint_32>(rows), bit_depth,
+                       row_pointers.data());
     else
       std::snprintf(err.message, sizeof err.message, "%s", "cannot allocate libpng state");
   }
@@ -702,8 +696,8 @@ HeightRaster readPng16(const std::string& path, const Png16Georef& georef, const
   constexpr std::uint64_t kMaxDeflateRatio = 1100;
   if (height * (2 * width + 1) > kMaxDeflateRatio * file_bytes + 65536)
     fail(fn, path,
-         "truncated or corrupt: a " + std::to_string(width) + " x " + std::to_string(height) +
-             " image cannot fit in " + std::to_string(file_bytes) + " bytes");
+         "truncated or corrupt: a " + std::to_string(width) + " x " + std::to_string(height) + " image cannot fit in " +
+             std::to_string(file_bytes) + " bytes");
 
   std::vector<png_byte> pixels(static_cast<std::size_t>(height * 2 * width));
   std::vector<png_bytep> row_pointers(static_cast<std::size_t>(height));
@@ -744,7 +738,8 @@ void writePng16(const HeightRaster& raster, const std::string& path, const Png16
   // The PNG keeps no georeference; a mismatch would silently move the terrain on re-read.
   const double tolerance = 1e-9 * georef.cell_size;
   if (std::abs(raster.cell_size - georef.cell_size) > tolerance ||
-      std::abs(raster.origin_x - georef.origin_x) > tolerance || std::abs(raster.origin_y - georef.origin_y) > tolerance)
+      std::abs(raster.origin_x - georef.origin_x) > tolerance ||
+      std::abs(raster.origin_y - georef.origin_y) > tolerance)
     fail(fn, path, "georef origin/cell_size do not match the raster's");
 
   std::vector<png_byte> pixels(raster.heights.size() * 2);
@@ -797,8 +792,7 @@ void writePng16Georef(const Png16Georef& georef, const std::string& path, const 
                "# (origin_x + c * cell_size, origin_y + (R - 1 - r) * cell_size); pixel value v is the\n"
                "# height z_offset + z_scale * v / 65535. All in metres, map frame.\n"
                "origin_x: %.17g\norigin_y: %.17g\ncell_size: %.17g\nz_offset: %.17g\nz_scale: %.17g\n",
-               image_name.c_str(), georef.origin_x, georef.origin_y, georef.cell_size, georef.z_offset,
-               georef.z_scale);
+               image_name.c_str(), georef.origin_x, georef.origin_y, georef.cell_size, georef.z_offset, georef.z_scale);
   closeWritten(fn, path, f);
 }
 
@@ -881,8 +875,8 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
   registerGdalDrivers();
   GdalQuietErrors quiet;
   const char* const drivers[] = { "GTiff", nullptr };
-  DatasetPtr ds(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, drivers, nullptr,
-                           nullptr));
+  DatasetPtr ds(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, drivers, nullptr, nullptr));
   if (!ds)
     fail(fn, path, "not a readable GeoTIFF: not a TIFF, truncated or corrupt (" + GdalQuietErrors::lastMessage() + ")");
   if (GDALGetRasterCount(ds.get()) < 1)
@@ -891,8 +885,7 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
   const int height = GDALGetRasterYSize(ds.get());
   if (width <= 0 || height <= 0)
     fail(fn, path, "zero dimensions");
-  checkDimensions(fn, path, static_cast<std::uint64_t>(width), static_cast<std::uint64_t>(height),
-                  limits.max_points);
+  checkDimensions(fn, path, static_cast<std::uint64_t>(width), static_cast<std::uint64_t>(height), limits.max_points);
 
   GDALRasterBandH band = GDALGetRasterBand(ds.get(), 1);
   const GDALDataType type = GDALGetRasterDataType(band);
@@ -925,8 +918,7 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
     char* unit_name = nullptr;
     const double metres_per_unit = OSRGetLinearUnits(srs, &unit_name);
     if (std::abs(metres_per_unit - 1.0) > 1e-12)
-      fail(fn, path,
-           std::string("horizontal CRS unit '") + (unit_name ? unit_name : "?") + "' is not metres");
+      fail(fn, path, std::string("horizontal CRS unit '") + (unit_name ? unit_name : "?") + "' is not metres");
   }
   const char* unit = GDALGetRasterUnitType(band);
   if (unit != nullptr && *unit != '\0' && !isMetreName(unit))
@@ -971,8 +963,8 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
   {
     float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
     void* buffer = read_double ? static_cast<void*>(line.data()) : static_cast<void*>(dst);
-    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, buffer, width, 1, read_double ? GDT_Float64 : GDT_Float32, 0,
-                     0) != CE_None)
+    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, buffer, width, 1, read_double ? GDT_Float64 : GDT_Float32, 0, 0) !=
+        CE_None)
       fail(fn, path,
            "cannot read pixel row " + std::to_string(r) + ", truncated or corrupt file (" +
                GdalQuietErrors::lastMessage() + ")");
@@ -991,8 +983,7 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
       const double z = (scale == 1.0 && offset == 0.0) ? raw : offset + scale * raw;
       if (!(std::abs(z) <= static_cast<double>(FLT_MAX)))
         fail(fn, path,
-             "value at pixel (" + std::to_string(c) + ", " + std::to_string(r) +
-                 ") is infinite or beyond float range");
+             "value at pixel (" + std::to_string(c) + ", " + std::to_string(r) + ") is infinite or beyond float range");
       dst[c] = static_cast<float>(z);
     }
   }
@@ -1009,9 +1000,8 @@ namespace
  * A failed write removes the partial file.
  */
 template <class RowSource>
-void writeGeoTiffBand(const char* fn, const std::string& path, std::size_t columns, std::size_t rows,
-                      double origin_x, double origin_y, double cell, GDALDataType type, bool heights,
-                      const RowSource& row)
+void writeGeoTiffBand(const char* fn, const std::string& path, std::size_t columns, std::size_t rows, double origin_x,
+                      double origin_y, double cell, GDALDataType type, bool heights, const RowSource& row)
 {
   if (columns > static_cast<std::size_t>(INT_MAX) || rows > static_cast<std::size_t>(INT_MAX))
     fail(fn, path, "too many columns or rows for GDAL");
@@ -1070,8 +1060,8 @@ void writeClassGeoTiff(const ClassRaster& raster, const std::string& path)
 {
   const char* const fn = "writeClassGeoTiff";
   checkClassWritable(fn, path, raster);
-  writeGeoTiffBand(fn, path, raster.columns, raster.rows, raster.origin_x, raster.origin_y, raster.cell_size,
-                   GDT_Byte, false, [&](std::size_t file_row) -> const void* {
+  writeGeoTiffBand(fn, path, raster.columns, raster.rows, raster.origin_x, raster.origin_y, raster.cell_size, GDT_Byte,
+                   false, [&](std::size_t file_row) -> const void* {
                      return &raster.values[(raster.rows - 1 - file_row) * raster.columns];
                    });
 }

@@ -14,7 +14,8 @@ SoilParameters soilAtMoisture(const SoilParameters& soil, double moisture)
     return soil;
   std::vector<MoistureRow> rows = soil.moisture.table;
   rows.push_back({ soil.moisture.initial, soil.cohesion, soil.friction_angle, soil.n, soil.k_c, soil.k_phi });
-  std::sort(rows.begin(), rows.end(), [](const MoistureRow& a, const MoistureRow& b) { return a.moisture < b.moisture; });
+  std::sort(rows.begin(), rows.end(),
+            [](const MoistureRow& a, const MoistureRow& b) { return a.moisture < b.moisture; });
   MoistureRow at = rows.front();
   if (moisture >= rows.back().moisture)
     at = rows.back();
@@ -28,8 +29,8 @@ SoilParameters soilAtMoisture(const SoilParameters& soil, double moisture)
         const MoistureRow& b = rows[k];
         const double t = (moisture - a.moisture) / (b.moisture - a.moisture);
         const auto mix = [t](double u, double v) { return u + t * (v - u); };
-        at = { moisture, mix(a.cohesion, b.cohesion), mix(a.friction_angle, b.friction_angle), mix(a.n, b.n),
-               mix(a.k_c, b.k_c), mix(a.k_phi, b.k_phi) };
+        at = { moisture,      mix(a.cohesion, b.cohesion), mix(a.friction_angle, b.friction_angle),
+               mix(a.n, b.n), mix(a.k_c, b.k_c),           mix(a.k_phi, b.k_phi) };
         break;
       }
     }
@@ -58,13 +59,13 @@ double advanceMoisture(const MoistureSpec& spec, double moisture, double dt, dou
 
 SoilWeatherField::SoilWeatherField(double origin_x, double origin_y, double region_size, std::size_t columns,
                                    std::size_t rows, const SoilParameters& soil, double fresh_snow_density)
-  : origin_x_(origin_x)
-  , origin_y_(origin_y)
-  , region_size_(region_size)
-  , columns_(columns)
-  , rows_(rows)
-  , soil_(soil)
-  , fresh_snow_density_(fresh_snow_density)
+  : origin_x_(origin_x),
+    origin_y_(origin_y),
+    region_size_(region_size),
+    columns_(columns),
+    rows_(rows),
+    soil_(soil),
+    fresh_snow_density_(fresh_snow_density)
 {
   if (!std::isfinite(origin_x) || !std::isfinite(origin_y))
     throw std::invalid_argument("SoilWeatherField: origin must be finite");

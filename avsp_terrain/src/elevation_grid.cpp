@@ -11,17 +11,17 @@ namespace terrain
 {
 ElevationGrid::ElevationGrid(double origin_x, double origin_y, double dx, double dy, std::size_t columns,
                              std::size_t rows, std::vector<float> heights)
-  : origin_x_(origin_x)
-  , origin_y_(origin_y)
-  , dx_(dx)
-  , dy_(dy)
-  , columns_(columns)
-  , rows_(rows)
-  , max_fx_(static_cast<double>(columns) - 1.0)
-  , max_fy_(static_cast<double>(rows) - 1.0)
-  , last_cell_i_(static_cast<std::int64_t>(columns) - 2)
-  , last_cell_j_(static_cast<std::int64_t>(rows) - 2)
-  , heights_(std::move(heights))
+  : origin_x_(origin_x),
+    origin_y_(origin_y),
+    dx_(dx),
+    dy_(dy),
+    columns_(columns),
+    rows_(rows),
+    max_fx_(static_cast<double>(columns) - 1.0),
+    max_fy_(static_cast<double>(rows) - 1.0),
+    last_cell_i_(static_cast<std::int64_t>(columns) - 2),
+    last_cell_j_(static_cast<std::int64_t>(rows) - 2),
+    heights_(std::move(heights))
 {
   std::ostringstream why;
   if (!std::isfinite(origin_x) || !std::isfinite(origin_y))

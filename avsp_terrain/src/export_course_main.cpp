@@ -33,8 +33,8 @@ int main(int argc, char** argv)
   {
     const std::vector<std::string> written = exportCourse(options);
     std::printf("export_course: default course, seed %llu, %g m x %g m at %g m: wrote",
-                static_cast<unsigned long long>(options.course.seed), options.course.length_x,
-                options.course.length_y, options.course.cell_size);
+                static_cast<unsigned long long>(options.course.seed), options.course.length_x, options.course.length_y,
+                options.course.cell_size);
     for (const std::string& path : written)
       std::printf(" %s", path.c_str());
     std::printf("\n");

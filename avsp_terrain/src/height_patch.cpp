@@ -83,8 +83,8 @@ std::optional<PointRange> applyPatch(DeformableTerrain& terrain, const HeightPat
   const double fj = (patch.origin_y - grid.originY()) / grid.dy();
   const double ri = std::round(fi), rj = std::round(fj);
   if (std::abs(fi - ri) > 1e-6 || std::abs(fj - rj) > 1e-6)
-    throw PatchError("TerrainPatch: origin (" + std::to_string(patch.origin_x) + ", " +
-                     std::to_string(patch.origin_y) + ") is not on a grid point of the terrain");
+    throw PatchError("TerrainPatch: origin (" + std::to_string(patch.origin_x) + ", " + std::to_string(patch.origin_y) +
+                     ") is not on a grid point of the terrain");
   for (float h : patch.heights)
     if (!std::isfinite(h))
       throw PatchError("TerrainPatch: heights contain a non-finite value");
@@ -97,7 +97,8 @@ std::optional<PointRange> applyPatch(DeformableTerrain& terrain, const HeightPat
   // Patch column c sits on grid column ri + c; keep the columns and rows inside the grid.
   const long i_first = std::max(0L, -static_cast<long>(ri));
   const long j_first = std::max(0L, -static_cast<long>(rj));
-  const long i_end = std::min(static_cast<long>(patch.width), static_cast<long>(grid.columns()) - static_cast<long>(ri));
+  const long i_end =
+      std::min(static_cast<long>(patch.width), static_cast<long>(grid.columns()) - static_cast<long>(ri));
   const long j_end = std::min(static_cast<long>(patch.height), static_cast<long>(grid.rows()) - static_cast<long>(rj));
   if (i_first >= i_end || j_first >= j_end)
     return std::nullopt;

@@ -166,8 +166,8 @@ std::string resolveOutputPath(const std::string& requested, const OutputFolder& 
     const std::string real_parent = realPath(parent);
     if (!inside(path, folder.directory) || real_folder.empty() || real_parent.empty() ||
         !inside(real_parent, real_folder))
-      refuse(shown, "outside the output folder '" + folder.directory +
-                        "' (set ~allow_absolute_paths to write elsewhere)");
+      refuse(shown,
+             "outside the output folder '" + folder.directory + "' (set ~allow_absolute_paths to write elsewhere)");
   }
   if (::lstat(path.c_str(), &st) == 0)
   {

@@ -58,8 +58,7 @@ private:
 class Reader
 {
 public:
-  Reader(const std::string& bytes, std::size_t end, std::string path)
-    : bytes_(bytes), end_(end), path_(std::move(path))
+  Reader(const std::string& bytes, std::size_t end, std::string path) : bytes_(bytes), end_(end), path_(std::move(path))
   {
   }
   [[noreturn]] void fail(const std::string& why) const { throw TerrainFileError(path_ + ": " + why); }
@@ -133,8 +132,8 @@ void saveTerrain(const std::string& path, const DeformableTerrain& terrain, cons
   for (const TerrainObject& o : objects.all())
   {
     w.put<std::uint8_t>(static_cast<std::uint8_t>(o.type));
-    for (const double v : { o.x, o.y, o.yaw, o.length, o.width, o.height, o.strength, o.rolling_resistance,
-                            o.fall_direction })
+    for (const double v :
+         { o.x, o.y, o.yaw, o.length, o.width, o.height, o.strength, o.rolling_resistance, o.fall_direction })
       w.put(v);
     w.put<std::uint8_t>(o.toppled ? 1 : 0);
   }
@@ -255,8 +254,8 @@ LoadedTerrain loadTerrain(const std::string& path, const SoilLibrary& soils, std
     if (type > static_cast<std::uint8_t>(ObjectType::kBuilding))
       r.fail("unknown object type " + std::to_string(type));
     o.type = static_cast<ObjectType>(type);
-    for (double* v : { &o.x, &o.y, &o.yaw, &o.length, &o.width, &o.height, &o.strength, &o.rolling_resistance,
-                       &o.fall_direction })
+    for (double* v :
+         { &o.x, &o.y, &o.yaw, &o.length, &o.width, &o.height, &o.strength, &o.rolling_resistance, &o.fall_direction })
       *v = r.get<double>("object");
     o.toppled = r.get<std::uint8_t>("toppled flag") != 0;
     try

@@ -13,15 +13,15 @@ namespace
 std::array<float, 3> vertexAt(const DeformableTerrain& terrain, std::size_t i, std::size_t j, float lift)
 {
   const ElevationGrid& g = terrain.base();
-  return {static_cast<float>(g.originX() + i * g.dx()), static_cast<float>(g.originY() + j * g.dy()),
-          static_cast<float>(terrain.pointHeight(i, j)) + lift};
+  return { static_cast<float>(g.originX() + i * g.dx()), static_cast<float>(g.originY() + j * g.dy()),
+           static_cast<float>(terrain.pointHeight(i, j)) + lift };
 }
 
 /// Appends the two triangles of the quad (i0, j0)-(i1, j1), counter-clockwise from above.
 void addQuad(MeshChunk& chunk, const DeformableTerrain& terrain, const PointColour& colour, std::size_t i0,
              std::size_t j0, std::size_t i1, std::size_t j1, float lift)
 {
-  const std::size_t corners[6][2] = {{i0, j0}, {i1, j0}, {i1, j1}, {i0, j0}, {i1, j1}, {i0, j1}};
+  const std::size_t corners[6][2] = { { i0, j0 }, { i1, j0 }, { i1, j1 }, { i0, j0 }, { i1, j1 }, { i0, j1 } };
   for (const auto& c : corners)
   {
     chunk.vertices.push_back(vertexAt(terrain, c[0], c[1], lift));
@@ -64,7 +64,9 @@ std::vector<std::size_t> TerrainMesher::chunksTouching(const PointRange& range) 
   if (range.i0 >= columns_ || range.j0 >= rows_)
     return ids;
   // A point on a chunk border belongs to both chunks, hence the "- 1" on the lower end.
-  auto firstChunk = [this](std::size_t p, std::size_t n) { return std::min(n - 1, p == 0 ? 0 : (p - 1) / chunk_cells_); };
+  auto firstChunk = [this](std::size_t p, std::size_t n) {
+    return std::min(n - 1, p == 0 ? 0 : (p - 1) / chunk_cells_);
+  };
   auto lastChunk = [this](std::size_t p, std::size_t n) { return std::min(n - 1, p / chunk_cells_); };
   const std::size_t i1 = std::min(range.i1, columns_ - 1), j1 = std::min(range.j1, rows_ - 1);
   for (std::size_t cy = firstChunk(range.j0, chunks_y_); cy <= lastChunk(j1, chunks_y_); ++cy)
@@ -109,7 +111,7 @@ MeshChunk TerrainMesher::build(std::size_t id, const DeformableTerrain& terrain,
     {
       // Same corner order as addQuad(): counter-clockwise from above.
       const std::size_t k00 = b * nx + a, k10 = k00 + 1, k01 = k00 + nx, k11 = k01 + 1;
-      for (std::size_t k : {k00, k10, k11, k00, k11, k01})
+      for (std::size_t k : { k00, k10, k11, k00, k11, k01 })
       {
         chunk.vertices.push_back(position[k]);
         chunk.colours.push_back(tint[k]);

@@ -89,8 +89,8 @@ std::uint32_t ObjectSet::add(TerrainObject object)
   // Errors name the object as it would have been listed: its id-to-be, kind and position.
   auto reject = [&](const std::string& why) {
     std::ostringstream what;
-    what << "ObjectSet::add: object " << objects_.size() << " (" << toString(object.type) << " at (" << object.x
-         << ", " << object.y << ")): " << why;
+    what << "ObjectSet::add: object " << objects_.size() << " (" << toString(object.type) << " at (" << object.x << ", "
+         << object.y << ")): " << why;
     throw std::invalid_argument(what.str());
   };
   auto describe = [](const char* name, double value, const char* rule) {
@@ -124,8 +124,9 @@ std::vector<std::uint32_t> ObjectSet::query(double min_x, double min_y, double m
     for (long bx = bucketKeyX(min_x); bx <= bucketKeyX(max_x); ++bx)
     {
       const std::pair<long, long> key{ bx, by };
-      const auto it = std::lower_bound(buckets_.begin(), buckets_.end(), key,
-                                       [](const auto& entry, const std::pair<long, long>& k) { return entry.first < k; });
+      const auto it =
+          std::lower_bound(buckets_.begin(), buckets_.end(), key,
+                           [](const auto& entry, const std::pair<long, long>& k) { return entry.first < k; });
       if (it == buckets_.end() || it->first != key)
         continue;
       for (const std::uint32_t id : it->second)

@@ -63,8 +63,8 @@ LoadedSource loadTerrainSource(const TerrainSource& source, const SoilLibrary& s
 {
   const int given = !source.terrain_file.empty() + !source.dem_file.empty() + !source.flat_soil.empty();
   if (given > 1)
-    throw std::invalid_argument("terrain_file, dem_file and flat_soil: give at most one (got " +
-                                std::to_string(given) + ")");
+    throw std::invalid_argument("terrain_file, dem_file and flat_soil: give at most one (got " + std::to_string(given) +
+                                ")");
   // Checked whichever source is used: a misspelt soil is a mistake even where it is unused.
   if (!soils.contains(source.soil))
     throw std::invalid_argument("soil: no soil '" + source.soil + "' in the soil library");
@@ -90,8 +90,8 @@ LoadedSource loadTerrainSource(const TerrainSource& source, const SoilLibrary& s
                                   " must be in [0.005 m, flat_size / 10]");
     const auto n = static_cast<std::size_t>(std::llround(source.flat_size / source.flat_cell_size)) + 1;
     checkBudget("flat_cell_size", static_cast<double>(n), static_cast<double>(n), source.max_cells);
-    ElevationGrid grid(-0.5 * source.flat_size, -0.5 * source.flat_size, source.flat_cell_size,
-                       source.flat_cell_size, n, n, std::vector<float>(n * n, 0.0f));
+    ElevationGrid grid(-0.5 * source.flat_size, -0.5 * source.flat_size, source.flat_cell_size, source.flat_cell_size,
+                       n, n, std::vector<float>(n * n, 0.0f));
     out.terrain = std::make_unique<DeformableTerrain>(std::move(grid), soils.get(source.flat_soil), options);
     out.description = "flat " + source.flat_soil + " " + number(source.flat_size) + " m";
     return out;
@@ -120,9 +120,8 @@ LoadedSource loadTerrainSource(const TerrainSource& source, const SoilLibrary& s
   }();
   out.objects = std::move(course.objects);
   // The course's own soil map (road asphalt, trail gravel, pond mud, ...).
-  out.terrain = std::make_unique<DeformableTerrain>(std::move(course.heights),
-                                                    paletteFromNames(course.soil_names, soils),
-                                                    std::move(course.soil_map), options);
+  out.terrain = std::make_unique<DeformableTerrain>(
+      std::move(course.heights), paletteFromNames(course.soil_names, soils), std::move(course.soil_map), options);
   out.description = "the default course (seed " + std::to_string(source.course.seed) + ")";
   return out;
 }

@@ -50,8 +50,8 @@ double janosiTractiveEffort(const SoilParameters& soil, double area, double leng
   const double s = std::abs(slip);
   const double k = soil.shear_modulus;
   const double envelope = area * soil.cohesion + load * std::tan(soil.friction_angle);
-  const double factor = (s * length / k < 1e-8) ? s * length / (2.0 * k) :
-                                                   1.0 - k / (s * length) * (1.0 - std::exp(-s * length / k));
+  const double factor =
+      (s * length / k < 1e-8) ? s * length / (2.0 * k) : 1.0 - k / (s * length) * (1.0 - std::exp(-s * length / k));
   return (slip < 0.0 ? -1.0 : 1.0) * envelope * factor;
 }
 
@@ -155,9 +155,8 @@ double sinkageCarrying(const char* fn, const SoilParameters& soil, double radius
 
 double rigidWheelStaticSinkage(const SoilParameters& soil, double radius, double width, double load)
 {
-  return sinkageCarrying("rigidWheelStaticSinkage", soil, radius, load, [&](double z) {
-    return rigidWheelOnBekkerSoil(soil, radius, width, z).normal_force;
-  });
+  return sinkageCarrying("rigidWheelStaticSinkage", soil, radius, load,
+                         [&](double z) { return rigidWheelOnBekkerSoil(soil, radius, width, z).normal_force; });
 }
 
 RigidWheelLoad rollingWheelOnBekkerSoil(const SoilParameters& soil, double radius, double width, double sinkage,
@@ -201,8 +200,8 @@ double rollingWheelTraction(const SoilParameters& soil, double radius, double wi
   for (int k = 0; k < samples; ++k)
   {
     const double theta = theta1 - (k + 0.5) * dtheta;
-    const double p = theta >= 0.0 ? bekkerPressure(soil, width, radius * std::cos(theta) - (radius - z0)) :
-                                    std::max(p_max - soil.k_unload * radius * (1.0 - std::cos(theta)), 0.0);
+    const double p = theta >= 0.0 ? bekkerPressure(soil, width, radius * std::cos(theta) - (radius - z0))
+                                  : std::max(p_max - soil.k_unload * radius * (1.0 - std::cos(theta)), 0.0);
     const double x = lead - radius * std::sin(theta);
     out += shearStress(soil, p, s * x) * width * radius * std::cos(theta) * dtheta;
   }
@@ -211,9 +210,8 @@ double rollingWheelTraction(const SoilParameters& soil, double radius, double wi
 
 double rollingWheelSinkage(const SoilParameters& soil, double radius, double width, double load)
 {
-  return sinkageCarrying("rollingWheelSinkage", soil, radius, load, [&](double z) {
-    return rollingWheelOnBekkerSoil(soil, radius, width, z).normal_force;
-  });
+  return sinkageCarrying("rollingWheelSinkage", soil, radius, load,
+                         [&](double z) { return rollingWheelOnBekkerSoil(soil, radius, width, z).normal_force; });
 }
 
 double bekkerStaticSinkageClosedForm(const SoilParameters& soil, double diameter, double width, double load)

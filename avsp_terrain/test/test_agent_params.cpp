@@ -90,7 +90,8 @@ TEST(AgentParams, MalformedEntriesNameTheKey)
   };
   EXPECT_EQ(errorOf(withField("speed", XmlRpcValue(-1.0))),
             "parameter ~agents[0].speed: must be finite and >= 0 m/s, got -1");
-  EXPECT_EQ(errorOf(withField("speed", XmlRpcValue(std::string("fast")))), "parameter ~agents[0].speed: must be a number");
+  EXPECT_EQ(errorOf(withField("speed", XmlRpcValue(std::string("fast")))),
+            "parameter ~agents[0].speed: must be a number");
   EXPECT_EQ(errorOf(withField("type", XmlRpcValue(std::string("moose")))),
             "parameter ~agents[0].type: unknown agent type 'moose' (deer, pedestrian or truck)");
   EXPECT_EQ(errorOf(withField("loop", XmlRpcValue(1))), "parameter ~agents[0].loop: must be true or false");
@@ -98,7 +99,8 @@ TEST(AgentParams, MalformedEntriesNameTheKey)
   XmlRpcValue bad_point;
   bad_point[0] = point(0, 0);
   bad_point[1][0] = 1.0;
-  EXPECT_EQ(errorOf(withField("path", bad_point)), "parameter ~agents[0].path[1]: must be a pair of numbers [x, y] (m)");
+  EXPECT_EQ(errorOf(withField("path", bad_point)),
+            "parameter ~agents[0].path[1]: must be a pair of numbers [x, y] (m)");
   XmlRpcValue missing;
   missing[0] = goodDeer();
   missing[0].clear();

@@ -117,7 +117,8 @@ TEST(Agents, SpeedAlongACurvedPathIsExact)
   // A wiggly open path: the distance travelled, summed over small chords, is speed x time, and
   // the length is the sum of the chords (arc length parameterisation is exact).
   const ElevationGrid flat = plane(0, 0, 0);
-  const Agent a(spec({ { -30, 0 }, { -10, 12 }, { 0, -5 }, { 8, 3 }, { 25, 20 }, { 30, -10 } }, 3.0), flat, "agents[0]");
+  const Agent a(spec({ { -30, 0 }, { -10, 12 }, { 0, -5 }, { 8, 3 }, { 25, 20 }, { 30, -10 } }, 3.0), flat,
+                "agents[0]");
   const double period = a.period();
   EXPECT_NEAR(period, a.length() / 3.0, 1e-12);
   const int steps = 20000;
@@ -286,8 +287,7 @@ TEST(Agents, BadSpecsNameTheKey)
   s.loop = true;
   EXPECT_EQ(second(s), "agents[1].path: a moving looping agent needs at least 3 points, got 2");
   s.path = { { 0, 0 }, { 5, 0 }, { 5, 5 }, { 0, 0 } };
-  EXPECT_EQ(second(s).rfind("agents[1].path[0]: is within 1 mm of path[3] (a loop closes itself", 0), 0u)
-      << second(s);
+  EXPECT_EQ(second(s).rfind("agents[1].path[0]: is within 1 mm of path[3] (a loop closes itself", 0), 0u) << second(s);
   s.loop = false;
   s.path = { { 0, 0 }, { std::nan(""), 0 } };
   EXPECT_EQ(second(s), "agents[1].path[1]: must be finite (x, y) m, got (nan, 0)");

@@ -24,8 +24,7 @@ const SoilLibrary& library()
 /// Extra sinkage of a point under stress sigma written from the reference formulas alone:
 /// new compaction to the largest stress (T2), bearing flow for new stress (T4's b1 term), and
 /// the elastic part with the point's current deformation as T3's z.
-double referenceExtraSinkage(const SoilParameters& soil, float plastic, float displaced, float sigma_max,
-                             double sigma)
+double referenceExtraSinkage(const SoilParameters& soil, float plastic, float displaced, float sigma_max, double sigma)
 {
   const double compaction = std::max(plasticSinkage(soil, std::max<double>(sigma, sigma_max)) - plastic, 0.0);
   const double flow = soil.b1 * std::max(sigma - sigma_max, 0.0);

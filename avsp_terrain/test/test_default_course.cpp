@@ -111,9 +111,9 @@ std::vector<TerrainObject> objectsIn(const Course& c, const std::string& feature
   return out;
 }
 
-const std::vector<std::string> kRequiredFeatures = { "rolling_hills", "ditch",          "side_slope", "rough_patch",
-                                                     "dirt_trail",    "road",           "staging_area",
-                                                     "barrier_course", "fence_line",    "pond",       "woods" };
+const std::vector<std::string> kRequiredFeatures = { "rolling_hills", "ditch", "side_slope",   "rough_patch",
+                                                     "dirt_trail",    "road",  "staging_area", "barrier_course",
+                                                     "fence_line",    "pond",  "woods" };
 
 // The soils defined in config/soils.yaml.
 const std::set<std::string> kKnownSoils = { "asphalt", "gravel", "dry_sand", "sandy_loam",
@@ -624,8 +624,8 @@ TEST(DefaultCourse, ObjectsKeepOffTheRoadThePondAndTheDrivingFeatures)
   {
     const CourseFeature box = footprint(o);
     for (const char* name : { "road", "pond", "side_slope", "ditch", "rough_patch", "dirt_trail" })
-      EXPECT_FALSE(overlaps(box, c.feature(name))) << toString(o.type) << " " << o.id << " at (" << o.x << ", "
-                                                   << o.y << ") is in the " << name;
+      EXPECT_FALSE(overlaps(box, c.feature(name)))
+          << toString(o.type) << " " << o.id << " at (" << o.x << ", " << o.y << ") is in the " << name;
   }
   // Some vegetation also stands on open ground, outside every feature.
   std::size_t open_ground = 0;

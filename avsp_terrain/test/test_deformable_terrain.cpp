@@ -177,7 +177,8 @@ TEST(DeformableTerrain, DrivingWheelGetsTractionAndResistance)
   EXPECT_NEAR(f.lateral_force, 0.0, 1e-9);
   // Traction cannot exceed the Mohr-Coulomb envelope over the contact (T7 with j -> inf).
   const double area = t.base().dx() * t.base().dy() * f.contact_points;
-  EXPECT_LT(f.longitudinal_force, area * t.soil(60, 60).cohesion + f.normal_force * std::tan(t.soil(60, 60).friction_angle));
+  EXPECT_LT(f.longitudinal_force,
+            area * t.soil(60, 60).cohesion + f.normal_force * std::tan(t.soil(60, 60).friction_angle));
   // Braking reverses it; sliding sideways gives a restoring lateral force.
   w.spin_rate = 0.8 / w.radius;
   EXPECT_LT(t.wheelContact(w, 0.001, false).longitudinal_force, 0.0);
@@ -566,8 +567,8 @@ TEST(DeformableTerrain, BekkerRollingWheelSinksAsT13)
     {
       const std::size_t columns = static_cast<std::size_t>(std::lround(4.0 / cell)) + 1;
       const std::size_t rows = static_cast<std::size_t>(std::lround(1.2 / cell)) + 1;
-      DeformableTerrain t(ElevationGrid(0, 0, cell, cell, columns, rows, std::vector<float>(columns * rows, 0.f)),
-                          sand, DeformableTerrain::Options{ true });
+      DeformableTerrain t(ElevationGrid(0, 0, cell, cell, columns, rows, std::vector<float>(columns * rows, 0.f)), sand,
+                          DeformableTerrain::Options{ true });
       const double step = cell / 5.0;
       double sinkage_sum = 0.0, resistance_sum = 0.0;
       int samples = 0;
@@ -727,8 +728,7 @@ TEST(DeformableTerrain, TrackSettlesWhereSummedPressureEqualsLoad)
       const SoilParameters loam = simpleSoil("sandy_loam");
       DeformableTerrain t = flat(loam, true);
       const double sigma = load / area;
-      const double expected =
-          plasticSinkage(loam, sigma) + loam.b1 * sigma + elasticSinkage(loam, sigma, 0.0);
+      const double expected = plasticSinkage(loam, sigma) + loam.b1 * sigma + elasticSinkage(loam, sigma, 0.0);
       EXPECT_NEAR(trackDepthCarrying(t, track, load), expected, 1e-9 * expected);
     }
   }
@@ -771,8 +771,7 @@ TEST(DeformableTerrain, TrackTractionIsJanosiClosedForm)
     turned.heading = 0.6;
     turned.velocity = Eigen::Vector3d(v * std::cos(0.6), v * std::sin(0.6), 0);
     const ContactForces g = t.trackContact(turned, 0.01, false);
-    EXPECT_NEAR(g.longitudinal_force, janosiTractiveEffort(loam, area, track.length, g.normal_force, s),
-                0.01 * janosi)
+    EXPECT_NEAR(g.longitudinal_force, janosiTractiveEffort(loam, area, track.length, g.normal_force, s), 0.01 * janosi)
         << "slip " << s << " turned";
   }
   // Reversing: the leading edge is the rear end, the force points backwards.
@@ -937,8 +936,8 @@ TEST(DeformableTerrain, TiltedTrackFaceSinksEvenlyOnASlope)
   flat_on_slope.normal = Eigen::Vector3d::UnitZ();
   const ContactForces dug_in = sloped.trackContact(flat_on_slope, 0.001, false);
   EXPECT_LT(dug_in.contact_points, 0.65 * a.contact_points);  // from 7.5 cm downhill of its centre up
-  EXPECT_GT(dug_in.sinkage, 0.5 * slope * on_level.length);  // its uphill end buried 13 cm
-  tilted.normal = Eigen::Vector3d(0.0, 0.99, 0.1);  // 84 deg from level
+  EXPECT_GT(dug_in.sinkage, 0.5 * slope * on_level.length);   // its uphill end buried 13 cm
+  tilted.normal = Eigen::Vector3d(0.0, 0.99, 0.1);            // 84 deg from level
   EXPECT_THROW(sloped.trackContact(tilted, 0.001, false), std::invalid_argument);
 }
 
@@ -959,7 +958,8 @@ TEST(DeformableTerrain, ShearFollowsItsSlipAndNeverExceedsTheStrength)
   const ContactForces given = t.trackContact(track, 0.001, false);
   EXPECT_NEAR(given.longitudinal_force / given.lateral_force, -0.75, 1e-12);
   const double magnitude = std::hypot(given.longitudinal_force, given.lateral_force);
-  EXPECT_NEAR(magnitude, janosiTractiveEffort(gravel, track.length * track.width, track.length, given.normal_force, 0.05),
+  EXPECT_NEAR(magnitude,
+              janosiTractiveEffort(gravel, track.length * track.width, track.length, given.normal_force, 0.05),
               1e-9 * magnitude);
   EXPECT_LT(magnitude, given.shear_strength);
   // Its slope in |s|, for the vehicle's implicit shear rows: a finite difference agrees.
@@ -1099,8 +1099,8 @@ TEST(DeformableTerrain, ShrubInThePathTopplesBuildingDoesNot)
   DeformableTerrain t = flat("sandy_loam", true);
   ObjectSet objects;
   const std::uint32_t shrub = objects.add(objectAt(ObjectType::kShrub, 2.0, 2.0, 0.6, 0.6, 900.0));
-  const std::uint32_t building = objects.add(objectAt(ObjectType::kBuilding, 6.0, 4.0, 3.0, 3.0,
-                                                      std::numeric_limits<double>::infinity()));
+  const std::uint32_t building =
+      objects.add(objectAt(ObjectType::kBuilding, 6.0, 4.0, 3.0, 3.0, std::numeric_limits<double>::infinity()));
   const std::uint32_t aside = objects.add(objectAt(ObjectType::kShrub, 2.0, 2.6, 0.3, 0.3, 900.0));
   WheelPatch w = wheelAt(2.0, 2.0, -0.03);
   w.velocity = Eigen::Vector3d(1.0, 0, 0);
@@ -1308,8 +1308,8 @@ TEST(DeformableTerrain, ChangesToTheSamePointInOneIntervalAreMerged)
   std::size_t checked = 0;
   for (const PointChange& c : from_b)
   {
-    const auto mine = std::find_if(from_a.begin(), from_a.end(),
-                                   [&](const PointChange& m) { return m.i == c.i && m.j == c.j; });
+    const auto mine =
+        std::find_if(from_a.begin(), from_a.end(), [&](const PointChange& m) { return m.i == c.i && m.j == c.j; });
     if (mine == from_a.end())
       continue;
     const PointDeformation d = a.deformation(c.i, c.j);

@@ -35,9 +35,9 @@ using avsp::terrain::readGeoTiff;
 using avsp::terrain::readPng16;
 using avsp::terrain::readPng16Georef;
 using avsp::terrain::writeAsciiGrid;
-using avsp::terrain::writeGeoTiff;
 using avsp::terrain::writeClassGeoTiff;
 using avsp::terrain::writeClassPng8;
+using avsp::terrain::writeGeoTiff;
 using avsp::terrain::writePng16;
 using avsp::terrain::writePng16Georef;
 
@@ -159,8 +159,7 @@ void writeTestTiff(const std::string& path, int width, int height, GDALDataType 
     EXPECT_EQ(GDALSetRasterNoDataValue(band, *nodata), CE_None);
   }
   std::vector<double> copy = pixels;
-  EXPECT_EQ(GDALRasterIO(band, GF_Write, 0, 0, width, height, copy.data(), width, height, GDT_Float64, 0, 0),
-            CE_None);
+  EXPECT_EQ(GDALRasterIO(band, GF_Write, 0, 0, width, height, copy.data(), width, height, GDT_Float64, 0, 0), CE_None);
   GDALClose(ds);
 }
 
@@ -434,8 +433,8 @@ TEST_F(DemIo, GeoTiffReaderIsNorthUpWithSouthWestValueAtOrigin)
   ASSERT_EQ(r.columns, 3u);
   ASSERT_EQ(r.rows, 4u);
   EXPECT_EQ(r.cell_size, 2.0);
-  EXPECT_EQ(r.origin_x, 1001.0);  // centre of the west pixel column
-  EXPECT_EQ(r.origin_y, 4993.0);  // centre of the south pixel row: 5000 - 4*2 + 1
+  EXPECT_EQ(r.origin_x, 1001.0);   // centre of the west pixel column
+  EXPECT_EQ(r.origin_y, 4993.0);   // centre of the south pixel row: 5000 - 4*2 + 1
   EXPECT_EQ(r.heights[0], 30.0f);  // south-west pixel (0, 3)
   EXPECT_EQ(r.heights[2], 32.0f);
   EXPECT_EQ(r.heights[3 * 3 + 0], 0.0f);  // north-west pixel (0, 0)
@@ -484,8 +483,8 @@ TEST_F(DemIo, GeoTiffReaderIsExactAcrossBlocksForEveryBandType)
       for (const char* o : c.options)
         options.push_back(const_cast<char*>(o));
       options.push_back(nullptr);
-      GDALDatasetH ds = GDALCreate(GDALGetDriverByName("GTiff"), path.c_str(), width, height, 1, c.type,
-                                   options.data());
+      GDALDatasetH ds =
+          GDALCreate(GDALGetDriverByName("GTiff"), path.c_str(), width, height, 1, c.type, options.data());
       ASSERT_NE(ds, nullptr);
       EXPECT_EQ(GDALSetGeoTransform(ds, const_cast<double*>(gt)), CE_None);
       GDALRasterBandH band = GDALGetRasterBand(ds, 1);
@@ -720,8 +719,7 @@ TEST_F(DemIo, BadAsciiGridsAreRejectedWithTheReason)
       "400000000 grid points exceed the budget of 250000000" },
     { "cell_1e30.asc", "ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1e30\n1 2 3\n4 5 6\n",
       "outside the plausible range [0.001000, 10000.000000] m" },
-    { "cell_1e-9.asc", "ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1e-9\n1 2 3\n4 5 6\n",
-      "cell size" },
+    { "cell_1e-9.asc", "ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1e-9\n1 2 3\n4 5 6\n", "cell size" },
     { "far_origin.asc", "ncols 3\nnrows 2\nxllcorner 1e12\nyllcorner 0\ncellsize 1\n1 2 3\n4 5 6\n",
       "beyond the plausible" },
     { "height_3e38.asc", hdr + "1 2 3\n4 5 3.4e38\n", "height 339999995" },
@@ -771,7 +769,8 @@ TEST_F(DemIo, BadPngsAreRejectedWithTheReason)
   writePng16(noisy, full, g);
   ASSERT_NO_THROW(readPng16(full, g));
   const std::string bytes = readBytes(full);
-  for (std::size_t keep : { bytes.size() / 2, bytes.size() - 12, bytes.size() - 1, std::size_t{ 40 }, std::size_t{ 5 } })
+  for (std::size_t keep :
+       { bytes.size() / 2, bytes.size() - 12, bytes.size() - 1, std::size_t{ 40 }, std::size_t{ 5 } })
   {
     SCOPED_TRACE(keep);
     const std::string cut = file("cut_" + std::to_string(keep) + ".png");
@@ -1032,12 +1031,14 @@ TEST_F(DemIo, OversizedHeadersAndDevicesAreRefusedBeforeAllocation)
       for (int shift = 24; shift >= 0; shift -= 8)
         b.push_back(static_cast<unsigned char>(c >> shift));
     }
-    std::ofstream(png, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
+    std::ofstream(png, std::ios::binary)
+        .write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
   }
   Png16Georef g;
   g.cell_size = 1.0;
   g.z_scale = 100.0;
-  expectDemError([&] { readPng16(png, g); }, png, "20000 x 20000 = 400000000 grid points exceed the budget of 250000000");
+  expectDemError([&] { readPng16(png, g); }, png,
+                 "20000 x 20000 = 400000000 grid points exceed the budget of 250000000");
   // A smaller budget refuses smaller headers; a larger one lets this header through to the
   // next check (the file is far too small for the image it declares).
   expectDemError([&] { readPng16(png, g, avsp::terrain::DemLimits{ 1000 }); }, png, "exceed the budget of 1000");

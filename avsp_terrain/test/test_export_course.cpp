@@ -308,9 +308,9 @@ TEST(ExportArguments, DefaultsAndBothValueForms)
   EXPECT_EQ(d.course.cell_size, defaults.cell_size);
   EXPECT_EQ(d.course.length_x, defaults.length_x);
   EXPECT_EQ(d.course.length_y, defaults.length_y);
-  const ExportOptions o = parseExportArguments(
-      { "--seed=18446744073709551615", "--cell-size", "0.25", "--length-x=350.5", "--length-y", "2e2",
-        "--soil-map", "dir.v2/soil.TIF", "--out=x.Asc" });
+  const ExportOptions o =
+      parseExportArguments({ "--seed=18446744073709551615", "--cell-size", "0.25", "--length-x=350.5", "--length-y",
+                             "2e2", "--soil-map", "dir.v2/soil.TIF", "--out=x.Asc" });
   EXPECT_EQ(o.course.seed, 18446744073709551615ULL);
   EXPECT_EQ(o.course.cell_size, 0.25);
   EXPECT_EQ(o.course.length_x, 350.5);

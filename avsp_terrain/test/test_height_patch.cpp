@@ -28,7 +28,7 @@ at::DeformableTerrain plane()
 
 at::PointColour grey()
 {
-  return [](std::size_t, std::size_t) { return std::array<float, 3>{0.5f, 0.5f, 0.5f}; };
+  return [](std::size_t, std::size_t) { return std::array<float, 3>{ 0.5f, 0.5f, 0.5f }; };
 }
 }  // namespace
 
@@ -36,7 +36,7 @@ TEST(HeightPatch, ExtractThenApplyElsewhereMovesTheHeights)
 {
   at::DeformableTerrain source = plane(), target = plane();
   // Lower a 5 x 4 block of the source by applying a patch, then copy it to the target.
-  at::HeightPatch rut = at::extractPatch(source, {10, 7, 14, 10});
+  at::HeightPatch rut = at::extractPatch(source, { 10, 7, 14, 10 });
   EXPECT_EQ(rut.width, 5u);
   EXPECT_EQ(rut.height, 4u);
   EXPECT_DOUBLE_EQ(rut.origin_x, -3.0 + 10 * 0.25);
@@ -124,7 +124,7 @@ TEST(HeightPatch, FarAwayOriginsChangeNothing)
 TEST(HeightPatch, RefusesInconsistentPatchesByField)
 {
   at::DeformableTerrain t = plane();
-  at::HeightPatch good = at::extractPatch(t, {0, 0, 3, 2});
+  at::HeightPatch good = at::extractPatch(t, { 0, 0, 3, 2 });
   auto expectError = [&](at::HeightPatch p, const std::string& words) {
     try
     {
@@ -161,7 +161,7 @@ TEST(HeightPatch, RefusesInconsistentPatchesByField)
   for (std::size_t j = 0; j < 3; ++j)
     for (std::size_t i = 0; i < 4; ++i)
       EXPECT_EQ(t.pointHeight(i, j), t.base().pointHeight(i, j));
-  EXPECT_THROW(at::extractPatch(t, {0, 0, 41, 2}), at::PatchError);
+  EXPECT_THROW(at::extractPatch(t, { 0, 0, 41, 2 }), at::PatchError);
 }
 
 /// Issue 21: 3000 seeded patches mutated from good ones (origins off-grid, huge or not finite;
@@ -198,18 +198,31 @@ TEST(HeightPatch, SeededFuzzRefusalsChangeNothing)
     std::uniform_int_distribution<std::size_t> pick_wild(0, wild.size() - 1);
     switch (choice(rng))
     {
-      case 0: p.origin_x = wild[pick_wild(rng)]; break;
-      case 1: p.origin_y += 0.25 * unit(rng); break;
-      case 2: p.resolution = choice(rng) < 5 ? wild[pick_wild(rng)] : 0.25 * (1.0 + 1e-6 * unit(rng)); break;
-      case 3: p.heights.resize(p.heights.size() + (choice(rng) < 5 ? 1 : -1)); break;
-      case 4: p.heights[p.heights.size() / 2] = static_cast<float>(wild[pick_wild(rng)]); break;
+      case 0:
+        p.origin_x = wild[pick_wild(rng)];
+        break;
+      case 1:
+        p.origin_y += 0.25 * unit(rng);
+        break;
+      case 2:
+        p.resolution = choice(rng) < 5 ? wild[pick_wild(rng)] : 0.25 * (1.0 + 1e-6 * unit(rng));
+        break;
+      case 3:
+        p.heights.resize(p.heights.size() + (choice(rng) < 5 ? 1 : -1));
+        break;
+      case 4:
+        p.heights[p.heights.size() / 2] = static_cast<float>(wild[pick_wild(rng)]);
+        break;
       case 5:  // width x height overflows to the number of heights
         p.width = std::size_t{ 1 } << 33;
         p.height = std::size_t{ 1 } << 31;
         p.heights.clear();
         break;
-      case 6: p.width = 0; break;
-      default: break;  // a good patch, somewhere on or near the grid
+      case 6:
+        p.width = 0;
+        break;
+      default:
+        break;  // a good patch, somewhere on or near the grid
     }
     std::optional<at::PointRange> range;
     bool threw = false;
@@ -280,10 +293,10 @@ TEST(TerrainMesher, ChunksCoverTheGridOnceAtTheStride)
   EXPECT_FALSE(xs_on_edge.empty());
 
   // A changed point on a chunk border belongs to both chunks; an interior one to one.
-  EXPECT_EQ(mesher.chunksTouching({12, 5, 12, 5}), (std::vector<std::size_t>{0, 1}));
-  EXPECT_EQ(mesher.chunksTouching({13, 13, 13, 13}), (std::vector<std::size_t>{5}));
-  EXPECT_EQ(mesher.chunksTouching({40, 30, 40, 30}), (std::vector<std::size_t>{11}));
-  EXPECT_TRUE(mesher.chunksTouching({50, 50, 60, 60}).empty());
+  EXPECT_EQ(mesher.chunksTouching({ 12, 5, 12, 5 }), (std::vector<std::size_t>{ 0, 1 }));
+  EXPECT_EQ(mesher.chunksTouching({ 13, 13, 13, 13 }), (std::vector<std::size_t>{ 5 }));
+  EXPECT_EQ(mesher.chunksTouching({ 40, 30, 40, 30 }), (std::vector<std::size_t>{ 11 }));
+  EXPECT_TRUE(mesher.chunksTouching({ 50, 50, 60, 60 }).empty());
 
   EXPECT_THROW(at::TerrainMesher(41, 31, 3, 10), std::invalid_argument);
   EXPECT_THROW(at::TerrainMesher(41, 31, 0, 12), std::invalid_argument);
@@ -298,11 +311,11 @@ TEST(TerrainMesher, DeformedDetailOnlyWhereTheTerrainDeformed)
   for (std::size_t id = 0; id < mesher.chunkCount(); ++id)
     EXPECT_TRUE(mesher.buildDeformed(id, t, grey(), 0.01f).vertices.empty());
 
-  at::HeightPatch dip = at::extractPatch(t, {20, 20, 20, 20});
+  at::HeightPatch dip = at::extractPatch(t, { 20, 20, 20, 20 });
   dip.heights[0] -= 0.2f;
   ASSERT_TRUE(at::applyPatch(t, dip));
-  const std::vector<std::size_t> ids = mesher.chunksTouching({20, 20, 20, 20});
-  ASSERT_EQ(ids, (std::vector<std::size_t>{4}));
+  const std::vector<std::size_t> ids = mesher.chunksTouching({ 20, 20, 20, 20 });
+  ASSERT_EQ(ids, (std::vector<std::size_t>{ 4 }));
   const at::MeshChunk detail = mesher.buildDeformed(4, t, grey(), 0.01f);
   ASSERT_FALSE(detail.vertices.empty());
   bool found = false;

@@ -60,8 +60,7 @@ std::string edited(const std::string& from, const std::string& to)
 TEST(SoilLibrary, AllEightSoilsLoadInSiUnits)
 {
   const SoilLibrary lib = SoilLibrary::load(kSoils);
-  for (const char* name :
-       { "asphalt", "gravel", "dry_sand", "sandy_loam", "clay", "mud", "snow", "grass_over_loam" })
+  for (const char* name : { "asphalt", "gravel", "dry_sand", "sandy_loam", "clay", "mud", "snow", "grass_over_loam" })
     EXPECT_TRUE(lib.contains(name)) << name;
   const auto& sand = lib.get("dry_sand");
   // Wong Table 2.3, dry sand: n 1.1, k_c 0.99 kN/m^2.1, k_phi 1528.43 kN/m^3.1, c 1.04 kPa, 28 deg.
@@ -73,7 +72,7 @@ TEST(SoilLibrary, AllEightSoilsLoadInSiUnits)
   EXPECT_NEAR(sand.friction_angle, 28.0 * M_PI / 180.0, 1e-15);
   EXPECT_DOUBLE_EQ(sand.compression.density(0.0), sand.rho0);
   EXPECT_NEAR(sand.compression.density(7.5e4), 1705.0, 1e-9);  // halfway between table points
-  EXPECT_DOUBLE_EQ(sand.k_unload, 2.0e8);  // N/m^3
+  EXPECT_DOUBLE_EQ(sand.k_unload, 2.0e8);                      // N/m^3
   const auto& asphalt = lib.get("asphalt");
   EXPECT_EQ(asphalt.model, SinkageModel::kRigid);
   EXPECT_DOUBLE_EQ(asphalt.friction_peak, 0.85);
@@ -116,7 +115,9 @@ TEST(SoilLibrary, BadFilesNameFileAndKey)
   EXPECT_NE(err.find("missing"), std::string::npos) << err;
   err = loadError(edited("rolling_resistance: 0.015}", "rolling_resistance: nan}"));
   EXPECT_NE(err.find("soils.asphalt.rigid.rolling_resistance"), std::string::npos) << err;
-  err = loadError(edited("    model: rigid\n", "    model: rigid\n    strength: {cohesion_kpa: 1.0, friction_angle_deg: 30.0, shear_modulus: 0.01}\n"));
+  err = loadError(
+      edited("    model: rigid\n",
+             "    model: rigid\n    strength: {cohesion_kpa: 1.0, friction_angle_deg: 30.0, shear_modulus: 0.01}\n"));
   EXPECT_NE(err.find("soils.asphalt.strength"), std::string::npos) << err;
   EXPECT_NE(err.find("unknown key"), std::string::npos) << err;
   err = loadError(edited("drying_time_constant_h: 48.0", "drying_time_constant_h: -48.0"));

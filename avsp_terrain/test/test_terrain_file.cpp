@@ -112,7 +112,8 @@ TEST(TerrainFile, RoundTripIsBitExactIncludingToppledObjects)
   std::vector<float> h(n * n);
   for (std::size_t k = 0; k < h.size(); ++k)
     h[k] = 0.01f * static_cast<float>(k % 37);
-  DeformableTerrain t(ElevationGrid(0, 0, 0.05, 0.05, n, n, h), library().get("mud"), DeformableTerrain::Options{ true });
+  DeformableTerrain t(ElevationGrid(0, 0, 0.05, 0.05, n, n, h), library().get("mud"),
+                      DeformableTerrain::Options{ true });
   ObjectSet objects;
   makeScene(t, objects);
   ASSERT_GT(t.deformedPoints(), 100u);
@@ -223,8 +224,7 @@ TEST(TerrainFile, SoilIndexOutsideThePaletteIsNamed)
   catch (const TerrainFileError& e)
   {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("index 9 at grid point (4, 5) is not in the palette of 3"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("index 9 at grid point (4, 5) is not in the palette of 3"), std::string::npos)
         << e.what();
   }
   std::remove(path.c_str());
@@ -248,7 +248,7 @@ TEST(TerrainFile, VersionOneFilesStillLoad)
   put(std::uint32_t{ 3 });
   bytes.insert(bytes.end(), { 'm', 'u', 'd' });
   put(std::uint8_t{ 1 });
-  put(0.25);  // flowed
+  put(0.25);   // flowed
   put(0.125);  // arrived
   for (std::size_t k = 0; k < n * n; ++k)
     put(static_cast<float>(k));

@@ -240,7 +240,7 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
       ASSERT_NEAR(p.z, expected(i, j), 1e-4);
     }
   }
-  EXPECT_EQ(updated, (std::set<int>{0, 1}));
+  EXPECT_EQ(updated, (std::set<int>{ 0, 1 }));
 
   // --- ~save_map writes the applied rut; the core library reads it back.
   ros::ServiceClient save = nh.serviceClient<avsp_msgs::SaveMap>("/terrain/save_map");
@@ -282,7 +282,7 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
   marker_patch.origin.y = g.originY() + 300 * g.dy();
   marker_patch.width = 1;
   marker_patch.height = 1;
-  marker_patch.heights = {static_cast<float>(g.pointHeight(400, 300) - kRutDepth)};
+  marker_patch.heights = { static_cast<float>(g.pointHeight(400, 300) - kRutDepth) };
   const std::size_t ruts_before = ruts.size();
   patch_pub.publish(marker_patch);
   ASSERT_TRUE(spinUntil([&] { return ruts.size() > ruts_before; }));
@@ -331,9 +331,11 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
   // 1000 seeded requests: none may crash the node; a refusal changes nothing in the folder,
   // an acceptance writes exactly the file the answer names, inside the folder.
   {
-    const std::vector<std::string> pieces = { "a", "/", "..", ".", "sub", std::string(1, '\0'), "\n", "\x7f",
-                                              "\xc3\xa9", " ", "/tmp", "/dev/full", output_dir, "*",
-                                              std::string(260, 'n'), ".avspterrain", ".asc", ".xyz", ".tif" };
+    const std::vector<std::string> pieces = {
+      "a",   "/",    "..",        ".",        "sub", std::string(1, '\0'),  "\n",           "\x7f", "\xc3\xa9",
+      " ",   "/tmp", "/dev/full", output_dir, "*",   std::string(260, 'n'), ".avspterrain", ".asc", ".xyz",
+      ".tif"
+    };
     std::mt19937 rng(2112);
     std::uniform_int_distribution<std::size_t> pick(0, pieces.size() - 1);
     std::uniform_int_distribution<int> count(1, 5);
@@ -429,7 +431,8 @@ TEST_F(Fixture, PublishesTheCourseAndAppliesPatchesFromOtherNodes)
       // Lying: its centre half its height out along the fall direction, tipped by 90 deg.
       EXPECT_NEAR(m.pose.position.x, o.x + 0.5 * o.height * std::cos(0.5), 1e-9);
       EXPECT_NEAR(m.pose.position.y, o.y + 0.5 * o.height * std::sin(0.5), 1e-9);
-      EXPECT_NEAR(std::abs(m.pose.orientation.x) + std::abs(m.pose.orientation.y), std::sqrt(0.5) * (std::cos(0.25) + std::sin(0.25)), 1e-9);
+      EXPECT_NEAR(std::abs(m.pose.orientation.x) + std::abs(m.pose.orientation.y),
+                  std::sqrt(0.5) * (std::cos(0.25) + std::sin(0.25)), 1e-9);
     }
     else
     {
@@ -532,10 +535,10 @@ TEST_F(Fixture, DiagnosticsCountTheMessagesIgnoredPerTopic)
   }
   ASSERT_TRUE(counted) << "last report: ruts " << valueOf(reports.back(), "/terrain/ruts ignored") << ", toppled "
                        << valueOf(reports.back(), "/terrain/toppled ignored") << ", environment "
-                       << valueOf(reports.back(), "/environment ignored") << " (before: "
-                       << valueOf(before, "/terrain/ruts ignored") << ", "
-                       << valueOf(before, "/terrain/toppled ignored") << ", "
-                       << valueOf(before, "/environment ignored") << ")";
+                       << valueOf(reports.back(), "/environment ignored")
+                       << " (before: " << valueOf(before, "/terrain/ruts ignored") << ", "
+                       << valueOf(before, "/terrain/toppled ignored") << ", " << valueOf(before, "/environment ignored")
+                       << ")";
   EXPECT_TRUE(warned) << "a report that counts new ignored messages is a warning";
   EXPECT_EQ(grown(reports.back(), "/terrain/ruts applied"), 0u);
   // Nothing new: the next report is OK again.
@@ -557,7 +560,7 @@ std::pair<int, std::string> runBadNode(const std::string& args)
   std::stringstream text;
   text << in.rdbuf();
   std::remove(log.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str()};
+  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
 }
 
 TEST(TerrainNodeStartup, RefusesBadParametersByName)

@@ -70,7 +70,8 @@ TEST_P(BekkerStaticSinkage, ModelWithinFivePercentOfT13)
 INSTANTIATE_TEST_SUITE_P(ThreeSoilsTwoLoads, BekkerStaticSinkage,
                          ::testing::Values(WheelCase{ "dry_sand", 5000.0 }, WheelCase{ "dry_sand", 14000.0 },
                                            WheelCase{ "gravel", 5000.0 }, WheelCase{ "gravel", 14000.0 },
-                                           WheelCase{ "grass_over_loam", 5000.0 }, WheelCase{ "grass_over_loam", 14000.0 }));
+                                           WheelCase{ "grass_over_loam", 5000.0 },
+                                           WheelCase{ "grass_over_loam", 14000.0 }));
 
 TEST(BekkerRigidWheel, ShallowSinkageMatchesExactParabolicRimForEverySoil)
 {
@@ -229,8 +230,8 @@ TEST(Resistance, BulldozingPlusRolling)
 {
   const SoilParameters& soil = library().get("clay");
   const double sigma = 80e3, w = 0.365, z = 0.04, a = 0.12;
-  const double expected = (soil.cohesion + sigma * std::tan(soil.friction_angle)) * w * z +
-                          soil.rolling_resistance * a * sigma;
+  const double expected =
+      (soil.cohesion + sigma * std::tan(soil.friction_angle)) * w * z + soil.rolling_resistance * a * sigma;
   EXPECT_NEAR(resistanceForce(soil, sigma, w, z, a), expected, 1e-9 * expected);
   EXPECT_NEAR(resistanceForce(soil, sigma, w, 0.0, a), soil.rolling_resistance * a * sigma, 1e-9);
 }

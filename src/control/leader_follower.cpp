@@ -31,8 +31,8 @@ void validate(const LeaderFollowerOptions& o)
   require(std::isfinite(o.offset), "offset", o.offset, "finite (m)");
   require(std::isfinite(o.gap_gain) && o.gap_gain > 0.0 && o.gap_gain <= 10.0, "gap_gain", o.gap_gain,
           "finite and in (0, 10] (1/s)");
-  require(std::isfinite(o.accel_lead_time) && o.accel_lead_time >= 0.0 && o.accel_lead_time <= 10.0,
-          "accel_lead_time", o.accel_lead_time, "finite and in [0, 10] (s)");
+  require(std::isfinite(o.accel_lead_time) && o.accel_lead_time >= 0.0 && o.accel_lead_time <= 10.0, "accel_lead_time",
+          o.accel_lead_time, "finite and in [0, 10] (s)");
   require(std::isfinite(o.max_speed) && o.max_speed > 0.0, "max_speed", o.max_speed, "finite and > 0 (m/s)");
   require(std::isfinite(o.safety_distance) && o.safety_distance >= 0.0, "safety_distance", o.safety_distance,
           "finite and >= 0 (m)");
@@ -56,7 +56,7 @@ bool LeaderFollower::addLeaderState(const LeaderState& state)
     return false;
   if (leader_known_ && state.stamp < leader_.stamp)
     return true;  // late: an older state adds nothing
-  const Vec2 p{state.x, state.y};
+  const Vec2 p{ state.x, state.y };
   if (!leader_known_)
   {
     // The first crumb is the follower itself, so it has a path to the leader from the start.
@@ -81,7 +81,7 @@ bool LeaderFollower::addLeaderState(const LeaderState& state)
 
 FollowerStatus LeaderFollower::update(const Pose2& base, double speed, double t)
 {
-  own_ = {base.x, base.y};
+  own_ = { base.x, base.y };
   has_own_ = true;
   FollowerStatus fs;
   fs.desired_gap = options_.gap;
@@ -98,10 +98,10 @@ FollowerStatus LeaderFollower::update(const Pose2& base, double speed, double t)
 
   // Gap along the path, from base_link to the leader's predicted position.
   const double s_leader = crumbs_.endS() + leader_.speed * std::clamp(age, 0.0, options_.leader_timeout);
-  const Vec2 own{base.x, base.y};
-  const PathProjection own_projection =
-      has_base_s_ ? crumbs_.project(own, base_s_ - PathTracker::kSearchBehind, base_s_ + 3.0 * PathTracker::kSearchAhead)
-                  : crumbs_.project(own);
+  const Vec2 own{ base.x, base.y };
+  const PathProjection own_projection = has_base_s_ ? crumbs_.project(own, base_s_ - PathTracker::kSearchBehind,
+                                                                      base_s_ + 3.0 * PathTracker::kSearchAhead)
+                                                    : crumbs_.project(own);
   base_s_ = own_projection.s;
   has_base_s_ = true;
   fs.gap = s_leader - own_projection.s;
@@ -110,9 +110,9 @@ FollowerStatus LeaderFollower::update(const Pose2& base, double speed, double t)
 
   double target = 0.0;
   if (fs.leader_fresh && !fs.too_close)
-    target = std::clamp(leader_.speed + options_.accel_lead_time * leader_.acceleration +
-                            options_.gap_gain * (fs.gap - options_.gap),
-                        0.0, options_.max_speed);
+    target = std::clamp(
+        leader_.speed + options_.accel_lead_time * leader_.acceleration + options_.gap_gain * (fs.gap - options_.gap),
+        0.0, options_.max_speed);
   fs.tracking = tracker_.track(crumbs_, base, speed, target, options_.offset, t);
   if (!fs.leader_fresh || fs.too_close)
   {
@@ -164,23 +164,23 @@ std::vector<FormationSlot> formationSlots(FormationType type, std::size_t count,
     switch (type)
     {
       case FormationType::kColumn:
-        slot = {previous, spacing, 0.0};
+        slot = { previous, spacing, 0.0 };
         break;
       case FormationType::kLine:
       {
         const double rank = static_cast<double>((k + 1) / 2);
-        slot = {0, 0.0, (k % 2 == 1 ? -1.0 : 1.0) * rank * width};
+        slot = { 0, 0.0, (k % 2 == 1 ? -1.0 : 1.0) * rank * width };
         break;
       }
       case FormationType::kDiamond:
         if (k == 1)
-          slot = {0, spacing, width};
+          slot = { 0, spacing, width };
         else if (k == 2)
-          slot = {0, spacing, -width};
+          slot = { 0, spacing, -width };
         else if (k == 3)
-          slot = {0, 2.0 * spacing, 0.0};
+          slot = { 0, 2.0 * spacing, 0.0 };
         else
-          slot = {previous, spacing, 0.0};
+          slot = { previous, spacing, 0.0 };
         break;
     }
   }

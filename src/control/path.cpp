@@ -109,11 +109,11 @@ Vec2 Path::pointAt(double s) const
   {
     const double h = endHeading();
     const double beyond = s - endS();
-    return {points_.back().x + beyond * std::cos(h), points_.back().y + beyond * std::sin(h)};
+    return { points_.back().x + beyond * std::cos(h), points_.back().y + beyond * std::sin(h) };
   }
   const std::size_t i = segmentAt(s);
   const double f = (s - s_[i]) / (s_[i + 1] - s_[i]);
-  return {points_[i].x + f * (points_[i + 1].x - points_[i].x), points_[i].y + f * (points_[i + 1].y - points_[i].y)};
+  return { points_[i].x + f * (points_[i + 1].x - points_[i].x), points_[i].y + f * (points_[i + 1].y - points_[i].y) };
 }
 
 double Path::headingAt(double s) const
@@ -128,7 +128,7 @@ Vec2 Path::offsetPointAt(double s, double offset) const
 {
   const Vec2 p = pointAt(s);
   const double h = headingAt(s);
-  return {p.x - offset * std::sin(h), p.y + offset * std::cos(h)};
+  return { p.x - offset * std::sin(h), p.y + offset * std::cos(h) };
 }
 
 PathProjection Path::project(const Vec2& p, double s_min, double s_max) const
@@ -145,7 +145,7 @@ PathProjection Path::project(const Vec2& p, double s_min, double s_max) const
     const double ux = std::cos(heading), uy = std::sin(heading);
     double t = (p.x - a.x) * ux + (p.y - a.y) * uy;
     t = std::clamp(t, std::max(0.0, s_min - s_a), std::min(t_max, s_max - s_a));
-    const Vec2 q{a.x + t * ux, a.y + t * uy};
+    const Vec2 q{ a.x + t * ux, a.y + t * uy };
     const double d = distance(q, p);
     if (d < best.distance)
     {

@@ -18,7 +18,8 @@ void validate(const TrackingOptions& o)
   if (!std::isfinite(o.brake_gain) || o.brake_gain <= 0.0 || o.brake_gain > 100.0)
     throw std::invalid_argument("brake_gain = " + std::to_string(o.brake_gain) + " must be finite and in (0, 100]");
   if (!std::isfinite(o.max_accel) || o.max_accel <= 0.0 || o.max_accel > 100.0)
-    throw std::invalid_argument("max_accel = " + std::to_string(o.max_accel) + " must be finite and in (0, 100] (m/s^2)");
+    throw std::invalid_argument("max_accel = " + std::to_string(o.max_accel) +
+                                " must be finite and in (0, 100] (m/s^2)");
 }
 
 void validate(const SteeringGeometry& g)
@@ -58,11 +59,11 @@ PathTracker::PathTracker(const SteeringGeometry& geometry, const TrackingOptions
 
 Vec2 PathTracker::referencePoint(const Pose2& base) const
 {
-  return {base.x + geometry_.reference_x * std::cos(base.yaw), base.y + geometry_.reference_x * std::sin(base.yaw)};
+  return { base.x + geometry_.reference_x * std::cos(base.yaw), base.y + geometry_.reference_x * std::sin(base.yaw) };
 }
 
-TrackingStatus PathTracker::track(const Path& path, const Pose2& base, double speed, double target_speed,
-                                  double offset, double t)
+TrackingStatus PathTracker::track(const Path& path, const Pose2& base, double speed, double target_speed, double offset,
+                                  double t)
 {
   TrackingStatus st;
   st.speed = speed;
@@ -91,7 +92,7 @@ TrackingStatus PathTracker::track(const Path& path, const Pose2& base, double sp
   st.s = proj.s;
   st.cross_track = proj.lateral - offset;
 
-  Pose2 ref_pose{ref.x, ref.y, base.yaw};
+  Pose2 ref_pose{ ref.x, ref.y, base.yaw };
   st.lookahead = lookaheadDistance(options_.lookahead, speed);
   const PursuitTarget target = pursue(path, ref_pose, proj.s, st.lookahead, offset);
   st.target = target.point;

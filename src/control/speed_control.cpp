@@ -98,12 +98,12 @@ SpeedProfile::SpeedProfile(std::vector<double> waypoint_s, std::vector<double> s
                                 ") is needed, got " + std::to_string(v_.size()));
   for (std::size_t k = 0; k + 1 < s_.size(); ++k)
     if (!(s_[k + 1] > s_[k]))
-      throw std::invalid_argument("SpeedProfile: waypoint arc lengths must increase (segment " +
-                                  std::to_string(k) + ")");
+      throw std::invalid_argument("SpeedProfile: waypoint arc lengths must increase (segment " + std::to_string(k) +
+                                  ")");
   for (std::size_t k = 0; k < v_.size(); ++k)
     if (!std::isfinite(v_[k]) || v_[k] <= 0.0)
-      throw std::invalid_argument("SpeedProfile: segment " + std::to_string(k) + " speed " +
-                                  std::to_string(v_[k]) + " must be finite and > 0 (m/s)");
+      throw std::invalid_argument("SpeedProfile: segment " + std::to_string(k) + " speed " + std::to_string(v_[k]) +
+                                  " must be finite and > 0 (m/s)");
   if (!std::isfinite(decel_) || decel_ <= 0.0)
     throw std::invalid_argument("decel = " + std::to_string(decel_) + " must be finite and > 0 (m/s^2)");
   if (!std::isfinite(approach_speed_) || approach_speed_ <= 0.0)

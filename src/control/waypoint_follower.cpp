@@ -25,7 +25,7 @@ Path pathThrough(const std::vector<Waypoint>& waypoints)
 {
   Path path;
   for (const Waypoint& w : waypoints)
-    path.append({w.x, w.y});
+    path.append({ w.x, w.y });
   return path;
 }
 }  // namespace
@@ -52,10 +52,10 @@ void validateWaypoints(const std::vector<Waypoint>& waypoints)
 
 WaypointFollower::WaypointFollower(const std::vector<Waypoint>& waypoints, const SteeringGeometry& geometry,
                                    const WaypointFollowerOptions& options)
-  : waypoints_(checkedWaypoints(waypoints))
-  , options_(options)
-  , path_(pathThrough(waypoints_))
-  , tracker_(geometry, options.tracking)
+  : waypoints_(checkedWaypoints(waypoints)),
+    options_(options),
+    path_(pathThrough(waypoints_)),
+    tracker_(geometry, options.tracking)
 {
   if (!std::isfinite(options_.lead_time) || options_.lead_time < 0.0 || options_.lead_time > 100.0)
     throw std::invalid_argument("lead_time = " + std::to_string(options_.lead_time) +
@@ -78,8 +78,7 @@ TrackingStatus WaypointFollower::update(const Pose2& base, double speed, double 
 {
   const Waypoint& goal = waypoints_.back();
   // Near the goal only counts on the last stretch of the path (it may pass the goal earlier).
-  const double last_stretch =
-      options_.goal_tolerance + std::abs(tracker_.geometry().reference_x) + kGoalStretch;
+  const double last_stretch = options_.goal_tolerance + std::abs(tracker_.geometry().reference_x) + kGoalStretch;
   if (!goal_reached_ && tracker_.hasProgress() && tracker_.progress() >= path_.endS() - last_stretch &&
       std::hypot(base.x - goal.x, base.y - goal.y) <= options_.goal_tolerance)
     goal_reached_ = true;
@@ -90,7 +89,7 @@ TrackingStatus WaypointFollower::update(const Pose2& base, double speed, double 
     TrackingStatus st;
     st.speed = speed;
     st.s = tracker_.progress();
-    st.target = {goal.x, goal.y};
+    st.target = { goal.x, goal.y };
     st.command = tracker_.stop();
     return st;
   }

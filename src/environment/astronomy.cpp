@@ -34,8 +34,14 @@ double wrapRad(double a)
   return a < 0.0 ? a + 2.0 * kPi : a;
 }
 
-double sinD(double deg) { return std::sin(deg * kDegToRad); }
-double cosD(double deg) { return std::cos(deg * kDegToRad); }
+double sinD(double deg)
+{
+  return std::sin(deg * kDegToRad);
+}
+double cosD(double deg)
+{
+  return std::cos(deg * kDegToRad);
+}
 
 /// Right ascension and declination (rad) from ecliptic longitude/latitude (rad) and obliquity (rad).
 void eclipticToEquatorial(double lambda, double beta, double eps, double& ra, double& dec)
@@ -54,45 +60,85 @@ struct LunarTerm
 
 // Table 47.A: longitude (sine terms) and distance (cosine terms).
 constexpr LunarTerm kLongitudeDistance[] = {
-    {0, 0, 1, 0, 6288774, -20905355}, {2, 0, -1, 0, 1274027, -3699111}, {2, 0, 0, 0, 658314, -2955968},
-    {0, 0, 2, 0, 213618, -569925},    {0, 1, 0, 0, -185116, 48888},     {0, 0, 0, 2, -114332, -3149},
-    {2, 0, -2, 0, 58793, 246158},     {2, -1, -1, 0, 57066, -152138},   {2, 0, 1, 0, 53322, -170733},
-    {2, -1, 0, 0, 45758, -204586},    {0, 1, -1, 0, -40923, -129620},   {1, 0, 0, 0, -34720, 108743},
-    {0, 1, 1, 0, -30383, 104755},     {2, 0, 0, -2, 15327, 10321},      {0, 0, 1, 2, -12528, 0},
-    {0, 0, 1, -2, 10980, 79661},      {4, 0, -1, 0, 10675, -34782},     {0, 0, 3, 0, 10034, -23210},
-    {4, 0, -2, 0, 8548, -21636},      {2, 1, -1, 0, -7888, 24208},      {2, 1, 0, 0, -6766, 30824},
-    {1, 0, -1, 0, -5163, -8379},      {1, 1, 0, 0, 4987, -16675},       {2, -1, 1, 0, 4036, -12831},
-    {2, 0, 2, 0, 3994, -10445},       {4, 0, 0, 0, 3861, -11650},       {2, 0, -3, 0, 3665, 14403},
-    {0, 1, -2, 0, -2689, -7003},      {2, 0, -1, 2, -2602, 0},          {2, -1, -2, 0, 2390, 10056},
-    {1, 0, 1, 0, -2348, 6322},        {2, -2, 0, 0, 2236, -9884},       {0, 1, 2, 0, -2120, 5751},
-    {0, 2, 0, 0, -2069, 0},           {2, -2, -1, 0, 2048, -4950},      {2, 0, 1, -2, -1773, 4130},
-    {2, 0, 0, 2, -1595, 0},           {4, -1, -1, 0, 1215, -3958},      {0, 0, 2, 2, -1110, 0},
-    {3, 0, -1, 0, -892, 3258},        {2, 1, 1, 0, -810, 2616},         {4, -1, -2, 0, 759, -1897},
-    {0, 2, -1, 0, -713, -2117},       {2, 2, -1, 0, -700, 2354},        {2, 1, -2, 0, 691, 0},
-    {2, -1, 0, -2, 596, 0},           {4, 0, 1, 0, 549, -1423},         {0, 0, 4, 0, 537, -1117},
-    {4, -1, 0, 0, 520, -1571},        {1, 0, -2, 0, -487, -1739},       {2, 1, 0, -2, -399, 0},
-    {0, 0, 2, -2, -381, -4421},       {1, 1, 1, 0, 351, 0},             {3, 0, -2, 0, -340, 0},
-    {4, 0, -3, 0, 330, 0},            {2, -1, 2, 0, 327, 0},            {0, 2, 1, 0, -323, 1165},
-    {1, 1, -1, 0, 299, 0},            {2, 0, 3, 0, 294, 0},             {2, 0, -1, -2, 0, 8752},
+  { 0, 0, 1, 0, 6288774, -20905355 },
+  { 2, 0, -1, 0, 1274027, -3699111 },
+  { 2, 0, 0, 0, 658314, -2955968 },
+  { 0, 0, 2, 0, 213618, -569925 },
+  { 0, 1, 0, 0, -185116, 48888 },
+  { 0, 0, 0, 2, -114332, -3149 },
+  { 2, 0, -2, 0, 58793, 246158 },
+  { 2, -1, -1, 0, 57066, -152138 },
+  { 2, 0, 1, 0, 53322, -170733 },
+  { 2, -1, 0, 0, 45758, -204586 },
+  { 0, 1, -1, 0, -40923, -129620 },
+  { 1, 0, 0, 0, -34720, 108743 },
+  { 0, 1, 1, 0, -30383, 104755 },
+  { 2, 0, 0, -2, 15327, 10321 },
+  { 0, 0, 1, 2, -12528, 0 },
+  { 0, 0, 1, -2, 10980, 79661 },
+  { 4, 0, -1, 0, 10675, -34782 },
+  { 0, 0, 3, 0, 10034, -23210 },
+  { 4, 0, -2, 0, 8548, -21636 },
+  { 2, 1, -1, 0, -7888, 24208 },
+  { 2, 1, 0, 0, -6766, 30824 },
+  { 1, 0, -1, 0, -5163, -8379 },
+  { 1, 1, 0, 0, 4987, -16675 },
+  { 2, -1, 1, 0, 4036, -12831 },
+  { 2, 0, 2, 0, 3994, -10445 },
+  { 4, 0, 0, 0, 3861, -11650 },
+  { 2, 0, -3, 0, 3665, 14403 },
+  { 0, 1, -2, 0, -2689, -7003 },
+  { 2, 0, -1, 2, -2602, 0 },
+  { 2, -1, -2, 0, 2390, 10056 },
+  { 1, 0, 1, 0, -2348, 6322 },
+  { 2, -2, 0, 0, 2236, -9884 },
+  { 0, 1, 2, 0, -2120, 5751 },
+  { 0, 2, 0, 0, -2069, 0 },
+  { 2, -2, -1, 0, 2048, -4950 },
+  { 2, 0, 1, -2, -1773, 4130 },
+  { 2, 0, 0, 2, -1595, 0 },
+  { 4, -1, -1, 0, 1215, -3958 },
+  { 0, 0, 2, 2, -1110, 0 },
+  { 3, 0, -1, 0, -892, 3258 },
+  { 2, 1, 1, 0, -810, 2616 },
+  { 4, -1, -2, 0, 759, -1897 },
+  { 0, 2, -1, 0, -713, -2117 },
+  { 2, 2, -1, 0, -700, 2354 },
+  { 2, 1, -2, 0, 691, 0 },
+  { 2, -1, 0, -2, 596, 0 },
+  { 4, 0, 1, 0, 549, -1423 },
+  { 0, 0, 4, 0, 537, -1117 },
+  { 4, -1, 0, 0, 520, -1571 },
+  { 1, 0, -2, 0, -487, -1739 },
+  { 2, 1, 0, -2, -399, 0 },
+  { 0, 0, 2, -2, -381, -4421 },
+  { 1, 1, 1, 0, 351, 0 },
+  { 3, 0, -2, 0, -340, 0 },
+  { 4, 0, -3, 0, 330, 0 },
+  { 2, -1, 2, 0, 327, 0 },
+  { 0, 2, 1, 0, -323, 1165 },
+  { 1, 1, -1, 0, 299, 0 },
+  { 2, 0, 3, 0, 294, 0 },
+  { 2, 0, -1, -2, 0, 8752 },
 };
 
 // Table 47.B: latitude (sine terms; `cosine` unused).
 constexpr LunarTerm kLatitude[] = {
-    {0, 0, 0, 1, 5128122, 0}, {0, 0, 1, 1, 280602, 0},  {0, 0, 1, -1, 277693, 0}, {2, 0, 0, -1, 173237, 0},
-    {2, 0, -1, 1, 55413, 0},  {2, 0, -1, -1, 46271, 0}, {2, 0, 0, 1, 32573, 0},   {0, 0, 2, 1, 17198, 0},
-    {2, 0, 1, -1, 9266, 0},   {0, 0, 2, -1, 8822, 0},   {2, -1, 0, -1, 8216, 0},  {2, 0, -2, -1, 4324, 0},
-    {2, 0, 1, 1, 4200, 0},    {2, 1, 0, -1, -3359, 0},  {2, -1, -1, 1, 2463, 0},  {2, -1, 0, 1, 2211, 0},
-    {2, -1, -1, -1, 2065, 0}, {0, 1, -1, -1, -1870, 0}, {4, 0, -1, -1, 1828, 0},  {0, 1, 0, 1, -1794, 0},
-    {0, 0, 0, 3, -1749, 0},   {0, 1, -1, 1, -1565, 0},  {1, 0, 0, 1, -1491, 0},   {0, 1, 1, 1, -1475, 0},
-    {0, 1, 1, -1, -1410, 0},  {0, 1, 0, -1, -1344, 0},  {1, 0, 0, -1, -1335, 0},  {0, 0, 3, 1, 1107, 0},
-    {4, 0, 0, -1, 1021, 0},   {4, 0, -1, 1, 833, 0},    {0, 0, 1, -3, 777, 0},    {4, 0, -2, 1, 671, 0},
-    {2, 0, 0, -3, 607, 0},    {2, 0, 2, -1, 596, 0},    {2, -1, 1, -1, 491, 0},   {2, 0, -2, 1, -451, 0},
-    {0, 0, 3, -1, 439, 0},    {2, 0, 2, 1, 422, 0},     {2, 0, -3, -1, 421, 0},   {2, 1, -1, 1, -366, 0},
-    {2, 1, 0, 1, -351, 0},    {4, 0, 0, 1, 331, 0},     {2, -1, 1, 1, 315, 0},    {2, -2, 0, -1, 302, 0},
-    {0, 0, 1, 3, -283, 0},    {2, 1, 1, -1, -229, 0},   {1, 1, 0, -1, 223, 0},    {1, 1, 0, 1, 223, 0},
-    {0, 1, -2, -1, -220, 0},  {2, 1, -1, -1, -220, 0},  {1, 0, 1, 1, -185, 0},    {2, -1, -2, -1, 181, 0},
-    {0, 1, 2, 1, -177, 0},    {4, 0, -2, -1, 176, 0},   {4, -1, -1, -1, 166, 0},  {1, 0, 1, -1, -164, 0},
-    {4, 0, 1, -1, 132, 0},    {1, 0, -1, -1, -119, 0},  {4, -1, 0, -1, 115, 0},   {2, -2, 0, 1, 107, 0},
+  { 0, 0, 0, 1, 5128122, 0 }, { 0, 0, 1, 1, 280602, 0 },  { 0, 0, 1, -1, 277693, 0 }, { 2, 0, 0, -1, 173237, 0 },
+  { 2, 0, -1, 1, 55413, 0 },  { 2, 0, -1, -1, 46271, 0 }, { 2, 0, 0, 1, 32573, 0 },   { 0, 0, 2, 1, 17198, 0 },
+  { 2, 0, 1, -1, 9266, 0 },   { 0, 0, 2, -1, 8822, 0 },   { 2, -1, 0, -1, 8216, 0 },  { 2, 0, -2, -1, 4324, 0 },
+  { 2, 0, 1, 1, 4200, 0 },    { 2, 1, 0, -1, -3359, 0 },  { 2, -1, -1, 1, 2463, 0 },  { 2, -1, 0, 1, 2211, 0 },
+  { 2, -1, -1, -1, 2065, 0 }, { 0, 1, -1, -1, -1870, 0 }, { 4, 0, -1, -1, 1828, 0 },  { 0, 1, 0, 1, -1794, 0 },
+  { 0, 0, 0, 3, -1749, 0 },   { 0, 1, -1, 1, -1565, 0 },  { 1, 0, 0, 1, -1491, 0 },   { 0, 1, 1, 1, -1475, 0 },
+  { 0, 1, 1, -1, -1410, 0 },  { 0, 1, 0, -1, -1344, 0 },  { 1, 0, 0, -1, -1335, 0 },  { 0, 0, 3, 1, 1107, 0 },
+  { 4, 0, 0, -1, 1021, 0 },   { 4, 0, -1, 1, 833, 0 },    { 0, 0, 1, -3, 777, 0 },    { 4, 0, -2, 1, 671, 0 },
+  { 2, 0, 0, -3, 607, 0 },    { 2, 0, 2, -1, 596, 0 },    { 2, -1, 1, -1, 491, 0 },   { 2, 0, -2, 1, -451, 0 },
+  { 0, 0, 3, -1, 439, 0 },    { 2, 0, 2, 1, 422, 0 },     { 2, 0, -3, -1, 421, 0 },   { 2, 1, -1, 1, -366, 0 },
+  { 2, 1, 0, 1, -351, 0 },    { 4, 0, 0, 1, 331, 0 },     { 2, -1, 1, 1, 315, 0 },    { 2, -2, 0, -1, 302, 0 },
+  { 0, 0, 1, 3, -283, 0 },    { 2, 1, 1, -1, -229, 0 },   { 1, 1, 0, -1, 223, 0 },    { 1, 1, 0, 1, 223, 0 },
+  { 0, 1, -2, -1, -220, 0 },  { 2, 1, -1, -1, -220, 0 },  { 1, 0, 1, 1, -185, 0 },    { 2, -1, -2, -1, 181, 0 },
+  { 0, 1, 2, 1, -177, 0 },    { 4, 0, -2, -1, 176, 0 },   { 4, -1, -1, -1, 166, 0 },  { 1, 0, 1, -1, -164, 0 },
+  { 4, 0, 1, -1, 132, 0 },    { 1, 0, -1, -1, -119, 0 },  { 4, -1, 0, -1, 115, 0 },   { 2, -2, 0, 1, 107, 0 },
 };
 
 /// Factor E^|m| of terms containing the Sun's mean anomaly (Meeus eq. 47.6).
@@ -108,7 +154,7 @@ long daysFromCivil(long year, int month, int day)
   // Count years from March so that the leap day ends the year; eras of 400 years (146097 days).
   const long y = year - (month <= 2 ? 1 : 0);
   const long era = (y >= 0 ? y : y - 399) / 400;
-  const long year_of_era = y - era * 400;                                          // [0, 399]
+  const long year_of_era = y - era * 400;                                             // [0, 399]
   const long day_of_year = (153 * (month + (month > 2 ? -3 : 9)) + 2) / 5 + day - 1;  // [0, 365]
   const long day_of_era = year_of_era * 365 + year_of_era / 4 - year_of_era / 100 + day_of_year;
   return era * 146097 + day_of_era - 719468;  // 719468: days from 0000-03-01 to 1970-01-01
@@ -133,7 +179,7 @@ double parseUtc(const std::string& text)
     throw std::invalid_argument("'" + text + "' is not an ISO 8601 UTC time like 2025-06-21T10:30:00Z");
   if (static_cast<std::size_t>(consumed) != text.size() - 1 || text.back() != 'Z')
     throw std::invalid_argument("'" + text + "' must end with 'Z' (UTC), e.g. 2025-06-21T10:30:00Z");
-  static const int kDaysInMonth[] = {31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  static const int kDaysInMonth[] = { 31, 29, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31 };
   const bool leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
   if (month < 1 || month > 12 || day < 1 || day > kDaysInMonth[month - 1] || (month == 2 && day == 29 && !leap))
     throw std::invalid_argument("'" + text + "' is not a calendar date");
@@ -167,7 +213,10 @@ std::string formatUtc(double unix_seconds)
   return out.str();
 }
 
-double julianDay(double unix_seconds) { return 2440587.5 + unix_seconds / 86400.0; }
+double julianDay(double unix_seconds)
+{
+  return 2440587.5 + unix_seconds / 86400.0;
+}
 
 double deltaT(double year)
 {
@@ -178,8 +227,8 @@ double deltaT(double year)
 Nutation nutation(double jde)
 {
   const double t = (jde - kJ2000) / kDaysPerCentury;
-  const double omega = 125.04452 - 1934.136261 * t;   // Moon's ascending node
-  const double l_sun = 280.4665 + 36000.7698 * t;     // mean longitudes of Sun and Moon
+  const double omega = 125.04452 - 1934.136261 * t;  // Moon's ascending node
+  const double l_sun = 280.4665 + 36000.7698 * t;    // mean longitudes of Sun and Moon
   const double l_moon = 218.3165 + 481267.8813 * t;
   Nutation n;
   n.longitude = (-17.20 * sinD(omega) - 1.32 * sinD(2 * l_sun) - 0.23 * sinD(2 * l_moon) + 0.21 * sinD(2 * omega)) *
@@ -244,8 +293,8 @@ Equatorial moonEquatorial(double jde)
   }
   // Venus (A1), Jupiter (A2) and the Earth's flattening (L' terms).
   sum_l += 3958.0 * sinD(a1) + 1962.0 * sinD(lp - f) + 318.0 * sinD(a2);
-  sum_b += -2235.0 * sinD(lp) + 382.0 * sinD(a3) + 175.0 * sinD(a1 - f) + 175.0 * sinD(a1 + f) +
-           127.0 * sinD(lp - mp) - 115.0 * sinD(lp + mp);
+  sum_b += -2235.0 * sinD(lp) + 382.0 * sinD(a3) + 175.0 * sinD(a1 - f) + 175.0 * sinD(a1 + f) + 127.0 * sinD(lp - mp) -
+           115.0 * sinD(lp + mp);
 
   const Nutation nut = nutation(jde);
   Equatorial out;
@@ -305,16 +354,16 @@ Horizontal toHorizontal(const Equatorial& body, double gast, const Site& site, c
   out.geometric_elevation = std::atan2(up, std::hypot(east, north));
   out.elevation = out.geometric_elevation + refraction(out.geometric_elevation, air);
   const double ce = std::cos(out.elevation);
-  out.direction = {ce * std::sin(out.azimuth), ce * std::cos(out.azimuth), std::sin(out.elevation)};
+  out.direction = { ce * std::sin(out.azimuth), ce * std::cos(out.azimuth), std::sin(out.elevation) };
   return out;
 }
 
 double moonPhaseAngle(const Equatorial& sun, const Equatorial& moon)
 {
   // Geocentric elongation psi (Meeus 48.2), then the phase angle i (48.3).
-  const double cos_psi = std::sin(sun.declination) * std::sin(moon.declination) +
-                         std::cos(sun.declination) * std::cos(moon.declination) *
-                             std::cos(sun.right_ascension - moon.right_ascension);
+  const double cos_psi =
+      std::sin(sun.declination) * std::sin(moon.declination) +
+      std::cos(sun.declination) * std::cos(moon.declination) * std::cos(sun.right_ascension - moon.right_ascension);
   const double psi = std::acos(std::max(-1.0, std::min(1.0, cos_psi)));
   return std::atan2(sun.distance_km * std::sin(psi), moon.distance_km - sun.distance_km * std::cos(psi));
 }

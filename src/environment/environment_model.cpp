@@ -39,8 +39,9 @@ void checkWeather(const WeatherState& w, double air_temperature)
 {
   if (std::isnan(w.fog_visibility) || w.fog_visibility <= 0.0)
     throw std::invalid_argument("fog_visibility = " + number(w.fog_visibility) + " must be > 0 (m; inf = no fog)");
-  const std::pair<const char*, double> rates[] = {
-      {"rain_rate_mm_h", w.rain_rate_mm_h}, {"snow_rate_mm_h", w.snow_rate_mm_h}, {"hail_rate_mm_h", w.hail_rate_mm_h}};
+  const std::pair<const char*, double> rates[] = { { "rain_rate_mm_h", w.rain_rate_mm_h },
+                                                   { "snow_rate_mm_h", w.snow_rate_mm_h },
+                                                   { "hail_rate_mm_h", w.hail_rate_mm_h } };
   for (const auto& [key, value] : rates)
     if (!std::isfinite(value) || value < 0.0)
       throw std::invalid_argument(std::string(key) + " = " + number(value) + " must be finite and >= 0 (mm/h)");
@@ -75,8 +76,8 @@ double ambientIlluminance(double sun_elevation, double moon_elevation, double mo
   {
     // log10 lx at 0, -6, -12, -18 deg; the twilight anchors are for a clear sky.
     const double ratio = daylight(0.0, c) / daylight(0.0, 0.0);
-    const double anchors[4] = {std::log10(daylight(0.0, c)), std::log10(3.4 * ratio), std::log10(0.008 * ratio),
-                               std::log10(6e-4 * ratio)};
+    const double anchors[4] = { std::log10(daylight(0.0, c)), std::log10(3.4 * ratio), std::log10(0.008 * ratio),
+                                std::log10(6e-4 * ratio) };
     if (h > -18.0)
     {
       const double x = -h / 6.0;  // (0, 3)
@@ -102,12 +103,12 @@ double ambientIlluminance(double sun_elevation, double moon_elevation, double mo
 }
 
 EnvironmentModel::EnvironmentModel(const EnvironmentConfig& config)
-  : site_(config.site)
-  , anchor_t_(0.0)
-  , anchor_utc_(config.start_utc)
-  , acceleration_(config.time_acceleration)
-  , air_temperature_(config.air_temperature)
-  , timeline_(config.timeline)
+  : site_(config.site),
+    anchor_t_(0.0),
+    anchor_utc_(config.start_utc),
+    acceleration_(config.time_acceleration),
+    air_temperature_(config.air_temperature),
+    timeline_(config.timeline)
 {
   if (!std::isfinite(site_.latitude_deg) || std::abs(site_.latitude_deg) > 90.0)
     throw std::invalid_argument("latitude = " + number(site_.latitude_deg) + " must be in [-90, 90] deg");
@@ -148,7 +149,7 @@ EnvironmentState EnvironmentModel::at(double t) const
   s.time_acceleration = acceleration_;
   s.air_temperature = air_temperature_;
   s.weather = override_ ? *override_ : timeline_.at(t);
-  s.sky = skyAt(s.utc, site_, Atmosphere{pressure_hpa_, air_temperature_});
+  s.sky = skyAt(s.utc, site_, Atmosphere{ pressure_hpa_, air_temperature_ });
   s.ambient_light = ambientIlluminance(s.sky.sun.elevation, s.sky.moon.elevation, s.sky.moon_phase_angle,
                                        overcastFraction(s.weather));
   return s;

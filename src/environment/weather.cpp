@@ -29,12 +29,15 @@ void checkEvent(const std::string& where, const WeatherEvent& e)
                        number(e.end - e.start) + " s)");
   if (std::isnan(e.fog_visibility) || e.fog_visibility <= 0.0)
     throw WeatherError(where + ".fog_visibility = " + number(e.fog_visibility) + " must be > 0 (m; .inf = no fog)");
-  const std::pair<const char*, double> rates[] = {
-      {"rain_rate_mm_h", e.rain_rate_mm_h}, {"snow_rate_mm_h", e.snow_rate_mm_h}, {"hail_rate_mm_h", e.hail_rate_mm_h}};
+  const std::pair<const char*, double> rates[] = { { "rain_rate_mm_h", e.rain_rate_mm_h },
+                                                   { "snow_rate_mm_h", e.snow_rate_mm_h },
+                                                   { "hail_rate_mm_h", e.hail_rate_mm_h } };
   for (const auto& [key, value] : rates)
     if (!std::isfinite(value) || value < 0.0)
       throw WeatherError(where + "." + key + " = " + number(value) + " must be finite and >= 0 (mm/h)");
-  const std::pair<const char*, double> wind[] = {{"wind_x", e.wind_x}, {"wind_y", e.wind_y}, {"wind_z", e.wind_z}};
+  const std::pair<const char*, double> wind[] = { { "wind_x", e.wind_x },
+                                                  { "wind_y", e.wind_y },
+                                                  { "wind_z", e.wind_z } };
   for (const auto& [key, value] : wind)
     if (!std::isfinite(value))
       throw WeatherError(where + "." + key + " = " + number(value) + " must be finite (m/s)");
@@ -44,15 +47,16 @@ void checkEvent(const std::string& where, const WeatherEvent& e)
 WeatherEvent makeWeatherEvent(const std::string& where, const std::map<std::string, double>& numbers,
                               const std::vector<std::string>& other_keys)
 {
-  static const std::set<std::string> kWeatherKeys = {"fog_visibility", "rain_rate_mm_h", "snow_rate_mm_h",
-                                                     "hail_rate_mm_h", "wind_x",         "wind_y",
-                                                     "wind_z"};
-  static const std::set<std::string> kTimeKeys = {"start", "end", "ramp"};
+  static const std::set<std::string> kWeatherKeys = { "fog_visibility", "rain_rate_mm_h", "snow_rate_mm_h",
+                                                      "hail_rate_mm_h", "wind_x",         "wind_y",
+                                                      "wind_z" };
+  static const std::set<std::string> kTimeKeys = { "start", "end", "ramp" };
   for (const std::string& key : other_keys)
   {
     if (kWeatherKeys.count(key) == 0 && kTimeKeys.count(key) == 0)
-      throw WeatherError(where + "." + key + ": unknown key (known: start, end, ramp, fog_visibility, "
-                                             "rain_rate_mm_h, snow_rate_mm_h, hail_rate_mm_h, wind_x, wind_y, wind_z)");
+      throw WeatherError(where + "." + key +
+                         ": unknown key (known: start, end, ramp, fog_visibility, "
+                         "rain_rate_mm_h, snow_rate_mm_h, hail_rate_mm_h, wind_x, wind_y, wind_z)");
     throw WeatherError(where + "." + key + " must be a number");
   }
   bool has_weather = false;
@@ -62,15 +66,17 @@ WeatherEvent makeWeatherEvent(const std::string& where, const std::map<std::stri
     if (kWeatherKeys.count(key) > 0)
       has_weather = true;
     else if (kTimeKeys.count(key) == 0)
-      throw WeatherError(where + "." + key + ": unknown key (known: start, end, ramp, fog_visibility, "
-                                             "rain_rate_mm_h, snow_rate_mm_h, hail_rate_mm_h, wind_x, wind_y, wind_z)");
+      throw WeatherError(where + "." + key +
+                         ": unknown key (known: start, end, ramp, fog_visibility, "
+                         "rain_rate_mm_h, snow_rate_mm_h, hail_rate_mm_h, wind_x, wind_y, wind_z)");
   }
-  for (const char* required : {"start", "end"})
+  for (const char* required : { "start", "end" })
     if (numbers.count(required) == 0)
       throw WeatherError(where + "." + required + " is missing (s, sim clock)");
   if (!has_weather)
-    throw WeatherError(where + " sets no weather: give at least one of fog_visibility, rain_rate_mm_h, "
-                               "snow_rate_mm_h, hail_rate_mm_h, wind_x, wind_y, wind_z");
+    throw WeatherError(where +
+                       " sets no weather: give at least one of fog_visibility, rain_rate_mm_h, "
+                       "snow_rate_mm_h, hail_rate_mm_h, wind_x, wind_y, wind_z");
   auto get = [&](const char* key, double fallback) {
     const auto it = numbers.find(key);
     return it == numbers.end() ? fallback : it->second;
@@ -102,7 +108,7 @@ double WeatherTimeline::strength(const WeatherEvent& e, double t)
     return 0.0;
   if (e.ramp <= 0.0)
     return 1.0;
-  return std::min({1.0, (t - e.start) / e.ramp, (e.end - t) / e.ramp});
+  return std::min({ 1.0, (t - e.start) / e.ramp, (e.end - t) / e.ramp });
 }
 
 WeatherState WeatherTimeline::at(double t) const

@@ -130,8 +130,8 @@ GapTracker::Projection GapTracker::project(double px, double py, double lo, doub
   hi = std::max(hi, lo);
   // The segment that can reach lo, and every later one starting before hi: those exist whatever
   // the leader did after this time, so the result does not depend on how far ahead its samples are.
-  const auto after_lo = std::upper_bound(path_.begin(), path_.end(), lo,
-                                         [](double v, const PathPoint& q) { return v < q.s; });
+  const auto after_lo =
+      std::upper_bound(path_.begin(), path_.end(), lo, [](double v, const PathPoint& q) { return v < q.s; });
   const std::size_t first = static_cast<std::size_t>(std::max<std::ptrdiff_t>(after_lo - path_.begin() - 1, 0));
   for (std::size_t i = first; i + 1 < path_.size() && path_[i].s < hi; ++i)
   {

@@ -40,8 +40,7 @@ Grid sampleHeights(const terrain::ElevationGrid& base, double x0, double y0, dou
   return g;
 }
 
-RutMap::RutMap(const terrain::ElevationGrid& base)
-  : base_(base), tiles_x_((base.columns() + kTile - 1) / kTile)
+RutMap::RutMap(const terrain::ElevationGrid& base) : base_(base), tiles_x_((base.columns() + kTile - 1) / kTile)
 {
 }
 
@@ -53,8 +52,8 @@ void RutMap::apply(const terrain::HeightPatch& p)
     throw PatchError("the terrain's grid is not square (dx " + std::to_string(dx) + " m, dy " +
                      std::to_string(base_.dy()) + " m)");
   if (!std::isfinite(p.resolution) || std::abs(p.resolution - dx) > 1e-9 * dx)
-    throw PatchError("resolution " + std::to_string(p.resolution) + " m is not the grid spacing " +
-                     std::to_string(dx) + " m");
+    throw PatchError("resolution " + std::to_string(p.resolution) + " m is not the grid spacing " + std::to_string(dx) +
+                     " m");
   if (!std::isfinite(p.origin_x) || !std::isfinite(p.origin_y))
     throw PatchError("origin is not finite");
   const double fi = (p.origin_x - base_.originX()) / dx, fj = (p.origin_y - base_.originY()) / dx;

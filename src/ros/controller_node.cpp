@@ -84,10 +84,10 @@ std::vector<ac::Waypoint> waypointsFromParams(const ros::NodeHandle& pnh)
       else
         throw StartupError("parameter " + where + "." + key + " must be a number");
     }
-    for (const char* key : {"x", "y", "speed"})
+    for (const char* key : { "x", "y", "speed" })
       if (!values.count(key))
         throw StartupError("parameter " + where + "." + key + " is missing");
-    waypoints.push_back({values["x"], values["y"], values["speed"]});
+    waypoints.push_back({ values["x"], values["y"], values["speed"] });
   }
   try
   {
@@ -210,8 +210,7 @@ public:
     else
     {
       if (lockstep_)
-        v2v_sub_ = nh.subscribe("v2v/in_lockstep", 100, &Impl::onV2vBatch, this,
-                                ros::TransportHints().tcpNoDelay());
+        v2v_sub_ = nh.subscribe("v2v/in_lockstep", 100, &Impl::onV2vBatch, this, ros::TransportHints().tcpNoDelay());
       else
         v2v_sub_ = nh.subscribe("v2v/in", 100, &Impl::onV2v, this);
       gap_sub_ = nh.subscribe("formation/gap", 10, &Impl::onGap, this);
@@ -290,7 +289,7 @@ private:
     has_step_ = true;
     last_step_ = t;
     z_ = p.z;
-    const ac::Pose2 pose{p.x, p.y, yaw};
+    const ac::Pose2 pose{ p.x, p.y, yaw };
     ac::TrackingStatus st;
     if (waypoints_)
     {
@@ -440,8 +439,8 @@ private:
   double period_ = 0.05;
   bool has_step_ = false;
   bool lockstep_ = false;
-  ac::Command last_command_{ 0.0, 1.0, 0.0 };          ///< the answer to the odometry of last_step_ (lockstep)
-  double batch_through_ = -1e300;                      ///< s, stamp of the last radio batch (lockstep)
+  ac::Command last_command_{ 0.0, 1.0, 0.0 };         ///< the answer to the odometry of last_step_ (lockstep)
+  double batch_through_ = -1e300;                     ///< s, stamp of the last radio batch (lockstep)
   std::deque<nav_msgs::Odometry::ConstPtr> waiting_;  ///< lockstep odometry waiting for its batch
   double last_step_ = 0.0;
   double z_ = 0.0;

@@ -140,10 +140,11 @@ public:
       clock_sub_ = nh.subscribe("/clock", 100, &Impl::onClock, this, ros::TransportHints().tcpNoDelay());
     else
       timer_ = nh.createTimer(ros::Duration(period_), &Impl::onTimer, this);
-    ROS_INFO("environment_node: site %.6f, %.6f, %.0f m; world time %s at sim 0, x%g; %zu weather events; "
-             "/environment at %g Hz",
-             config.site.latitude_deg, config.site.longitude_deg, config.site.altitude_m,
-             ae::formatUtc(config.start_utc).c_str(), config.time_acceleration, config.timeline.events().size(), rate);
+    ROS_INFO(
+        "environment_node: site %.6f, %.6f, %.0f m; world time %s at sim 0, x%g; %zu weather events; "
+        "/environment at %g Hz",
+        config.site.latitude_deg, config.site.longitude_deg, config.site.altitude_m,
+        ae::formatUtc(config.start_utc).c_str(), config.time_acceleration, config.timeline.events().size(), rate);
   }
 
 private:
@@ -242,10 +243,10 @@ private:
   std::string frame_id_;
   ros::Publisher pub_;
   ros::ServiceServer service_;
-  ros::Timer timer_;              ///< wall time: at ~rate
-  ros::Subscriber clock_sub_;     ///< sim time: every multiple of the period /clock reaches
-  double period_ = 1.0;           ///< s, 1 / ~rate
-  std::uint64_t next_ = 0;        ///< the next multiple of the period to publish
+  ros::Timer timer_;           ///< wall time: at ~rate
+  ros::Subscriber clock_sub_;  ///< sim time: every multiple of the period /clock reaches
+  double period_ = 1.0;        ///< s, 1 / ~rate
+  std::uint64_t next_ = 0;     ///< the next multiple of the period to publish
 };
 
 EnvironmentNode::EnvironmentNode(ros::NodeHandle& nh, ros::NodeHandle& pnh) : impl_(std::make_unique<Impl>(nh, pnh))

@@ -41,8 +41,9 @@ std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario:
           has_own ? &own : nullptr, "~vehicle_sensors/" + v.name, has_common ? &common : nullptr, "~sensors");
       auto frames = frames_of.find(v.model);  // a model's files are read once, not per vehicle
       if (frames == frames_of.end())
-        frames = frames_of.emplace(v.model, avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml"))
-                     .first;
+        frames =
+            frames_of.emplace(v.model, avsp::sensors::node::loadVehicleFrames(vehicles_dir + "/" + v.model + ".yaml"))
+                .first;
       avsp::sensors::node::mountSensors(spec, frames->second, "model '" + v.model + "'");
       scenario::VehicleDisplays shown;
       shown.name = v.name;
@@ -57,8 +58,8 @@ std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario:
     }
     catch (const std::exception& e)
     {
-      throw scenario::ScenarioError(s.file + ": " + (has_own ? key : std::string("sensors")) + " (as sensors_node reads it for '" +
-                          v.name + "'): " + e.what());
+      throw scenario::ScenarioError(s.file + ": " + (has_own ? key : std::string("sensors")) +
+                                    " (as sensors_node reads it for '" + v.name + "'): " + e.what());
     }
   }
   // The magnetometers' model on the run's date (the generator gives sensors_node the date of
@@ -70,8 +71,8 @@ std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario:
   }
   catch (const std::exception& e)
   {
-    throw scenario::ScenarioError(s.file + ": time.start_utc " + s.start_utc + " with the vehicles' magnetometers: " +
-                                  e.what());
+    throw scenario::ScenarioError(s.file + ": time.start_utc " + s.start_utc +
+                                  " with the vehicles' magnetometers: " + e.what());
   }
   return displays;
 }

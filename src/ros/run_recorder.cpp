@@ -197,7 +197,8 @@ std::vector<std::string> watchList(const ros::NodeHandle& pnh)
       throw StartupError("parameter ~watch[" + std::to_string(k) + "] must be a string");
     const std::string name = list[k];
     if (name.empty() || name[0] != '/' || !ros::names::validate(name, why))
-      throw StartupError("parameter ~watch[" + std::to_string(k) + "] '" + name + "' must be a resolved node name ('/...')");
+      throw StartupError("parameter ~watch[" + std::to_string(k) + "] '" + name +
+                         "' must be a resolved node name ('/...')");
     out.push_back(name);
   }
   return out;
@@ -262,7 +263,8 @@ public:
     watch_period_ = avsp::node::boundedParam(pnh, "watch_period", 0.25, 0.05, 10.0);
     // Watching starts before the terrain loads: a node that dies meanwhile is seen at the first poll.
     supervisor_ = std::make_unique<RunSupervisor>(nh_, watchList(pnh));
-    plot_script_ = avsp::node::stringParam(pnh, "plot_script", ros::package::getPath("avsp") + "/scripts/plot_results.py");
+    plot_script_ =
+        avsp::node::stringParam(pnh, "plot_script", ros::package::getPath("avsp") + "/scripts/plot_results.py");
     if (plot_script_.empty() || !fs::is_regular_file(plot_script_))
       throw StartupError("parameter ~plot_script '" + plot_script_ + "' is not a file");
     std::string soils_file;
@@ -320,8 +322,8 @@ public:
       {
         const std::size_t group = trackers_.size();
         const std::string follower = v->spec.name, leader = v->spec.leader;
-        trackers_.push_back(std::make_unique<ar::GapTracker>(
-            kTablePeriod, [this, group, follower, leader](const ar::GapSample& g) {
+        trackers_.push_back(
+            std::make_unique<ar::GapTracker>(kTablePeriod, [this, group, follower, leader](const ar::GapSample& g) {
               gaps_->add(group, ar::gapRow(follower, leader, g));
             }));
         v->follows = trackers_.back().get();
@@ -517,9 +519,9 @@ private:
     if (!m.header.frame_id.empty() && m.header.frame_id != "map")
     {
       ++patches_rejected_;
-      warnThrottled("/terrain/ruts", 5.0,
-                    "from " + event.getPublisherName() + " in frame '" + m.header.frame_id +
-                        "', expected 'map'; ignored");
+      warnThrottled(
+          "/terrain/ruts", 5.0,
+          "from " + event.getPublisherName() + " in frame '" + m.header.frame_id + "', expected 'map'; ignored");
       return;
     }
     try
@@ -534,10 +536,7 @@ private:
     }
   }
 
-  void onToppled(const avsp_msgs::ObjectToppled::ConstPtr& m)
-  {
-    toppled_.insert(m->id);
-  }
+  void onToppled(const avsp_msgs::ObjectToppled::ConstPtr& m) { toppled_.insert(m->id); }
 
   /// dynamics_node's "<node>: simulation" status: the wall time its clock waited for each of
   /// its ~clock_followers ("clock waited for <name> (wall s)"), running totals.
@@ -774,8 +773,9 @@ private:
     u.set("wall_time", "s from the first /clock tick to the end");
     u.set("real_time_factor", "sim time / wall time over the run");
     u.set("ruts", "m (depth below the undeformed terrain), m^2");
-    u.set("anomalies", "odometry samples: overspeed (> 1.5 x governed), airborne (base_link > one wheel radius "
-                       "above its rest height over the undeformed ground), non_finite; null = limits not given");
+    u.set("anomalies",
+          "odometry samples: overspeed (> 1.5 x governed), airborne (base_link > one wheel radius "
+          "above its rest height over the undeformed ground), non_finite; null = limits not given");
     u.set("aborted", "null, or why the run stopped before its duration: {node, reason, sim_time (s)}");
     return u;
   }
@@ -822,9 +822,10 @@ private:
     const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     if (code != 0)
     {
-      ROS_ERROR("run_recorder: /usr/bin/python3 %s %s failed (exit %d): trajectories.png, ruts.png or gaps.png "
-                "not written (its message above names the file)",
-                plot_script_.c_str(), output_dir_.c_str(), code);
+      ROS_ERROR(
+          "run_recorder: /usr/bin/python3 %s %s failed (exit %d): trajectories.png, ruts.png or gaps.png "
+          "not written (its message above names the file)",
+          plot_script_.c_str(), output_dir_.c_str(), code);
       return false;
     }
     for (const char* png : { "trajectories.png", "ruts.png", "gaps.png" })

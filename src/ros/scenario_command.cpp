@@ -35,12 +35,12 @@ namespace node
 {
 using scenario::generateLaunch;
 using scenario::generateRvizConfig;
-using scenario::VehicleDisplays;
 using scenario::LaunchCommand;
 using scenario::launchCommandUsage;
 using scenario::LoadOptions;
 using scenario::loadScenario;
 using scenario::parseLaunchCommand;
+using scenario::VehicleDisplays;
 
 namespace
 {
@@ -158,8 +158,8 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
     file = default_to_stdout ? "-" : dir + "/" + out.scenario.name + ".launch";
   // The run's RViz configuration beside its launch file (in the results folder when the launch
   // file is printed), written whether or not --rviz asks for RViz: a user may open it later.
-  const fs::path rviz_file =
-      fs::absolute(file == "-" ? fs::path(dir) / (out.scenario.name + ".rviz") : fs::path(file).replace_extension(".rviz"));
+  const fs::path rviz_file = fs::absolute(file == "-" ? fs::path(dir) / (out.scenario.name + ".rviz")
+                                                      : fs::path(file).replace_extension(".rviz"));
   cmd.options.rviz_config = rviz_file.string();
   std::string text;
   try
@@ -217,8 +217,8 @@ int runScenario(const std::vector<std::string>& args)
     std::cerr << "scenario_node: --out - is for scenario_launch; give a file\n";
     return 2;
   }
-  std::cout << "scenario_node: " << g.scenario.file << " -> " << g.launch_file << " (results in " << g.output_dir
-            << ")" << std::endl;
+  std::cout << "scenario_node: " << g.scenario.file << " -> " << g.launch_file << " (results in " << g.output_dir << ")"
+            << std::endl;
   const std::time_t started = std::time(nullptr);
   struct sigaction sa;
   std::memset(&sa, 0, sizeof sa);

@@ -100,7 +100,8 @@ bool outgoingConnections(const std::string& node, std::map<std::string, int>& pe
     if (c.getType() != XmlRpc::XmlRpcValue::TypeArray || c.size() < 5 ||
         c[2].getType() != XmlRpc::XmlRpcValue::TypeString || c[4].getType() != XmlRpc::XmlRpcValue::TypeString)
       continue;
-    const bool connected = c.size() < 6 || c[5].getType() != XmlRpc::XmlRpcValue::TypeBoolean || static_cast<bool>(c[5]);
+    const bool connected =
+        c.size() < 6 || c[5].getType() != XmlRpc::XmlRpcValue::TypeBoolean || static_cast<bool>(c[5]);
     if (static_cast<std::string>(c[2]) == "o" && connected)
       ++per_topic[static_cast<std::string>(c[4])];
   }

@@ -46,7 +46,8 @@ namespace at = avsp::terrain;
 std::vector<std::string> vehiclesFromParams(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      list.size() == 0)
     throw StartupError("parameter ~vehicles must be a non-empty list of vehicle names (or of {name: ...})");
   std::vector<std::string> names;
   std::set<std::string> seen;
@@ -168,17 +169,16 @@ public:
     if (ros::Time::isSimTime())
       clock_sub_ = nh.subscribe("/clock", 100, &Impl::onClock, this, ros::TransportHints().tcpNoDelay());
     else
-      poll_timer_ = nh.createTimer(ros::Duration(1.0 / update_rate), [this](const ros::TimerEvent&) {
-        release(ros::Time::now().toSec());
-      });
+      poll_timer_ = nh.createTimer(ros::Duration(1.0 / update_rate),
+                                   [this](const ros::TimerEvent&) { release(ros::Time::now().toSec()); });
     if (marker_rate > 0.0)
       marker_timer_ =
           nh.createTimer(ros::Duration(1.0 / marker_rate), [this](const ros::TimerEvent&) { publishMarkers(); });
-    ROS_INFO("v2v_radio_node: %zu vehicles, range %g m, latency %g s, loss %g, line of sight %s (terrain: %s), "
-             "seed %llu",
-             vehicles.size(), options.range, options.latency, options.loss_probability,
-             options.line_of_sight ? "on" : "off", terrain_description.c_str(),
-             static_cast<unsigned long long>(options.seed));
+    ROS_INFO(
+        "v2v_radio_node: %zu vehicles, range %g m, latency %g s, loss %g, line of sight %s (terrain: %s), "
+        "seed %llu",
+        vehicles.size(), options.range, options.latency, options.loss_probability, options.line_of_sight ? "on" : "off",
+        terrain_description.c_str(), static_cast<unsigned long long>(options.seed));
   }
 
 private:
@@ -231,9 +231,9 @@ private:
   {
     const std::uint64_t id = next_id_++;
     const auto& p = msg->position;
-    const std::vector<av::Delivery> scheduled = radio_->transmit(sender, {p.x, p.y, p.z}, msg->seq, stamp, id);
+    const std::vector<av::Delivery> scheduled = radio_->transmit(sender, { p.x, p.y, p.z }, msg->seq, stamp, id);
     if (!scheduled.empty())
-      pending_[id] = Pending{msg, scheduled.size()};
+      pending_[id] = Pending{ msg, scheduled.size() };
   }
 
   void onClock(const rosgraph_msgs::Clock::ConstPtr& clock)
@@ -272,9 +272,10 @@ private:
         }
         else if ((now - waiting_since_).toSec() > 2.0 && (now - last_wait_warning_).toSec() > 5.0)
         {
-          ROS_WARN("v2v_radio_node: lockstep batch at %.3f s has waited %.1f s (wall) for broadcasts up to %.3f s "
-                   "from %s (is its v2v_broadcaster running?)",
-                   t, (now - waiting_since_).toSec(), grid, waiting.c_str());
+          ROS_WARN(
+              "v2v_radio_node: lockstep batch at %.3f s has waited %.1f s (wall) for broadcasts up to %.3f s "
+              "from %s (is its v2v_broadcaster running?)",
+              t, (now - waiting_since_).toSec(), grid, waiting.c_str());
           last_wait_warning_ = now;
         }
         return;
@@ -362,7 +363,8 @@ private:
       dot.scale.x = dot.scale.y = dot.scale.z = 3.0;
       dot.color = colour(0.2f, 0.5f, 1.0f, 1.0f);
       array.markers.push_back(dot);
-      visualization_msgs::Marker label = base("labels", static_cast<int>(a), visualization_msgs::Marker::TEXT_VIEW_FACING);
+      visualization_msgs::Marker label =
+          base("labels", static_cast<int>(a), visualization_msgs::Marker::TEXT_VIEW_FACING);
       label.pose.position = point(pa);
       label.pose.position.z += 4.0;
       label.scale.z = 3.0;
@@ -375,7 +377,7 @@ private:
       for (int k = 0; k <= 72; ++k)
       {
         const double angle = 2.0 * M_PI * k / 72.0;
-        circle.points.push_back(point({pa.x + range * std::cos(angle), pa.y + range * std::sin(angle), pa.z}));
+        circle.points.push_back(point({ pa.x + range * std::cos(angle), pa.y + range * std::sin(angle), pa.z }));
       }
       array.markers.push_back(circle);
       for (std::size_t b = a + 1; b < names.size(); ++b)
@@ -392,7 +394,7 @@ private:
         }
       }
     }
-    for (visualization_msgs::Marker* lines : {&up, &blocked})
+    for (visualization_msgs::Marker* lines : { &up, &blocked })
       if (!lines->points.empty())
         array.markers.push_back(*lines);
     markers_pub_.publish(array);
@@ -407,7 +409,7 @@ private:
   double lockstep_period_ = 0.0;   ///< s, 0: no lockstep batches
   double broadcast_period_ = 0.1;  ///< s, the broadcasters' grid
   double latency_ = 0.0;
-  std::uint64_t next_batch_ = 0;   ///< the next lockstep batch is at next_batch_ * period
+  std::uint64_t next_batch_ = 0;                       ///< the next lockstep batch is at next_batch_ * period
   std::uint64_t waiting_batch_ = ~std::uint64_t{ 0 };  ///< the batch waited for since waiting_since_
   ros::WallTime waiting_since_, last_wait_warning_;
   std::vector<std::deque<avsp_msgs::VehicleState::ConstPtr>> queued_;  ///< lockstep: not yet transmitted

@@ -90,7 +90,8 @@ std::string indexKey(const std::string& path, std::size_t i)
 class MapReader
 {
 public:
-  MapReader(const Context& ctx, const YAML::Node& node, std::string path) : ctx_(ctx), node_(node), path_(std::move(path))
+  MapReader(const Context& ctx, const YAML::Node& node, std::string path)
+    : ctx_(ctx), node_(node), path_(std::move(path))
   {
     if (!node.IsMap())
       ctx_.fail(path_.empty() ? "(top level)" : path_, "must be a map of keys");
@@ -234,7 +235,8 @@ bool isRosName(const std::string& s)
 {
   if (s.empty() || !std::isalpha(static_cast<unsigned char>(s[0])))
     return false;
-  return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+  return std::all_of(s.begin(), s.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
 std::string resolvePath(const std::string& scenario_file, const std::string& p)
@@ -277,11 +279,12 @@ TerrainSpec readTerrain(const Context& ctx, const YAML::Node& node, const LoadOp
           present(c.get("seed")) ? toInt(ctx, c.get("seed"), c.key("seed"), 0, 2147483647) : 1);
       t.course_length_x = readDouble(ctx, c, "length_x", 600.0, 300.0, 1e5, "m");
       t.course_length_y = readDouble(ctx, c, "length_y", 400.0, 200.0, 1e5, "m");
-      t.course_cell_size = readDouble(ctx, c, "cell_size", 0.1, 1e-3, 0.1 * std::min(t.course_length_x, t.course_length_y),
-                                      "m");
+      t.course_cell_size =
+          readDouble(ctx, c, "cell_size", 0.1, 1e-3, 0.1 * std::min(t.course_length_x, t.course_length_y), "m");
       // The grid must stay below 2^31 points (makeDefaultCourse's limit), checked here so a
       // tiny cell is named before a node tries to allocate it.
-      const double points = (t.course_length_x / t.course_cell_size + 1.0) * (t.course_length_y / t.course_cell_size + 1.0);
+      const double points =
+          (t.course_length_x / t.course_cell_size + 1.0) * (t.course_length_y / t.course_cell_size + 1.0);
       if (points > 2147483647.0)
         ctx.fail("terrain.default_course.cell_size", shortNumber(t.course_cell_size) + " m makes a grid of " +
                                                          shortNumber(points) + " points (at most 2^31)");
@@ -331,8 +334,8 @@ TerrainSpec readTerrain(const Context& ctx, const YAML::Node& node, const LoadOp
     t.soil = toString(ctx, soil, "terrain.soil");
   }
   const YAML::Node soils_file = m.get("soils_file");
-  t.soils_file = present(soils_file) ? resolvePath(ctx.file(), toString(ctx, soils_file, "terrain.soils_file")) :
-                                       options.soils_file;
+  t.soils_file = present(soils_file) ? resolvePath(ctx.file(), toString(ctx, soils_file, "terrain.soils_file"))
+                                     : options.soils_file;
   if (!readableFile(t.soils_file))
     ctx.fail("terrain.soils_file", "cannot read '" + t.soils_file + "'");
   const YAML::Node transport = m.get("transport");
@@ -363,8 +366,8 @@ TerrainSpec readTerrain(const Context& ctx, const YAML::Node& node, const LoadOp
 }
 
 /// Known sensor sections of sensors_node (~sensors, ~vehicle_sensors/<v>).
-const std::vector<std::string> kSensorSections = { "lidar", "radar", "gps", "imu", "magnetometer", "ultrasonic",
-                                                    "cameras", "occupancy" };
+const std::vector<std::string> kSensorSections = { "lidar",        "radar",      "gps",     "imu",
+                                                   "magnetometer", "ultrasonic", "cameras", "occupancy" };
 
 YAML::Node readSensors(const Context& ctx, const YAML::Node& node, const std::string& path)
 {
@@ -384,13 +387,29 @@ YAML::Node readSensors(const Context& ctx, const YAML::Node& node, const std::st
 
 /// controller_node parameters a scenario may set through `params` (the others follow from
 /// the controller's type, leader, gap, offset and the vehicle's model).
-const std::vector<std::string> kControllerParams = {
-  "track_width_factor", "rate",          "lookahead_min",   "lookahead_gain", "lookahead_max",
-  "speed_kp",           "speed_ki",      "speed_kd",        "speed_integral_limit", "coast_band",
-  "brake_gain",         "max_accel",     "decel",           "approach_speed", "goal_tolerance",
-  "lead_time",          "gap_gain",      "accel_lead_time", "max_speed",      "safety_distance",
-  "leader_timeout",     "breadcrumb_spacing", "max_path_length"
-};
+const std::vector<std::string> kControllerParams = { "track_width_factor",
+                                                     "rate",
+                                                     "lookahead_min",
+                                                     "lookahead_gain",
+                                                     "lookahead_max",
+                                                     "speed_kp",
+                                                     "speed_ki",
+                                                     "speed_kd",
+                                                     "speed_integral_limit",
+                                                     "coast_band",
+                                                     "brake_gain",
+                                                     "max_accel",
+                                                     "decel",
+                                                     "approach_speed",
+                                                     "goal_tolerance",
+                                                     "lead_time",
+                                                     "gap_gain",
+                                                     "accel_lead_time",
+                                                     "max_speed",
+                                                     "safety_distance",
+                                                     "leader_timeout",
+                                                     "breadcrumb_spacing",
+                                                     "max_path_length" };
 
 ControllerSpec readController(const Context& ctx, const YAML::Node& node, const std::string& path)
 {
@@ -1024,8 +1043,7 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
           double cost = 1.0;
           try
           {
-            const dynamics::VehicleModel m =
-                dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+            const dynamics::VehicleModel m = dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
             cost += static_cast<double>(m.wheels.size());
             for (const dynamics::TrackSpec& t : m.tracks)
               cost += static_cast<double>(t.road_wheels.size());
@@ -1131,8 +1149,8 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
           if (d < c)
             ctx.fail(key, "'" + v.name + "' starts " +
                               (d <= 0.0 ? std::string("inside") : "within " + shortNumber(c) + " m of") + " " +
-                              terrain::toString(o.type) + " " + std::to_string(id) + " at (" + shortNumber(o.x) +
-                              ", " + shortNumber(o.y) + ")");
+                              terrain::toString(o.type) + " " + std::to_string(id) + " at (" + shortNumber(o.x) + ", " +
+                              shortNumber(o.y) + ")");
         }
       }
       for (const auto& kv : s.paths)

@@ -133,7 +133,7 @@ std::vector<Delivery> Radio::transmit(std::size_t sender, const Vec3& position, 
   if (sender >= vehicles_.size())
     throw std::out_of_range("Radio::transmit: sender " + std::to_string(sender) + " is not a listed vehicle");
   ++stats_.broadcasts;
-  antennas_[sender] = Vec3{position.x, position.y, position.z + options_.antenna_height};
+  antennas_[sender] = Vec3{ position.x, position.y, position.z + options_.antenna_height };
   known_[sender] = true;
   std::vector<Delivery> scheduled;
   for (std::size_t r = 0; r < vehicles_.size(); ++r)
@@ -161,7 +161,7 @@ std::vector<Delivery> Radio::transmit(std::size_t sender, const Vec3& position, 
       ++stats_.lost;
       continue;
     }
-    const Delivery d{stamp + options_.latency, r, message};
+    const Delivery d{ stamp + options_.latency, r, message };
     scheduled.push_back(d);
     queue_.push(d);
     ++stats_.delivered;

@@ -56,7 +56,7 @@ private:
   double last_contact_ = 0.0;  ///< s, world time of the last step with rigid contact points
   double travelled_ = 0.0;     ///< m, horizontal base_link path length since then
   Eigen::Vector3d last_position_ = Eigen::Vector3d::Zero();
-  bool touched_ = false;       ///< any rigid contact so far (last_contact_ is valid)
+  bool touched_ = false;  ///< any rigid contact so far (last_contact_ is valid)
   bool in_contact_ = false;
   std::uint32_t count_ = 0;
 };

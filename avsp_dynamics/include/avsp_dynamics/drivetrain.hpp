@@ -111,8 +111,8 @@ public:
   /// @throw ConfigError (naming the model's YAML) if no wheel steers or none is unsteered
   explicit AckermannGeometry(const VehicleModel& model);
 
-  double wheelbase() const { return wheelbase_; }   ///< m, L
-  double referenceX() const { return x_ref_; }       ///< m, x of the reference axle in base_link
+  double wheelbase() const { return wheelbase_; }              ///< m, L
+  double referenceX() const { return x_ref_; }                 ///< m, x of the reference axle in base_link
   double maxCentreAngle() const { return max_centre_angle_; }  ///< rad, delta at full lock
   /// rad, angle of model.wheels[index] for centre angle delta (0 for unsteered wheels).
   double wheelAngle(std::size_t index, double centre_angle) const;

@@ -51,8 +51,8 @@ struct Case
   /// Absolute, in the figure's unit (closed form only; NaN: the relative tolerance applies)
   double tolerance_abs = std::numeric_limits<double>::quiet_NaN();
   double value = std::numeric_limits<double>::quiet_NaN();  ///< the public figure or the limit
-  std::string unit;        ///< of the figure
-  std::string source;      ///< what the reference is: the closed form's name or the public figure's source
+  std::string unit;                                         ///< of the figure
+  std::string source;  ///< what the reference is: the closed form's name or the public figure's source
 };
 
 /// What one case gave.
@@ -63,10 +63,10 @@ struct Result
   /// A closed form's lower bound where it has two (NaN otherwise): `reference` is the upper one,
   /// and a figure between them has no error.
   double reference_low = std::numeric_limits<double>::quiet_NaN();
-  double error = 0.0;      ///< relative to the reference (the nearer bound), or value - limit
+  double error = 0.0;  ///< relative to the reference (the nearer bound), or value - limit
   bool pass = false;
-  std::string detail;      ///< what else the run measured (one line)
-  double wall = 0.0;       ///< s of wall time the case took
+  std::string detail;  ///< what else the run measured (one line)
+  double wall = 0.0;   ///< s of wall time the case took
 };
 
 /// Where the vehicles and soils are.
@@ -99,8 +99,8 @@ Result run(const Case& c, const Setup& setup);
  *        every manoeuvre sets a vehicle down on a slope.
  * @throw std::runtime_error if the running gear is off the terrain
  */
-Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x,
-                                double y, double yaw, double roll, double pitch, double clearance);
+Eigen::Isometry3d placeOnGround(const terrain::DeformableTerrain& ground, const VehicleModel& model, double x, double y,
+                                double yaw, double roll, double pitch, double clearance);
 
 /// m, the radius of the least-squares circle through `points` (Kasa fit; at least 3).
 double circleRadius(const std::vector<Eigen::Vector2d>& points);

@@ -55,12 +55,12 @@ namespace dynamics
 /// A vehicle as its partition sends it: where it is at the exchange's time.
 struct ExchangedVehicle
 {
-  std::string name;   ///< unique in the run (its namespace)
-  std::string model;  ///< its model's name; a peer loads it for the proxy
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();                ///< m, base_link origin in map
-  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();   ///< base_link -> map
-  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();         ///< m/s, base_link origin, map axes
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();        ///< rad/s, map axes
+  std::string name;                                                 ///< unique in the run (its namespace)
+  std::string model;                                                ///< its model's name; a peer loads it for the proxy
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();               ///< m, base_link origin in map
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< base_link -> map
+  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();        ///< m/s, base_link origin, map axes
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();       ///< rad/s, map axes
 };
 
 /// A partition's part of one interval, field for field avsp_msgs/PartitionExchange.
@@ -77,8 +77,8 @@ struct PartitionExchange
   /// stress Pa) before and after.
   std::vector<std::uint32_t> soil_points;
   std::vector<float> soil_before, soil_after;
-  std::vector<std::uint32_t> toppled_ids;       ///< objects the sender's vehicles pushed over
-  std::vector<double> toppled_directions;       ///< rad, the map direction each fell towards
+  std::vector<std::uint32_t> toppled_ids;  ///< objects the sender's vehicles pushed over
+  std::vector<double> toppled_directions;  ///< rad, the map direction each fell towards
 };
 
 /// How a partition's exchanges reach its peers (ROS topics in dynamics_node, memory in tests).
@@ -164,8 +164,8 @@ public:
    *        travel as 32-bit indices)
    */
   PartitionRunner(PartitionOptions options, World& world, terrain::ObjectSet& objects,
-                  std::vector<PartitionVehicle> vehicles, std::vector<std::uint32_t> standing,
-                  ModelLoader load_model, ExchangeTransport& transport, Log log = Log());
+                  std::vector<PartitionVehicle> vehicles, std::vector<std::uint32_t> standing, ModelLoader load_model,
+                  ExchangeTransport& transport, Log log = Log());
 
   /**
    * @brief A peer's exchange arrived; checked, then kept until applied. A repeated one replaces
@@ -261,9 +261,9 @@ private:
   double waiting_for_ = 0.0;
   std::vector<std::uint32_t> toppled_by_peers_;
   std::vector<terrain::PointChange> sent_changes_, received_changes_;  ///< buffers kept between intervals
-  std::vector<SentState> soil_sent_states_;  ///< per vehicle, in vehicles_ order
-  double soil_sent_ = 0.0;                   ///< s: the last exchange that carried our soil changes
-  bool peers_known_ = false;                 ///< every peer's exchange applied at least once
+  std::vector<SentState> soil_sent_states_;                            ///< per vehicle, in vehicles_ order
+  double soil_sent_ = 0.0;    ///< s: the last exchange that carried our soil changes
+  bool peers_known_ = false;  ///< every peer's exchange applied at least once
   double peers_applied_ = 0.0;
   std::uint64_t exchanges_ = 0, soil_exchanges_ = 0, stepped_ahead_ = 0, merged_points_ = 0;
 };

@@ -44,17 +44,17 @@ enum class Differential
 struct Body
 {
   std::string link;
-  double mass;                           ///< kg, > 0
-  Eigen::Vector3d principal_inertia;     ///< kg m^2, eigenvalues of the inertia tensor
-  Eigen::Vector3d rest_position;         ///< m, link origin in base_link with all joints at 0
-  Eigen::Vector3d com;                   ///< m, centre of mass in base_link with all joints at 0
-  Eigen::Matrix3d inertia;               ///< kg m^2, about the centre of mass, in base_link axes
+  double mass;                        ///< kg, > 0
+  Eigen::Vector3d principal_inertia;  ///< kg m^2, eigenvalues of the inertia tensor
+  Eigen::Vector3d rest_position;      ///< m, link origin in base_link with all joints at 0
+  Eigen::Vector3d com;                ///< m, centre of mass in base_link with all joints at 0
+  Eigen::Matrix3d inertia;            ///< kg m^2, about the centre of mass, in base_link axes
 };
 
 /// A box of a chassis link's URDF <collision>: what collides with obstacles and other vehicles.
 struct CollisionBox
 {
-  std::string link;              ///< the URDF link it belongs to
+  std::string link;                                        ///< the URDF link it belongs to
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< box centre and axes in base_link at the rest pose
   Eigen::Vector3d size = Eigen::Vector3d::Zero();          ///< m, full edge lengths along the box's own x, y, z (> 0)
 };
@@ -62,11 +62,11 @@ struct CollisionBox
 /// A road wheel of a wheeled vehicle, with its suspension and (optional) steering joints.
 struct WheelSpec
 {
-  std::string name;               ///< e.g. front_left
-  std::string spin_joint;         ///< continuous joint about the wheel axle (URDF y)
-  std::string suspension_joint;   ///< prismatic joint along base z
-  std::string steering_joint;     ///< revolute joint about z; empty if not steered
-  std::string link;               ///< the wheel link (child of spin_joint)
+  std::string name;              ///< e.g. front_left
+  std::string spin_joint;        ///< continuous joint about the wheel axle (URDF y)
+  std::string suspension_joint;  ///< prismatic joint along base z
+  std::string steering_joint;    ///< revolute joint about z; empty if not steered
+  std::string link;              ///< the wheel link (child of spin_joint)
   bool driven;
   double radius;                  ///< m, from the wheel link's collision cylinder
   double width;                   ///< m, from the wheel link's collision cylinder
@@ -94,7 +94,7 @@ struct RoadWheelSpec
 /// One side's track running gear.
 struct TrackSpec
 {
-  std::string side;                        ///< left | right
+  std::string side;  ///< left | right
   std::string sprocket_joint;
   std::string idler_joint;
   std::string sprocket_link;               ///< child of sprocket_joint
@@ -110,9 +110,9 @@ struct TrackSpec
 /// Track shoe parameters shared by both sides (docs/MODELS.md T10).
 struct TrackParameters
 {
-  double pitch = 0.0;        ///< m
-  int sprocket_teeth = 0;    ///< N
-  double shoe_width = 0.0;   ///< m
+  double pitch = 0.0;       ///< m
+  int sprocket_teeth = 0;   ///< N
+  double shoe_width = 0.0;  ///< m
   /// Internal (running gear) resistance of each track: (coefficient + per_speed |v|) times
   /// the track's share of the weight, against the belt's motion relative to the hull.
   double internal_resistance = 0.0;            ///< fraction of the weight
@@ -130,9 +130,9 @@ struct SuspensionSpec  ///< wheeled: linear spring-damper per wheel
 
 struct TorsionSuspensionSpec  ///< tracked: torsion bar per road arm
 {
-  double torsion_stiffness = 0.0;   ///< N m/rad
-  double torsion_damping = 0.0;     ///< N m s/rad
-  double preload_angle = 0.0;       ///< rad
+  double torsion_stiffness = 0.0;  ///< N m/rad
+  double torsion_damping = 0.0;    ///< N m s/rad
+  double preload_angle = 0.0;      ///< rad
 };
 
 struct SteeringSpec
@@ -143,12 +143,12 @@ struct SteeringSpec
 
 struct DrivetrainSpec
 {
-  double engine_max_torque = 0.0;  ///< N m
-  double engine_max_power = 0.0;   ///< W
-  double gear_ratio = 0.0;         ///< engine : wheel (or sprocket)
-  double efficiency = 0.0;         ///< (0, 1]
-  double max_speed = 0.0;          ///< m/s
-  double reverse_max_speed = 0.0;  ///< m/s, governed speed in reverse (<= max_speed)
+  double engine_max_torque = 0.0;                     ///< N m
+  double engine_max_power = 0.0;                      ///< W
+  double gear_ratio = 0.0;                            ///< engine : wheel (or sprocket)
+  double efficiency = 0.0;                            ///< (0, 1]
+  double max_speed = 0.0;                             ///< m/s
+  double reverse_max_speed = 0.0;                     ///< m/s, governed speed in reverse (<= max_speed)
   std::map<std::string, Differential> differentials;  ///< front/rear/center or left/right
 };
 
@@ -170,12 +170,12 @@ struct BrakeSpec
 /// Everything the dynamics needs to build one vehicle.
 struct VehicleModel
 {
-  std::string model;        ///< e.g. fed_alpha
+  std::string model;  ///< e.g. fed_alpha
   DriveType drive_type;
   std::string yaml_path;
-  std::string urdf_path;    ///< resolved, absolute or relative to the working directory
+  std::string urdf_path;  ///< resolved, absolute or relative to the working directory
   std::vector<Body> bodies;
-  double total_mass = 0.0;  ///< kg, sum of bodies
+  double total_mass = 0.0;        ///< kg, sum of bodies
   std::vector<WheelSpec> wheels;  ///< wheeled vehicles
   std::vector<TrackSpec> tracks;  ///< tracked vehicles: left then right
   TrackParameters track;

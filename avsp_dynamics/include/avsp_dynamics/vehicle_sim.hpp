@@ -85,14 +85,15 @@ enum class Solver
 /// Settings of a World. Invalid values throw std::invalid_argument naming the field.
 struct WorldOptions
 {
-  double step = 0.001;       ///< s, fixed physics step (> 0, <= 0.01)
-  double gravity = 9.81;     ///< m/s^2, along -z of the map (>= 0)
-  std::uint64_t seed = 0;    ///< seeds ODE's solver (constraint order); same seed = same run
+  double step = 0.001;     ///< s, fixed physics step (> 0, <= 0.01)
+  double gravity = 9.81;   ///< m/s^2, along -z of the map (>= 0)
+  std::uint64_t seed = 0;  ///< seeds ODE's solver (constraint order); same seed = same run
   Solver solver = Solver::kExact;
   int solver_iterations = 20;  ///< QuickStep iterations with Solver::kIterative (>= 1)
   bool deform_terrain = true;  ///< false: contacts leave no ruts (the terrain stays as it is)
-  double contact_damping_ratio = 0.7;  ///< of a contact's modes (a wheel on the ground, the ground's shear hold), [0, 2]
-  bool profile = false;      ///< accumulate step timings (World::times())
+  double contact_damping_ratio =
+      0.7;               ///< of a contact's modes (a wheel on the ground, the ground's shear hold), [0, 2]
+  bool profile = false;  ///< accumulate step timings (World::times())
 };
 
 /// What one wheel does this step (the contract's WheelContact, plus joint state). SI units.
@@ -100,23 +101,23 @@ struct WheelState
 {
   std::string name;
   bool in_contact = false;
-  double normal_force = 0.0;      ///< N, the soil's normal reaction (terrain model)
+  double normal_force = 0.0;          ///< N, the soil's normal reaction (terrain model)
   double applied_normal_force = 0.0;  ///< N, normal force ODE applied over the last step
-  double sinkage = 0.0;           ///< m, below the undeformed surface
-  double slip = 0.0;              ///< T8, [-1, 1]
-  double slip_angle = 0.0;        ///< rad
-  double traction_force = 0.0;    ///< N, longitudinal soil force applied over the last step, + forward
-  double lateral_force = 0.0;     ///< N, lateral soil force applied over the last step, + to the left
-  double resistance_force = 0.0;  ///< N, bulldozing + rolling (T12), Bekker's compaction, a tyre's rolling, >= 0
+  double sinkage = 0.0;               ///< m, below the undeformed surface
+  double slip = 0.0;                  ///< T8, [-1, 1]
+  double slip_angle = 0.0;            ///< rad
+  double traction_force = 0.0;        ///< N, longitudinal soil force applied over the last step, + forward
+  double lateral_force = 0.0;         ///< N, lateral soil force applied over the last step, + to the left
+  double resistance_force = 0.0;      ///< N, bulldozing + rolling (T12), Bekker's compaction, a tyre's rolling, >= 0
   /// N along the heading the resistance applied over the last step at the wheel centre (up to
   /// resistance_force, against the travel; at rest it holds the wheel up to that).
   double applied_resistance_force = 0.0;
-  int contact_points = 0;         ///< terrain grid points under load
-  double spin_rate = 0.0;         ///< rad/s relative to the chassis, + rolls forward
-  double steering_angle = 0.0;    ///< rad, + = left
+  int contact_points = 0;              ///< terrain grid points under load
+  double spin_rate = 0.0;              ///< rad/s relative to the chassis, + rolls forward
+  double steering_angle = 0.0;         ///< rad, + = left
   double suspension_deflection = 0.0;  ///< m along chassis z from the URDF rest pose, + = up (bump)
-  double drive_torque = 0.0;      ///< N m applied by the drivetrain this step
-  double brake_torque_limit = 0.0;  ///< N m, the brake's torque limit this step
+  double drive_torque = 0.0;           ///< N m applied by the drivetrain this step
+  double brake_torque_limit = 0.0;     ///< N m, the brake's torque limit this step
 };
 
 /**
@@ -125,56 +126,56 @@ struct WheelState
  */
 struct TrackSegmentState
 {
-  std::string name;               ///< the road wheel's URDF link, e.g. left_road_wheel_1
+  std::string name;  ///< the road wheel's URDF link, e.g. left_road_wheel_1
   bool in_contact = false;
-  double normal_force = 0.0;      ///< N, the soil's normal reaction (terrain model)
-  double applied_normal_force = 0.0;  ///< N, normal force ODE applied over the last step
-  double sinkage = 0.0;           ///< m, deepest point below the undeformed surface
-  double slip = 0.0;              ///< T8 with the sprocket's theoretical speed (T10), [-1, 1]
-  double slip_angle = 0.0;        ///< rad
-  double traction_force = 0.0;    ///< N, longitudinal soil force applied over the last step, + forward
-  double lateral_force = 0.0;     ///< N, lateral soil force applied over the last step, + to the left
-  double resistance_force = 0.0;  ///< N, compaction and bulldozing (T12 or Bekker's), >= 0
+  double normal_force = 0.0;              ///< N, the soil's normal reaction (terrain model)
+  double applied_normal_force = 0.0;      ///< N, normal force ODE applied over the last step
+  double sinkage = 0.0;                   ///< m, deepest point below the undeformed surface
+  double slip = 0.0;                      ///< T8 with the sprocket's theoretical speed (T10), [-1, 1]
+  double slip_angle = 0.0;                ///< rad
+  double traction_force = 0.0;            ///< N, longitudinal soil force applied over the last step, + forward
+  double lateral_force = 0.0;             ///< N, lateral soil force applied over the last step, + to the left
+  double resistance_force = 0.0;          ///< N, compaction and bulldozing (T12 or Bekker's), >= 0
   double applied_resistance_force = 0.0;  ///< N along the heading, applied over the last step (as a wheel's)
-  int contact_points = 0;         ///< terrain grid points under load
-  double length = 0.0;            ///< m, the segment's ground length along the track
-  double width = 0.0;             ///< m, the shoe width
+  int contact_points = 0;                 ///< terrain grid points under load
+  double length = 0.0;                    ///< m, the segment's ground length along the track
+  double width = 0.0;                     ///< m, the shoe width
 };
 
 /// One road wheel on its torsion-bar arm: the URDF joints' positions (robot_state_publisher)
 /// and the suspension's load. Angles about the joints' own axes, 0 at the URDF pose.
 struct RoadWheelState
 {
-  std::string link;            ///< road wheel link, e.g. left_road_wheel_1
-  std::string arm_joint;       ///< URDF revolute joint of the arm
-  std::string spin_joint;      ///< URDF continuous joint of the wheel on the arm
-  double arm_angle = 0.0;      ///< rad, arm_joint position (for the M113's +y axes: + lifts the wheel)
-  double arm_rate = 0.0;       ///< rad/s
-  double torsion_torque = 0.0; ///< N m the torsion bar (preload, twist, damper, bump stop) applies to
-                               ///< the arm, + pushes the wheel towards the ground
-  double spin_angle = 0.0;     ///< rad, spin_joint position (integrated), in [-pi, pi]
-  double spin_rate = 0.0;      ///< rad/s, spin_joint velocity (wheel relative to its arm), + rolls forward
+  std::string link;             ///< road wheel link, e.g. left_road_wheel_1
+  std::string arm_joint;        ///< URDF revolute joint of the arm
+  std::string spin_joint;       ///< URDF continuous joint of the wheel on the arm
+  double arm_angle = 0.0;       ///< rad, arm_joint position (for the M113's +y axes: + lifts the wheel)
+  double arm_rate = 0.0;        ///< rad/s
+  double torsion_torque = 0.0;  ///< N m the torsion bar (preload, twist, damper, bump stop) applies to
+                                ///< the arm, + pushes the wheel towards the ground
+  double spin_angle = 0.0;      ///< rad, spin_joint position (integrated), in [-pi, pi]
+  double spin_rate = 0.0;       ///< rad/s, spin_joint velocity (wheel relative to its arm), + rolls forward
 };
 
 /// One track (side) of a tracked vehicle after the last step. SI units.
 struct TrackState
 {
-  std::string side;             ///< left | right
-  std::string sprocket_joint;   ///< URDF continuous joint
-  std::string idler_joint;      ///< URDF continuous joint
-  double sprocket_speed = 0.0;  ///< rad/s relative to the hull, + drives forward
-  double sprocket_angle = 0.0;  ///< rad, integrated, in [-pi, pi]
-  double idler_speed = 0.0;     ///< rad/s: track speed / idler radius
-  double idler_angle = 0.0;     ///< rad, integrated, in [-pi, pi]
-  double track_speed = 0.0;     ///< m/s, belt relative to the hull: T10, p N sprocket_speed / (2 pi)
-  double ground_speed = 0.0;    ///< m/s, the hull's velocity at the track's centre along its heading
-  double slip = 0.0;            ///< T8 of the whole track: (track_speed - ground_speed) / track_speed
-                                ///< when driving, terrain::longitudinalSlip() in general, [-1, 1]
-  double drive_torque = 0.0;    ///< N m at the sprocket this step (+ forward)
-  double brake_torque_limit = 0.0;  ///< N m at the sprocket this step
-  double normal_force = 0.0;    ///< N, sum of the segments' soil normal forces
-  double traction_force = 0.0;  ///< N, sum of the segments' applied traction
-  double resistance_force = 0.0;  ///< N, sum of the segments' resistance
+  std::string side;                         ///< left | right
+  std::string sprocket_joint;               ///< URDF continuous joint
+  std::string idler_joint;                  ///< URDF continuous joint
+  double sprocket_speed = 0.0;              ///< rad/s relative to the hull, + drives forward
+  double sprocket_angle = 0.0;              ///< rad, integrated, in [-pi, pi]
+  double idler_speed = 0.0;                 ///< rad/s: track speed / idler radius
+  double idler_angle = 0.0;                 ///< rad, integrated, in [-pi, pi]
+  double track_speed = 0.0;                 ///< m/s, belt relative to the hull: T10, p N sprocket_speed / (2 pi)
+  double ground_speed = 0.0;                ///< m/s, the hull's velocity at the track's centre along its heading
+  double slip = 0.0;                        ///< T8 of the whole track: (track_speed - ground_speed) / track_speed
+                                            ///< when driving, terrain::longitudinalSlip() in general, [-1, 1]
+  double drive_torque = 0.0;                ///< N m at the sprocket this step (+ forward)
+  double brake_torque_limit = 0.0;          ///< N m at the sprocket this step
+  double normal_force = 0.0;                ///< N, sum of the segments' soil normal forces
+  double traction_force = 0.0;              ///< N, sum of the segments' applied traction
+  double resistance_force = 0.0;            ///< N, sum of the segments' resistance
   std::vector<RoadWheelState> road_wheels;  ///< front to rear (the model's order)
   std::vector<TrackSegmentState> segments;  ///< one per road wheel, the same order
 };
@@ -183,17 +184,17 @@ struct TrackState
 struct VehicleState
 {
   std::string name;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< base_link in map
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();      ///< base_link in map
   Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();   ///< m/s, base_link origin, map
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< rad/s, map
   Eigen::Vector3d body_velocity = Eigen::Vector3d::Zero();     ///< m/s, base_link origin, base_link axes
   Eigen::Vector3d centre_of_mass = Eigen::Vector3d::Zero();    ///< m, all bodies, map
-  double steering_angle = 0.0;  ///< rad, Ackermann bicycle angle (AckermannGeometry), + = left
-  double engine_speed = 0.0;    ///< rad/s (skid-steer: mean of the side motors; tracked: gear ratio
-                                ///< x the faster sprocket's speed)
-  double engine_torque = 0.0;   ///< N m at the crankshaft (skid-steer: sum of the side motors;
-                                ///< tracked: sum of both sprockets' |torque| / (efficiency x ratio))
-  DriveCommand command;         ///< the command in force (clamped)
+  double steering_angle = 0.0;     ///< rad, Ackermann bicycle angle (AckermannGeometry), + = left
+  double engine_speed = 0.0;       ///< rad/s (skid-steer: mean of the side motors; tracked: gear ratio
+                                   ///< x the faster sprocket's speed)
+  double engine_torque = 0.0;      ///< N m at the crankshaft (skid-steer: sum of the side motors;
+                                   ///< tracked: sum of both sprockets' |torque| / (efficiency x ratio))
+  DriveCommand command;            ///< the command in force (clamped)
   std::vector<WheelState> wheels;  ///< wheeled vehicles, in model.wheels order; empty if tracked
   std::vector<TrackState> tracks;  ///< tracked vehicles: left, then right; empty if wheeled
   /// Contact points with obstacles and other vehicles over the last step (0 = touching nothing).
@@ -394,16 +395,16 @@ private:
     std::string name;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero(), angular_velocity = Eigen::Vector3d::Zero();
-    double since = 0.0;  ///< s, world time of `pose`
+    double since = 0.0;                             ///< s, world time of `pose`
     Eigen::Vector3d com = Eigen::Vector3d::Zero();  ///< m, its centre of mass in base_link
-    bool placed = true;  ///< its body is where `pose` put it (then ODE moves it on)
+    bool placed = true;                             ///< its body is where `pose` put it (then ODE moves it on)
   };
   void driveAgents();
   void driveProxies();
   /// Hands the agents' and proxies' bodies to the collision (agents first).
   void updateKinematicGeoms();
   std::vector<Proxy> proxies_;  ///< their bodies are in Ode (same order)
-  struct Ode;  // ODE handles
+  struct Ode;                   // ODE handles
   terrain::DeformableTerrain& terrain_;
   WorldOptions options_;
   std::unique_ptr<Ode> ode_;

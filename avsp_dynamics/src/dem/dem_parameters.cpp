@@ -102,13 +102,14 @@ void validate(const DemParameters& p)
   positive("memory_budget", p.memory_budget);
   const double limit = stabilityLimit(p, kNominalPacking);
   if (p.timestep > limit)
-    fail("timestep", str(p.timestep) + " s is above the stability limit of the contact stiffness: " +
-                         str(p.stability_fraction) + " x the Rayleigh time of the smallest particle (r = " +
-                         str(minRadius(p)) + " m, E = " + str(p.youngs_modulus) + " Pa) = " + str(limit) + " s");
+    fail("timestep", str(p.timestep) +
+                         " s is above the stability limit of the contact stiffness: " + str(p.stability_fraction) +
+                         " x the Rayleigh time of the smallest particle (r = " + str(minRadius(p)) +
+                         " m, E = " + str(p.youngs_modulus) + " Pa) = " + str(limit) + " s");
   const double steps = p.coupling_interval / p.timestep;
   if (steps < 1.0 - 1e-9 || std::abs(steps - std::round(steps)) > 1e-6 * steps)
-    fail("coupling_interval", str(p.coupling_interval) + " s is not a whole number of DEM steps of " +
-                                  str(p.timestep) + " s");
+    fail("coupling_interval",
+         str(p.coupling_interval) + " s is not a whole number of DEM steps of " + str(p.timestep) + " s");
 }
 
 std::uint64_t checkParticleBudget(const DemParameters& p, double volume, const std::string& what)

@@ -29,7 +29,7 @@ Liggghts::Liggghts(const std::string& log_path)
   // Screen output goes to /dev/null, not "none": LIGGGHTS 3.8 prints some mesh messages to
   // the screen without checking it exists. The log keeps everything for diagnosis.
   std::string a0 = "liggghts", a1 = "-screen", a2 = "/dev/null", a3 = "-log", a4 = log_path;
-  char* argv[] = {a0.data(), a1.data(), a2.data(), a3.data(), a4.data()};
+  char* argv[] = { a0.data(), a1.data(), a2.data(), a3.data(), a4.data() };
   lammps_open_no_mpi(5, argv, &handle_);
   if (!handle_)
     throw std::runtime_error("LIGGGHTS could not be started (log: " + log_path + ")");
@@ -64,13 +64,34 @@ double Liggghts::fixVector(const std::string& id, int index) const
   return value;
 }
 
-int Liggghts::localAtoms() const { return *static_cast<int*>(lammps_extract_global(handle_, "nlocal")); }
-double** Liggghts::positions() const { return static_cast<double**>(lammps_extract_atom(handle_, "x")); }
-double** Liggghts::velocities() const { return static_cast<double**>(lammps_extract_atom(handle_, "v")); }
-double** Liggghts::angularVelocities() const { return static_cast<double**>(lammps_extract_atom(handle_, "omega")); }
-double* Liggghts::radii() const { return static_cast<double*>(lammps_extract_atom(handle_, "radius")); }
-double* Liggghts::masses() const { return static_cast<double*>(lammps_extract_atom(handle_, "rmass")); }
-int* Liggghts::types() const { return static_cast<int*>(lammps_extract_atom(handle_, "type")); }
+int Liggghts::localAtoms() const
+{
+  return *static_cast<int*>(lammps_extract_global(handle_, "nlocal"));
+}
+double** Liggghts::positions() const
+{
+  return static_cast<double**>(lammps_extract_atom(handle_, "x"));
+}
+double** Liggghts::velocities() const
+{
+  return static_cast<double**>(lammps_extract_atom(handle_, "v"));
+}
+double** Liggghts::angularVelocities() const
+{
+  return static_cast<double**>(lammps_extract_atom(handle_, "omega"));
+}
+double* Liggghts::radii() const
+{
+  return static_cast<double*>(lammps_extract_atom(handle_, "radius"));
+}
+double* Liggghts::masses() const
+{
+  return static_cast<double*>(lammps_extract_atom(handle_, "rmass"));
+}
+int* Liggghts::types() const
+{
+  return static_cast<int*>(lammps_extract_atom(handle_, "type"));
+}
 
 namespace
 {
@@ -116,9 +137,15 @@ private:
 };
 
 /// Material type of the walls and meshes: one after the particles' size classes.
-int wallType(const DemParameters& p) { return static_cast<int>(p.particles.size()) + 1; }
+int wallType(const DemParameters& p)
+{
+  return static_cast<int>(p.particles.size()) + 1;
+}
 
-std::string contactModel() { return "model hertz tangential history rolling_friction epsd2"; }
+std::string contactModel()
+{
+  return "model hertz tangential history rolling_friction epsd2";
+}
 
 /// Units, box, materials, contact law, gravity, integration: what every instance shares.
 void setUp(Liggghts& l, const DemParameters& p, const char* boundary, const DemDomain& box)
@@ -298,7 +325,7 @@ BedTemplate BedTemplate::settle(const DemParameters& p, double length, double wi
   t.depth_ = depth;
   ScratchDir scratch;
   Liggghts l(scratch.file("log.liggghts"));
-  const DemDomain box{0.0, length, 0.0, width, 0.0, (nz + 2) * s};
+  const DemDomain box{ 0.0, length, 0.0, width, 0.0, (nz + 2) * s };
   setUp(l, p, "p f f", box);
   wall(l, p, "floor", "zplane", 0.0);
   wall(l, p, "side0", "yplane", 0.0);
@@ -309,13 +336,14 @@ BedTemplate BedTemplate::settle(const DemParameters& p, double length, double wi
   double total = 0.0;
   for (const auto& c : p.particles)
     cumulative.push_back(total += c.mass_fraction / (c.radius * c.radius * c.radius));
-  Random rng{p.seed};
+  Random rng{ p.seed };
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
       for (int i = 0; i < nx; ++i)
       {
         const double u = rng.uniform() * total;
-        const int cls = static_cast<int>(std::upper_bound(cumulative.begin(), cumulative.end(), u) - cumulative.begin());
+        const int cls =
+            static_cast<int>(std::upper_bound(cumulative.begin(), cumulative.end(), u) - cumulative.begin());
         const double jitter_x = 0.05 * rmax * (rng.uniform() - 0.5), jitter_y = 0.05 * rmax * (rng.uniform() - 0.5);
         l.command("create_atoms %d single %.17g %.17g %.17g units box",
                   std::min(cls, static_cast<int>(p.particles.size()) - 1) + 1, (i + 0.5) * sx + jitter_x,
@@ -382,7 +410,8 @@ struct DemWorld::Impl
     std::string id;
     bool spins = false;
     bool stepped = false;
-    Eigen::Vector3d extent = Eigen::Vector3d::Zero();  ///< m, half-size of the box the mesh can take about its reference
+    Eigen::Vector3d extent =
+        Eigen::Vector3d::Zero();  ///< m, half-size of the box the mesh can take about its reference
     Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   };
   std::vector<Body> bodies;
@@ -392,13 +421,14 @@ DemWorld::DemWorld(const DemParameters& p, const DemDomain& d, BedTemplate bed)
   : impl_(std::make_unique<Impl>()), params_(p), domain_(d), bed_(std::move(bed))
 {
   validate(p);
-  for (double v : {d.x_min, d.x_max, d.y_min, d.y_max, d.z_min, d.z_max})
+  for (double v : { d.x_min, d.x_max, d.y_min, d.y_max, d.z_min, d.z_max })
     if (!std::isfinite(v))
       fail("domain", "a bound is not finite");
   if (!(d.x_max > d.x_min && d.y_max > d.y_min && d.z_max > d.z_min))
     fail("domain", "is empty (every max must exceed its min)");
   if (std::abs((d.y_max - d.y_min) - bed_.width()) > 1e-9)
-    fail("domain", "width " + str(d.y_max - d.y_min) + " m differs from the bed template's " + str(bed_.width()) + " m");
+    fail("domain",
+         "width " + str(d.y_max - d.y_min) + " m differs from the bed template's " + str(bed_.width()) + " m");
   if (d.z_max - d.z_min < bed_.depth())
     fail("domain", "height " + str(d.z_max - d.z_min) + " m is less than the bed's depth " + str(bed_.depth()) + " m");
   const auto& q = bed_.parameters();
@@ -418,10 +448,13 @@ DemWorld::DemWorld(const DemParameters& p, const DemDomain& d, BedTemplate bed)
 
 DemWorld::~DemWorld() = default;
 
-std::string DemWorld::logPath() const { return impl_->scratch.file("log.liggghts"); }
+std::string DemWorld::logPath() const
+{
+  return impl_->scratch.file("log.liggghts");
+}
 
-std::size_t DemWorld::addBed(double x0, double x1, const std::function<double(double, double)>& ground,
-                             bool trim_start, bool trim_end)
+std::size_t DemWorld::addBed(double x0, double x1, const std::function<double(double, double)>& ground, bool trim_start,
+                             bool trim_end)
 {
   const double L = bed_.length();
   if (!(x0 >= domain_.x_min - 1e-9 && x1 <= domain_.x_max + 1e-9 && x1 > x0))
@@ -431,9 +464,10 @@ std::size_t DemWorld::addBed(double x0, double x1, const std::function<double(do
   const int nb = static_cast<int>(std::lround(blocks));
   if (nb < 1 || std::abs(blocks - nb) > 1e-6)
     fail("bed", "length " + str(x1 - x0) + " m is not a whole number of template lengths (" + str(L) + " m)");
-  checkParticleBudget(params_, (particleCount() / kNominalPacking) * meanParticleVolume(params_) +
-                                   (x1 - x0) * bed_.width() * bed_.depth(),
-                      "dem bed");
+  checkParticleBudget(
+      params_,
+      (particleCount() / kNominalPacking) * meanParticleVolume(params_) + (x1 - x0) * bed_.width() * bed_.depth(),
+      "dem bed");
   std::size_t added = 0;
   auto& l = *impl_->l;
   for (int b = 0; b < nb; ++b)
@@ -494,7 +528,7 @@ int DemWorld::addBody(const std::vector<Triangle>& mesh, const Eigen::Vector3d& 
            v.y() <= domain_.y_max && v.z() >= domain_.z_min && v.z() <= domain_.z_max;
   };
   for (const auto& t : mesh)
-    for (const auto* v : {&t.a, &t.b, &t.c})
+    for (const auto* v : { &t.a, &t.b, &t.c })
       if (!inside(*v))
         fail("body.mesh", "vertex (" + str(v->x()) + ", " + str(v->y()) + ", " + str(v->z()) +
                               ") is outside the domain or not finite");
@@ -511,7 +545,7 @@ int DemWorld::addBody(const std::vector<Triangle>& mesh, const Eigen::Vector3d& 
   // The box the mesh can take about its reference: its own box, or for a spinning body the one
   // of the solid of revolution it sweeps about the axis.
   for (const auto& t : mesh)
-    for (const auto* v : {&t.a, &t.b, &t.c})
+    for (const auto* v : { &t.a, &t.b, &t.c })
     {
       const Eigen::Vector3d d = *v - reference;
       for (int a = 0; a < 3; ++a)
@@ -535,7 +569,7 @@ int DemWorld::addBody(const std::vector<Triangle>& mesh, const Eigen::Vector3d& 
     {
       const Eigen::Vector3d n = (t.b - t.a).cross(t.c - t.a).normalized();
       f << "facet normal " << n.x() << " " << n.y() << " " << n.z() << "\n outer loop\n";
-      for (const auto* v : {&t.a, &t.b, &t.c})
+      for (const auto* v : { &t.a, &t.b, &t.c })
         f << "  vertex " << v->x() << " " << v->y() << " " << v->z() << "\n";
       f << " endloop\nendfacet\n";
     }
@@ -548,17 +582,18 @@ int DemWorld::addBody(const std::vector<Triangle>& mesh, const Eigen::Vector3d& 
   l.command("fix %s all mesh/surface/stress file %s type %d reference_point %.17g %.17g %.17g", id.c_str(), stl.c_str(),
             wallType(params_), reference.x(), reference.y(), reference.z());
   l.command("fix %s_wall all wall/gran %s mesh n_meshes 1 meshes %s", id.c_str(), contactModel().c_str(), id.c_str());
-  for (const char* c : {"vx", "vy", "vz", "w"})
+  for (const char* c : { "vx", "vy", "vz", "w" })
     l.command("variable %s_%s equal 0", id.c_str(), c);
   // The translation first, the spin second: a second fix move/mesh moves with the first, so the
   // spin axis goes through the moving reference point.
   l.command("fix %s_lin all move/mesh mesh %s linear/variable v_%s_vx v_%s_vy v_%s_vz", id.c_str(), id.c_str(),
             id.c_str(), id.c_str(), id.c_str());
   if (body.spins)
-    l.command("fix %s_rot all move/mesh mesh %s rotate/variable origin %.17g %.17g %.17g axis %.17g %.17g %.17g omega "
-              "v_%s_w",
-              id.c_str(), id.c_str(), reference.x(), reference.y(), reference.z(), spin_axis.x(), spin_axis.y(),
-              spin_axis.z(), id.c_str());
+    l.command(
+        "fix %s_rot all move/mesh mesh %s rotate/variable origin %.17g %.17g %.17g axis %.17g %.17g %.17g omega "
+        "v_%s_w",
+        id.c_str(), id.c_str(), reference.x(), reference.y(), reference.z(), spin_axis.x(), spin_axis.y(),
+        spin_axis.z(), id.c_str());
   // Mean force and torque over each coupling interval's steps.
   const int n = impl_->steps_per_interval;
   l.command("fix %s_avg all ave/time 1 %d %d f_%s[1] f_%s[2] f_%s[3] f_%s[4] f_%s[5] f_%s[6]", id.c_str(), n, n,
@@ -638,8 +673,8 @@ BodyLoad DemWorld::load(int body) const
     fail("body", "no body " + std::to_string(body));
   const auto& b = impl_->bodies[body];
   BodyLoad out;
-  out.reference = Eigen::Vector3d(impl_->l->fixVector(b.id, 6), impl_->l->fixVector(b.id, 7),
-                                  impl_->l->fixVector(b.id, 8));
+  out.reference =
+      Eigen::Vector3d(impl_->l->fixVector(b.id, 6), impl_->l->fixVector(b.id, 7), impl_->l->fixVector(b.id, 8));
   if (!b.stepped)
     return out;
   const std::string avg = b.id + "_avg";
@@ -651,17 +686,26 @@ BodyLoad DemWorld::load(int body) const
   return out;
 }
 
-std::size_t DemWorld::particleCount() const { return static_cast<std::size_t>(impl_->l->localAtoms()); }
+std::size_t DemWorld::particleCount() const
+{
+  return static_cast<std::size_t>(impl_->l->localAtoms());
+}
 
-std::vector<Particle> DemWorld::particles() const { return readParticles(*impl_->l, params_); }
+std::vector<Particle> DemWorld::particles() const
+{
+  return readParticles(*impl_->l, params_);
+}
 
-double DemWorld::kineticEnergy() const { return kineticEnergyOf(*impl_->l); }
+double DemWorld::kineticEnergy() const
+{
+  return kineticEnergyOf(*impl_->l);
+}
 
 // ------------------------------------------------------------------------------------------
 // Meshes
 
-std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vector3d& axle, double radius,
-                                double width, int facets, int grousers, double grouser_height)
+std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vector3d& axle, double radius, double width,
+                                int facets, int grousers, double grouser_height)
 {
   if (!(radius > 0.0) || !(width > 0.0) || facets < 3 || !centre.allFinite() || !axle.allFinite() ||
       std::abs(axle.norm() - 1.0) > 1e-9)
@@ -682,10 +726,10 @@ std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vect
     const Eigen::Vector3d p0 = centre + radius * (std::cos(t0) * u + std::sin(t0) * w);
     const Eigen::Vector3d p1 = centre + radius * (std::cos(t1) * u + std::sin(t1) * w);
     // Rim: outward normals; sides: normals along -axle and +axle.
-    mesh.push_back({p0 - half, p1 - half, p1 + half});
-    mesh.push_back({p0 - half, p1 + half, p0 + half});
-    mesh.push_back({centre - half, p1 - half, p0 - half});
-    mesh.push_back({centre + half, p0 + half, p1 + half});
+    mesh.push_back({ p0 - half, p1 - half, p1 + half });
+    mesh.push_back({ p0 - half, p1 + half, p0 + half });
+    mesh.push_back({ centre - half, p1 - half, p0 - half });
+    mesh.push_back({ centre + half, p0 + half, p1 + half });
   }
   for (int i = 0; i < grousers; ++i)
   {
@@ -693,8 +737,8 @@ std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vect
     const double t = 2.0 * M_PI * (i + 0.5) / grousers;
     const Eigen::Vector3d dir = std::cos(t) * u + std::sin(t) * w;
     const Eigen::Vector3d in = centre + 0.98 * radius * dir, out = centre + (radius + grouser_height) * dir;
-    mesh.push_back({in - half, out - half, out + half});
-    mesh.push_back({in - half, out + half, in + half});
+    mesh.push_back({ in - half, out - half, out + half });
+    mesh.push_back({ in - half, out + half, in + half });
   }
   return mesh;
 }
@@ -708,7 +752,7 @@ std::vector<Triangle> plateMesh(const Eigen::Vector3d& centre, double length, do
   const Eigen::Vector3d c = centre + Eigen::Vector3d(0.5 * length, 0.5 * width, 0.0);
   const Eigen::Vector3d d = centre + Eigen::Vector3d(-0.5 * length, 0.5 * width, 0.0);
   // Normal down (-z): the face that meets the soil.
-  return {{a, c, b}, {a, d, c}};
+  return { { a, c, b }, { a, d, c } };
 }
 
 }  // namespace dem

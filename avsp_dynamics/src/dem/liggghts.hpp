@@ -11,15 +11,16 @@
 #include <cstdarg>
 #include <string>
 
-extern "C" {
-void lammps_open_no_mpi(int, char**, void**);
-void lammps_close(void*);
-char* lammps_command(void*, const char*);
-void lammps_free(void*);
-void* lammps_extract_global(void*, const char*);
-void* lammps_extract_atom(void*, const char*);
-void* lammps_extract_fix(void*, const char*, int, int, int, int);
-int lammps_get_natoms(void*);
+extern "C"
+{
+  void lammps_open_no_mpi(int, char**, void**);
+  void lammps_close(void*);
+  char* lammps_command(void*, const char*);
+  void lammps_free(void*);
+  void* lammps_extract_global(void*, const char*);
+  void* lammps_extract_atom(void*, const char*);
+  void* lammps_extract_fix(void*, const char*, int, int, int, int);
+  int lammps_get_natoms(void*);
 }
 
 namespace avsp

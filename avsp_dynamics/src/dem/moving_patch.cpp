@@ -25,8 +25,8 @@ MovingPatch::MovingPatch(const BedTemplate& bed, terrain::DeformableTerrain& ter
   const double L = bed.length();
   const double blocks = spec.length / L;
   if (!(blocks >= 1.0 - 1e-9) || std::abs(blocks - std::round(blocks)) > 1e-6)
-    fail("length", std::to_string(spec.length) + " m is not a whole number of template lengths (" + std::to_string(L) +
-                       " m)");
+    fail("length",
+         std::to_string(spec.length) + " m is not a whole number of template lengths (" + std::to_string(L) + " m)");
   if (!(spec.x_end - spec.x_start >= spec.length))
     fail("x_end", "the segment is shorter than the patch");
   if (!(spec.front_margin > 0.0 && spec.front_margin < spec.length))
@@ -48,9 +48,10 @@ MovingPatch::MovingPatch(const BedTemplate& bed, terrain::DeformableTerrain& ter
     }
   const double floor = hi - bed.depth();
   if (lo - floor < 2.0 * maxRadius(bed.parameters()))
-    fail("ground", "relief of " + std::to_string(hi - lo) + " m along the strip leaves less than two particle radii of bed "
-                   "over the floor: settle a deeper template");
-  const DemDomain d{spec.x_start, spec.x_end, spec.y_min, spec.y_min + bed.width(), floor, hi + spec.clearance};
+    fail("ground", "relief of " + std::to_string(hi - lo) +
+                       " m along the strip leaves less than two particle radii of bed "
+                       "over the floor: settle a deeper template");
+  const DemDomain d{ spec.x_start, spec.x_end, spec.y_min, spec.y_min + bed.width(), floor, hi + spec.clearance };
   world_ = std::make_unique<DemWorld>(bed.parameters(), d, bed);
   const auto ground = [this](double x, double y) { return *terrain_.height(x, y); };
   world_->addBed(rear_, front(), ground, true, true);

@@ -36,9 +36,9 @@ std::pair<double, double> line(const std::vector<double>& x, const std::vector<d
   }
   const double den = n * sxx - sx * sx;
   if (!(std::abs(den) > 1e-30))
-    return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+    return { std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN() };
   const double a = (n * sxy - sx * sy) / den;
-  return {a, (sy - a * sx) / n};
+  return { a, (sy - a * sx) / n };
 }
 }  // namespace
 
@@ -151,7 +151,8 @@ ShearFit fitShear(const std::vector<ShearCurve>& curves)
     for (std::size_t j = 0; j < curves.size(); ++j)
       for (std::size_t i = 0; i < curves[j].displacement.size(); ++i)
       {
-        const double e = curves[j].shear_stress[i] / fit.peak_stress[j] - (1.0 - std::exp(-curves[j].displacement[i] / K));
+        const double e =
+            curves[j].shear_stress[i] / fit.peak_stress[j] - (1.0 - std::exp(-curves[j].displacement[i] / K));
         s += e * e;
       }
     return s;
@@ -183,7 +184,8 @@ PlateSinkageCurve plateSinkageTest(DemWorld& world, double width, double length,
   const int plate = world.addBody(plateMesh(centre, length, width), centre, Eigen::Vector3d::Zero());
   world.setBodyVelocity(plate, Eigen::Vector3d(0, 0, -speed), 0.0);
   const int max_steps = static_cast<int>(std::ceil((top + 0.002 - surface + max_sinkage) / speed /
-                                                   world.parameters().coupling_interval)) + 1;
+                                                   world.parameters().coupling_interval)) +
+                        1;
   for (int k = 0; k < max_steps; ++k)
   {
     world.step();
@@ -214,8 +216,8 @@ ShearCurve shearTest(DemWorld& world, const BevameterSpec& spec, double normal_s
     // Transverse lugs under the plate, evenly along it.
     const double gx = x - 0.5 * L + (g + 0.5) * L / spec.grousers;
     const Eigen::Vector3d a(gx, y - 0.5 * b, centre.z()), c(gx, y + 0.5 * b, centre.z() - spec.grouser_height);
-    mesh.push_back({a, Eigen::Vector3d(gx, y + 0.5 * b, centre.z()), c});
-    mesh.push_back({a, c, Eigen::Vector3d(gx, y - 0.5 * b, centre.z() - spec.grouser_height)});
+    mesh.push_back({ a, Eigen::Vector3d(gx, y + 0.5 * b, centre.z()), c });
+    mesh.push_back({ a, c, Eigen::Vector3d(gx, y - 0.5 * b, centre.z() - spec.grouser_height) });
   }
   const int plate = world.addBody(mesh, centre, Eigen::Vector3d::Zero());
   const double weight = normal_stress * area, h = world.parameters().coupling_interval;

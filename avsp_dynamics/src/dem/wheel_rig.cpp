@@ -67,16 +67,16 @@ SingleWheelRig::SingleWheelRig(DemWorld& world, const WheelRigSpec& spec, double
   positive("width", spec.width);
   positive("load", spec.load);
   if (spec.facets < 12)
-    throw DemParameterError("dem.rig.facets: at least 12 flat faces round the rim (got " +
-                            std::to_string(spec.facets) + ")");
+    throw DemParameterError("dem.rig.facets: at least 12 flat faces round the rim (got " + std::to_string(spec.facets) +
+                            ")");
   const auto& d = world.domain();
   const double y = 0.5 * (d.y_min + d.y_max);
   ground_ = bedSurface(world, x, y, spec.radius, spec.width);
   const double outer = spec.radius + (spec.grousers > 0 ? spec.grouser_height : 0.0);
   const double top = world.highestTop(x - outer, x + outer, y - 0.5 * spec.width, y + 0.5 * spec.width);
   const Eigen::Vector3d centre(x, y, top + 0.002 + outer);
-  body_ = world.addBody(wheelMesh(centre, Eigen::Vector3d::UnitY(), spec.radius, spec.width, spec.facets,
-                                  spec.grousers, spec.grouser_height),
+  body_ = world.addBody(wheelMesh(centre, Eigen::Vector3d::UnitY(), spec.radius, spec.width, spec.facets, spec.grousers,
+                                  spec.grouser_height),
                         centre, Eigen::Vector3d::UnitY());
   world.setBodyVelocity(body_, Eigen::Vector3d(0, 0, -0.1), 0.0);
   for (int k = 0; k < 2000 && world.load(body_).force.z() < spec.load; ++k)

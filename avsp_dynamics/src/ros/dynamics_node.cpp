@@ -152,7 +152,8 @@ struct VehicleSpec
 std::vector<VehicleSpec> vehicleSpecs(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      list.size() == 0)
     throw StartupError("parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
   std::vector<VehicleSpec> specs;
   std::set<std::string> names;
@@ -160,8 +161,8 @@ std::vector<VehicleSpec> vehicleSpecs(const ros::NodeHandle& pnh)
   {
     const std::string where = "parameter ~vehicles[" + std::to_string(k) + "]";
     XmlRpc::XmlRpcValue& entry = list[k];
-    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("name") ||
-        !entry.hasMember("model") || entry["name"].getType() != XmlRpc::XmlRpcValue::TypeString ||
+    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("name") || !entry.hasMember("model") ||
+        entry["name"].getType() != XmlRpc::XmlRpcValue::TypeString ||
         entry["model"].getType() != XmlRpc::XmlRpcValue::TypeString)
       throw StartupError(where + " must have string keys 'name' and 'model'");
     VehicleSpec s;
@@ -194,25 +195,25 @@ struct VehicleIo
   std::string cmd_topic, drive_topic;
   ros::Subscriber cmd_sub, drive_sub;
   ros::Publisher odom_pub, joint_pub, telemetry_pub;
-  ros::Publisher truth_pub;       ///< ground_truth/odometry: the same as avt_341/odometry
-  ros::Publisher wheel_odom_pub;  ///< wheel_odometry: dead reckoning from the running gear and a gyro
-  ad::WheelOdometry wheel_odom;   ///< integrated every step from the start pose
+  ros::Publisher truth_pub;                 ///< ground_truth/odometry: the same as avt_341/odometry
+  ros::Publisher wheel_odom_pub;            ///< wheel_odometry: dead reckoning from the running gear and a gyro
+  ad::WheelOdometry wheel_odom;             ///< integrated every step from the start pose
   std::optional<ad::DriveCommand> pending;  ///< arrived since the last step, not applied yet
   std::optional<ad::DriveCommand> last;     ///< last good command
   double last_time = -std::numeric_limits<double>::infinity();  ///< world time it was applied, s
-  bool released = false;  ///< the parking brake let go (a command with throttle > 0 came)
-  bool lockstep = false;                    ///< in ~lockstep_vehicles
-  nav_msgs::Odometry last_odom;             ///< the last published (resent at the first barrier)
+  bool released = false;         ///< the parking brake let go (a command with throttle > 0 came)
+  bool lockstep = false;         ///< in ~lockstep_vehicles
+  nav_msgs::Odometry last_odom;  ///< the last published (resent at the first barrier)
   double answered = -std::numeric_limits<double>::infinity();  ///< latest cmd_drive stamp, s
-  std::vector<double> spin_angle;           ///< rad per wheel, integrated from the spin rate
-  double rut_margin = 0.0;                  ///< m, a contact's reach beyond its centre
-  ad::StuckDetector stuck;                  ///< VehicleTelemetry.stuck
+  std::vector<double> spin_angle;                              ///< rad per wheel, integrated from the spin rate
+  double rut_margin = 0.0;                                     ///< m, a contact's reach beyond its centre
+  ad::StuckDetector stuck;                                     ///< VehicleTelemetry.stuck
   // Commands from either topic, for /diagnostics: received, rejected (NaN, unknown gear),
   // clamped, and superseded (another came before a step took it: never applied).
   std::uint64_t commands = 0, refused = 0, clamped = 0, superseded = 0;
-  std::uint64_t refused_reported = 0;       ///< `refused` at the last diagnostics publication
-  ad::CollisionCounter collisions;          ///< VehicleTelemetry.collisions
-  sensor_msgs::JointState joints;           ///< names fixed at start-up, values per publication
+  std::uint64_t refused_reported = 0;  ///< `refused` at the last diagnostics publication
+  ad::CollisionCounter collisions;     ///< VehicleTelemetry.collisions
+  sensor_msgs::JointState joints;      ///< names fixed at start-up, values per publication
   // Area the wheels ran over since the last rut publication (map x, y, m).
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
   bool ran = false;
@@ -250,17 +251,16 @@ public:
       clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
     loadPeers();
     if (!start_topic_.empty())
-      start_sub_ = nh_.subscribe<std_msgs::Empty>(start_topic_, 1, [this](const std_msgs::Empty::ConstPtr&) {
-        start_signalled_ = true;
-      });
+      start_sub_ = nh_.subscribe<std_msgs::Empty>(
+          start_topic_, 1, [this](const std_msgs::Empty::ConstPtr&) { start_signalled_ = true; });
     if (!partition_.empty())
     {
       done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
       tick_sub_ = nh_.subscribe("/clock", 100, &Impl::onTick, this, ros::TransportHints().tcpNoDelay());
     }
     if (followers_)
-      followers_sub_ = nh_.subscribe("/lockstep/done", 1000, &Impl::onFollowerDone, this,
-                                     ros::TransportHints().tcpNoDelay());
+      followers_sub_ =
+          nh_.subscribe("/lockstep/done", 1000, &Impl::onFollowerDone, this, ros::TransportHints().tcpNoDelay());
     if (publish_clock_ && partition_.empty())
     {
       // Run control (the node is the clock): pause, single steps, resume.
@@ -380,9 +380,8 @@ private:
   /// ~wait_for_command: every vehicle has a command; ~start_topic: the start signal came.
   bool readyToStart() const
   {
-    const bool commanded =
-        !wait_for_command_ ||
-        std::all_of(vehicles_.begin(), vehicles_.end(), [](const auto& v) { return v->pending.has_value(); });
+    const bool commanded = !wait_for_command_ || std::all_of(vehicles_.begin(), vehicles_.end(),
+                                                             [](const auto& v) { return v->pending.has_value(); });
     return commanded && (start_topic_.empty() || start_signalled_);
   }
 
@@ -443,8 +442,7 @@ private:
       const double target = *tick_;
       while (ros::ok() && reported + 0.5 * h < target)
       {
-        const double end =
-            std::min(target, sync_interval_ * (std::floor(reported / sync_interval_ + 1e-6) + 1.0));
+        const double end = std::min(target, sync_interval_ * (std::floor(reported / sync_interval_ + 1e-6) + 1.0));
         if (!stepInterval(reported, end, mark, costs))
           return false;
         reported = end;
@@ -725,8 +723,8 @@ private:
         const std::string missing = joined(transport_->unconnectedPeers());
         fatal("partition '" + partition_ + "': only " + std::to_string(transport_->subscriberCount()) + " of " +
               std::to_string(peers) + " peers subscribed to /lockstep/exchange/" + partition_ +
-              " within ~lockstep_timeout " + shortNumber(lockstep_timeout_) + " s (wall); not connected: " +
-              (missing.empty() ? "?" : missing));
+              " within ~lockstep_timeout " + shortNumber(lockstep_timeout_) +
+              " s (wall); not connected: " + (missing.empty() ? "?" : missing));
         return false;
       }
     }
@@ -819,8 +817,9 @@ private:
     if (names.empty())
       return;
     if (!publish_clock_ || !partition_.empty())
-      throw StartupError("parameter ~clock_followers needs ~publish_clock true and no ~partition (with partitions "
-                         "lockstep_clock waits for the sensors)");
+      throw StartupError(
+          "parameter ~clock_followers needs ~publish_clock true and no ~partition (with partitions "
+          "lockstep_clock waits for the sensors)");
     const double lag = boundedParam(pnh_, "follower_lag", 0.05, 0.0, 10.0);
     if (lag < odom_period - 1e-9)
       throw StartupError("parameter ~follower_lag " + shortNumber(lag) + " s must be at least the odometry period (" +
@@ -888,7 +887,7 @@ private:
                     (std::isfinite(r) ? " (at " + shortNumber(r) + " s)" : std::string(" (no report yet)"));
         }
         fatal("clock followers: " + silent + " did not reach t = " + shortNumber(t - followers_->lag()) +
-             " s within ~lockstep_timeout " + shortNumber(lockstep_timeout_) + " s (wall)");
+              " s within ~lockstep_timeout " + shortNumber(lockstep_timeout_) + " s (wall)");
         return false;
       }
     }
@@ -985,8 +984,8 @@ private:
           world_->setPose(v->id, pose);
           v->wheel_odom = ad::WheelOdometry(world_->state(v->id).pose);  // dead reckoning restarts there
           res.success = true;
-          res.message = "'" + v->name + "' set down at (" + shortNumber(req.x) + ", " + shortNumber(req.y) +
-                        "), yaw " + shortNumber(req.yaw) + " rad, at t = " + shortNumber(world_->time()) + " s";
+          res.message = "'" + v->name + "' set down at (" + shortNumber(req.x) + ", " + shortNumber(req.y) + "), yaw " +
+                        shortNumber(req.yaw) + " rad, at t = " + shortNumber(world_->time()) + " s";
         }
       }
       catch (const std::exception& e)
@@ -1053,8 +1052,9 @@ private:
     if (names.empty())
       return names;
     if (!publish_clock_ && partition_.empty())
-      throw StartupError("parameter ~lockstep_vehicles needs ~publish_clock true or a ~partition (the barrier holds "
-                         "the clock)");
+      throw StartupError(
+          "parameter ~lockstep_vehicles needs ~publish_clock true or a ~partition (the barrier holds "
+          "the clock)");
     // The barrier instants must be steps on which the odometry and the clock go out.
     const double steps = period / step;
     lockstep_every_ = static_cast<std::uint64_t>(std::llround(steps));
@@ -1111,9 +1111,10 @@ private:
         for (const auto& v : vehicles_)
           if (v->lockstep && !ready(*v))
             silent += (silent.empty() ? "" : ", ") + v->drive_topic;
-        ROS_FATAL("dynamics_node: lockstep: no %s for t = %.3f s on %s within ~lockstep_timeout %g s (wall); "
-                  "stopping the run",
-                  missing, world_->time(), silent.c_str(), lockstep_timeout_);
+        ROS_FATAL(
+            "dynamics_node: lockstep: no %s for t = %.3f s on %s within ~lockstep_timeout %g s (wall); "
+            "stopping the run",
+            missing, world_->time(), silent.c_str(), lockstep_timeout_);
         ros::shutdown();
         failed_ = true;
         return false;
@@ -1162,8 +1163,8 @@ private:
   /// rejected, the rest clamped; an unknown gear rejected). A rejected one leaves the last good
   /// command in force, ageing towards the timeout. Message stamps are not trusted for the
   /// timeout (publishers' clocks differ): a command counts from the step that takes it.
-  void accept(VehicleIo& v, const std::string& topic, ad::CommandCheck check,
-              const avsp_msgs::DriveCommand& cmd, const std::string& why)
+  void accept(VehicleIo& v, const std::string& topic, ad::CommandCheck check, const avsp_msgs::DriveCommand& cmd,
+              const std::string& why)
   {
     ++v.commands;
     if (check == ad::CommandCheck::kRejected)
@@ -1194,7 +1195,7 @@ private:
         v->last_time = now;
         v->pending.reset();
       }
-      ad::DriveCommand cmd{0.0, 1.0, 0.0};  // none yet, or stale: zero throttle, full brake
+      ad::DriveCommand cmd{ 0.0, 1.0, 0.0 };  // none yet, or stale: zero throttle, full brake
       if (v->last && now - v->last_time <= command_timeout_)
         cmd = *v->last;
       else if (v->last)
@@ -1353,9 +1354,8 @@ private:
     for (const auto& v : vehicles_)
     {
       VehicleIo* raw = v.get();
-      diagnostics_->add(v->name, [this, raw](diagnostic_updater::DiagnosticStatusWrapper& s) {
-        vehicleStatus(*raw, s);
-      });
+      diagnostics_->add(v->name,
+                        [this, raw](diagnostic_updater::DiagnosticStatusWrapper& s) { vehicleStatus(*raw, s); });
     }
   }
 
@@ -1605,11 +1605,11 @@ private:
   bool hold_until_throttle_ = true;  ///< ~hold_until_throttle: the parking brake
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
-  bool publish_odom_tf_ = true;  ///< ~publish_odom_tf: broadcast odom -> <v>/base_link
+  bool publish_odom_tf_ = true;           ///< ~publish_odom_tf: broadcast odom -> <v>/base_link
   bool per_vehicle_odom_frames_ = false;  ///< ~per_vehicle_odom_frames: <v>/odom instead of odom
   bool wait_for_command_ = false;
-  std::string start_topic_;        ///< ~start_topic: physics waits for a message there ("" = no wait)
-  bool start_signalled_ = false;   ///< a message came on ~start_topic
+  std::string start_topic_;       ///< ~start_topic: physics waits for a message there ("" = no wait)
+  bool start_signalled_ = false;  ///< a message came on ~start_topic
   ros::Subscriber start_sub_;
   std::uint64_t lockstep_every_ = 0;  ///< steps between barriers (0: no lockstep)
   std::string partition_;             ///< this process's partition name ("" = the only one)
@@ -1618,12 +1618,12 @@ private:
   bool tick_repeated_ = false;        ///< the clock re-sent a tick already reached
   ros::Publisher done_pub_;
   ros::Subscriber tick_sub_;
-  std::optional<ad::ClockFollowers> followers_;  ///< ~clock_followers (none: the clock runs free)
+  std::optional<ad::ClockFollowers> followers_;    ///< ~clock_followers (none: the clock runs free)
   std::map<std::string, double> follower_waited_;  ///< wall s the clock waited for each follower
   ros::Subscriber followers_sub_;
-  double clock_published_ = 0.0;                ///< s, the last time sent on /clock
-  bool paused_ = false;                         ///< ~pause came (and no ~resume since)
-  std::uint64_t pending_steps_ = 0;             ///< ~step's steps not yet taken
+  double clock_published_ = 0.0;                                ///< s, the last time sent on /clock
+  bool paused_ = false;                                         ///< ~pause came (and no ~resume since)
+  std::uint64_t pending_steps_ = 0;                             ///< ~step's steps not yet taken
   static constexpr std::uint64_t kMaxPendingSteps = 100000000;  ///< 1e8 (a day at 1 ms)
   ros::ServiceServer pause_srv_, resume_srv_, step_srv_, set_pose_srv_;
   // With ~peers: the exchanges' transport and the protocol (declared after world_, objects_ and
@@ -1632,7 +1632,7 @@ private:
   std::unique_ptr<ad::PartitionRunner> runner_;
   bool failed_ = false;  ///< a fatal error stopped the run (exit 1; a plain shutdown exits 0)
   std::string config_dir_;
-  double lockstep_timeout_ = 30.0;    ///< s, wall
+  double lockstep_timeout_ = 30.0;         ///< s, wall
   std::optional<ros::Time> follow_start_;  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;

@@ -36,7 +36,8 @@ using avsp::node::StartupError;
 std::vector<std::string> partitionNames(const ros::NodeHandle& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!avsp::node::structuredParam(pnh, "partitions", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  if (!avsp::node::structuredParam(pnh, "partitions", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      list.size() == 0)
     throw StartupError("parameter ~partitions must be a non-empty list of partition names");
   std::vector<std::string> names;
   for (int k = 0; k < list.size(); ++k)
@@ -80,9 +81,10 @@ public:
     }
     clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
     done_sub_ = nh.subscribe("/lockstep/done", 1000, &Impl::onDone, this, ros::TransportHints().tcpNoDelay());
-    ROS_INFO("lockstep_clock: %zu partition(s) [%s], sync interval %g s, lookahead %u, timeout %g s, "
-             "real_time_factor %g",
-             names.size(), joined(names).c_str(), interval, lookahead_, timeout_, real_time_factor_);
+    ROS_INFO(
+        "lockstep_clock: %zu partition(s) [%s], sync interval %g s, lookahead %u, timeout %g s, "
+        "real_time_factor %g",
+        names.size(), joined(names).c_str(), interval, lookahead_, timeout_, real_time_factor_);
   }
 
   /// Runs until shutdown or ~duration; false after a partition timed out.
@@ -113,10 +115,11 @@ public:
         const double limit = starting ? startup_timeout_ : timeout_;
         if ((now - progress).toSec() > limit)
         {
-          ROS_FATAL("lockstep_clock: partition(s) %s did not report t = %.3f s within ~%s %g s (wall); "
-                    "stopping the run",
-                    joined(barrier_->waitingFor()).c_str(), barrier_->needed(),
-                    starting ? "startup_timeout" : "timeout", limit);
+          ROS_FATAL(
+              "lockstep_clock: partition(s) %s did not report t = %.3f s within ~%s %g s (wall); "
+              "stopping the run",
+              joined(barrier_->waitingFor()).c_str(), barrier_->needed(), starting ? "startup_timeout" : "timeout",
+              limit);
           ros::shutdown();
           return false;
         }
@@ -127,8 +130,8 @@ public:
       if (duration_ > 0.0 && barrier_->time() >= duration_ - 1e-9)
       {
         const double wall = since_one ? (now - *since_one).toSec() : 0.0;
-        ROS_INFO("lockstep_clock: ~duration %g s reached; from t = 1 s: %.3f s wall, real-time factor %.3f",
-                 duration_, wall, wall > 0.0 ? (barrier_->time() - 1.0) / wall : 0.0);
+        ROS_INFO("lockstep_clock: ~duration %g s reached; from t = 1 s: %.3f s wall, real-time factor %.3f", duration_,
+                 wall, wall > 0.0 ? (barrier_->time() - 1.0) / wall : 0.0);
         return true;
       }
       if (real_time_factor_ > 0.0)
@@ -141,8 +144,9 @@ public:
         if (now > due + ros::WallDuration(barrier_->interval() / real_time_factor_))
         {
           ++overruns;
-          ROS_WARN_THROTTLE(5.0, "lockstep_clock: overrun: sim time %.3f s is %.3f s (wall) behind the pace "
-                                 "(%llu late intervals so far)",
+          ROS_WARN_THROTTLE(5.0,
+                            "lockstep_clock: overrun: sim time %.3f s is %.3f s (wall) behind the pace "
+                            "(%llu late intervals so far)",
                             barrier_->time(), (now - due).toSec(), static_cast<unsigned long long>(overruns));
         }
         else if (due > now)
@@ -168,8 +172,9 @@ private:
                           msg->partition.c_str(), joined(barrier_->waitingFor()).c_str());
         break;
       case Report::kAhead:
-        ROS_WARN_THROTTLE(5.0, "lockstep_clock: /lockstep/done: partition '%s' reports t = %.3f s, ahead of the "
-                               "clock (%.3f s); ignored",
+        ROS_WARN_THROTTLE(5.0,
+                          "lockstep_clock: /lockstep/done: partition '%s' reports t = %.3f s, ahead of the "
+                          "clock (%.3f s); ignored",
                           msg->partition.c_str(), msg->header.stamp.toSec(), barrier_->time());
         break;
       case Report::kNotFinite:

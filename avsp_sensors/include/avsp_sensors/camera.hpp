@@ -53,8 +53,8 @@ enum SemanticClass : std::uint8_t
   kClassPerson = 9,
   kClassAnimal = 10,
   kClassPole = 11,
-  kClassSoilBase = 32,   ///< terrain of soil k: 32 + k (k < 200)
-  kClassUnknown = 255,   ///< an object or body id the materials do not know
+  kClassSoilBase = 32,  ///< terrain of soil k: 32 + k (k < 200)
+  kClassUnknown = 255,  ///< an object or body id the materials do not know
 };
 
 /// One row of the class table.
@@ -79,9 +79,9 @@ Season seasonOf(int month, double latitude_deg);
 /// What a terrain soil looks like.
 struct SoilLook
 {
-  std::string name = "soil";                 ///< soil name (class "terrain/<name>", asphalt = road)
+  std::string name = "soil";                      ///< soil name (class "terrain/<name>", asphalt = road)
   Eigen::Vector3f albedo{ 0.30f, 0.27f, 0.22f };  ///< linear RGB diffuse reflectance when dry
-  float wetness = 0.f;                       ///< moisture / saturated moisture, [0, 1]
+  float wetness = 0.f;                            ///< moisture / saturated moisture, [0, 1]
 };
 
 /**
@@ -114,7 +114,8 @@ public:
    *        body id. Bodies not set are vehicles at air temperature + vehicle_warmth.
    * @param temperature K, > 0, or NaN for the class's default (README)
    */
-  void setBody(std::uint32_t id, std::uint8_t semantic_class, double temperature = std::numeric_limits<double>::quiet_NaN());
+  void setBody(std::uint32_t id, std::uint8_t semantic_class,
+               double temperature = std::numeric_limits<double>::quiet_NaN());
 
   /// The class of a hit (kClassNone for a miss). `terrain` locates the soil of a ground hit.
   std::uint8_t classOf(const RayHit& hit, const HeightField& terrain) const;
@@ -145,15 +146,15 @@ private:
 struct CameraEnvironment
 {
   Eigen::Vector3d sun_direction{ 0.5403023058681398, 0.0, 0.8414709848078965 };  ///< unit, map (ENU), toward the sun
-  double sun_elevation = 1.0;  ///< rad (the default: 57 deg, from the east)
-  Eigen::Vector3d moon_direction = -Eigen::Vector3d::UnitZ(); ///< unit, map
-  double moon_elevation = -1.0;                               ///< rad
-  double moon_illumination = 0.0;                             ///< [0, 1]
-  double air_temperature = 288.15;                            ///< K
-  Weather weather;                                            ///< fog visibility, rain, snow
+  double sun_elevation = 1.0;                                  ///< rad (the default: 57 deg, from the east)
+  Eigen::Vector3d moon_direction = -Eigen::Vector3d::UnitZ();  ///< unit, map
+  double moon_elevation = -1.0;                                ///< rad
+  double moon_illumination = 0.0;                              ///< [0, 1]
+  double air_temperature = 288.15;                             ///< K
+  Weather weather;                                             ///< fog visibility, rain, snow
   Season season = Season::kSummer;
-  double snow_cover = 0.0;     ///< [0, 1], fraction of upward surfaces under snow
-  double surface_wetness = 0.0;///< [0, 1], added to every soil's own wetness (rain)
+  double snow_cover = 0.0;       ///< [0, 1], fraction of upward surfaces under snow
+  double surface_wetness = 0.0;  ///< [0, 1], added to every soil's own wetness (rain)
 };
 
 /// @throw std::invalid_argument naming the field (non-unit directions, NaN, ranges)
@@ -162,10 +163,10 @@ void validateCameraEnvironment(const CameraEnvironment& env);
 /// Light the sky gives, lx (derived from the sun and moon elevation; README "Cameras").
 struct SkyLight
 {
-  double sun_normal = 0.0;     ///< lx on a surface facing the sun (direct beam)
-  double sky_horizontal = 0.0; ///< lx, diffuse sky (and twilight, starlight) on a horizontal surface
-  double moon_normal = 0.0;    ///< lx on a surface facing the moon
-  double horizontal_total = 0.0;  ///< lx, everything on a horizontal surface
+  double sun_normal = 0.0;                       ///< lx on a surface facing the sun (direct beam)
+  double sky_horizontal = 0.0;                   ///< lx, diffuse sky (and twilight, starlight) on a horizontal surface
+  double moon_normal = 0.0;                      ///< lx on a surface facing the moon
+  double horizontal_total = 0.0;                 ///< lx, everything on a horizontal surface
   Eigen::Vector3f sky_zenith{ 1.f, 1.f, 1.f };   ///< relative colour, luminance 1
   Eigen::Vector3f sky_horizon{ 1.f, 1.f, 1.f };  ///< relative colour, luminance 1
 };
@@ -178,21 +179,21 @@ struct CameraConfig
 {
   std::string name = "camera";
   CameraProjection projection = CameraProjection::kPinhole;
-  int width = 640, height = 480;  ///< pixels, 1..8192
+  int width = 640, height = 480;     ///< pixels, 1..8192
   double hfov = 1.5707963267948966;  ///< rad, horizontal field of view (fisheye: up to 2 pi)
-  double rate = 10.0;              ///< Hz, frames per second (sim time)
+  double rate = 10.0;                ///< Hz, frames per second (sim time)
   /// plumb_bob k1, k2, p1, p2, k3 (pinhole only); all zero = no distortion.
   std::array<double, 5> distortion{ { 0.0, 0.0, 0.0, 0.0, 0.0 } };
-  double stereo_tx = 0.0;          ///< m, P's Tx / fx: -baseline for the right camera of a pair
-  double max_range = 1000.0;       ///< m, rays end here (sky beyond)
+  double stereo_tx = 0.0;     ///< m, P's Tx / fx: -baseline for the right camera of a pair
+  double max_range = 1000.0;  ///< m, rays end here (sky beyond)
   bool rgb = true, depth = true, semantic = true, thermal = false;  ///< outputs
-  bool shadows = true;             ///< a shadow ray toward the sun per lit pixel
-  double shadow_range = 300.0;     ///< m, length of the shadow rays
-  double min_exposure_lux = 50.0;  ///< lx: auto-exposure's limit (the sensor's highest gain)
-  double sky_gain = 2.0;           ///< sky radiance / (horizontal sky illuminance / pi)
-  double fog_contrast_threshold = 0.02;  ///< epsilon of the visibility definition: alpha = -ln(eps) / V
+  bool shadows = true;                                              ///< a shadow ray toward the sun per lit pixel
+  double shadow_range = 300.0;                                      ///< m, length of the shadow rays
+  double min_exposure_lux = 50.0;                     ///< lx: auto-exposure's limit (the sensor's highest gain)
+  double sky_gain = 2.0;                              ///< sky radiance / (horizontal sky illuminance / pi)
+  double fog_contrast_threshold = 0.02;               ///< epsilon of the visibility definition: alpha = -ln(eps) / V
   double thermal_min = 253.15, thermal_max = 323.15;  ///< K, mono8 thermal image range
-  bool precipitation = true;       ///< draw seeded rain streaks and snowflakes on the RGB image
+  bool precipitation = true;                          ///< draw seeded rain streaks and snowflakes on the RGB image
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();  ///< camera body (x fwd, y left, z up) in base_link
 };
 
@@ -203,11 +204,11 @@ void validateCameraConfig(const CameraConfig& config);
 struct CameraIntrinsics
 {
   int width = 0, height = 0;
-  std::string distortion_model;     ///< "plumb_bob" or "equidistant"
-  std::vector<double> D;            ///< 5 (plumb_bob) or 4 (equidistant)
-  std::array<double, 9> K{};        ///< row-major
-  std::array<double, 9> R{};        ///< identity (monocular)
-  std::array<double, 12> P{};       ///< row-major, P[3] = fx * stereo_tx
+  std::string distortion_model;  ///< "plumb_bob" or "equidistant"
+  std::vector<double> D;         ///< 5 (plumb_bob) or 4 (equidistant)
+  std::array<double, 9> K{};     ///< row-major
+  std::array<double, 9> R{};     ///< identity (monocular)
+  std::array<double, 12> P{};    ///< row-major, P[3] = fx * stereo_tx
   double fx = 0, fy = 0, cx = 0, cy = 0;
 };
 
@@ -222,13 +223,13 @@ Eigen::Matrix3d opticalFromBody();
 struct CameraFrame
 {
   int width = 0, height = 0;
-  std::vector<std::uint8_t> rgb;     ///< rgb8, sRGB-encoded, row-major, 3 per pixel
-  std::vector<float> radiance;       ///< linear RGB before encoding (1 = white in the open), 3 per pixel (with rgb)
-  std::vector<float> depth;          ///< 32FC1, m along the optical axis; +inf: nothing within max_range
-  std::vector<std::uint8_t> semantic;///< class ids
-  std::vector<float> temperature;    ///< K (thermal)
-  std::vector<std::uint8_t> thermal; ///< mono8 of temperature over [thermal_min, thermal_max]
-  double exposure_lux = 0.0;         ///< lx that map to radiance 1
+  std::vector<std::uint8_t> rgb;       ///< rgb8, sRGB-encoded, row-major, 3 per pixel
+  std::vector<float> radiance;         ///< linear RGB before encoding (1 = white in the open), 3 per pixel (with rgb)
+  std::vector<float> depth;            ///< 32FC1, m along the optical axis; +inf: nothing within max_range
+  std::vector<std::uint8_t> semantic;  ///< class ids
+  std::vector<float> temperature;      ///< K (thermal)
+  std::vector<std::uint8_t> thermal;   ///< mono8 of temperature over [thermal_min, thermal_max]
+  double exposure_lux = 0.0;           ///< lx that map to radiance 1
 };
 
 /// A camera: fixed per-pixel rays, rendered from a pose.
@@ -253,8 +254,8 @@ public:
    * @throw std::invalid_argument for a non-finite pose or a bad environment
    */
   CameraFrame render(const Scene& scene, const CameraMaterials& materials, const Eigen::Isometry3d& optical_pose,
-                     const CameraEnvironment& env, unsigned threads,
-                     std::uint32_t ignore_body = PrimitiveBvh::kNoId, std::uint64_t noise_key = 0) const;
+                     const CameraEnvironment& env, unsigned threads, std::uint32_t ignore_body = PrimitiveBvh::kNoId,
+                     std::uint64_t noise_key = 0) const;
 
 private:
   CameraConfig config_;

@@ -24,7 +24,7 @@ struct CameraOutput
   double time = 0.0;      ///< s, sim time of the state it was rendered at (its stamp)
   CameraFrame frame;
   Eigen::Isometry3d optical_pose = Eigen::Isometry3d::Identity();  ///< optical frame -> map
-  double cost = 0.0;      ///< wall s spent rendering (cost report; not simulation data)
+  double cost = 0.0;  ///< wall s spent rendering (cost report; not simulation data)
 };
 
 /// Cameras of one vehicle with their grid clocks.

@@ -29,12 +29,12 @@ namespace sensors
  */
 struct GpsConfig
 {
-  double rate = 10.0;                   ///< Hz, fixes per second, > 0
-  double horizontal_noise = 0.7;        ///< m, white noise per east/north axis, >= 0
-  double vertical_noise = 1.0;          ///< m, white noise on up, >= 0
-  double horizontal_bias_sigma = 2.0;   ///< m, stationary sigma of the east/north bias, >= 0
-  double vertical_bias_sigma = 3.5;     ///< m, stationary sigma of the up bias, >= 0
-  double bias_time_constant = 300.0;    ///< s, correlation time of the bias, > 0 (+inf: constant bias)
+  double rate = 10.0;                  ///< Hz, fixes per second, > 0
+  double horizontal_noise = 0.7;       ///< m, white noise per east/north axis, >= 0
+  double vertical_noise = 1.0;         ///< m, white noise on up, >= 0
+  double horizontal_bias_sigma = 2.0;  ///< m, stationary sigma of the east/north bias, >= 0
+  double vertical_bias_sigma = 3.5;    ///< m, stationary sigma of the up bias, >= 0
+  double bias_time_constant = 300.0;   ///< s, correlation time of the bias, > 0 (+inf: constant bias)
 };
 
 /// @throw std::invalid_argument naming the field ("GpsConfig: rate must be ...")
@@ -43,7 +43,7 @@ void validateGpsConfig(const GpsConfig& config);
 /// One fix, what sensor_msgs/NavSatFix carries.
 struct GpsFix
 {
-  double time = 0.0;         ///< s, simulation time of the fix
+  double time = 0.0;                   ///< s, simulation time of the fix
   Geodetic position{ 0.0, 0.0, 0.0 };  ///< degrees, degrees, m above the WGS-84 ellipsoid
   /// m^2, east-north-up (NavSatFix position_covariance, COVARIANCE_TYPE_DIAGONAL_KNOWN):
   /// diag(sigma_bias^2 + sigma_white^2) per axis, the stationary variance of the error.

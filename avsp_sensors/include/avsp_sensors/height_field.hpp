@@ -27,10 +27,10 @@ namespace sensors
 /// Where a ray met the terrain.
 struct TerrainHit
 {
-  double t = 0.0;           ///< m along the (unit) ray direction from its origin
-  Eigen::Vector3d point;    ///< m, map
-  Eigen::Vector3d normal;   ///< unit upward normal of the bilinear surface at the hit
-  std::size_t i = 0, j = 0; ///< the cell hit (its south-west grid point)
+  double t = 0.0;            ///< m along the (unit) ray direction from its origin
+  Eigen::Vector3d point;     ///< m, map
+  Eigen::Vector3d normal;    ///< unit upward normal of the bilinear surface at the hit
+  std::size_t i = 0, j = 0;  ///< the cell hit (its south-west grid point)
 };
 
 /**
@@ -80,7 +80,8 @@ public:
    * @throw std::invalid_argument when the rectangle leaves the grid, is empty, the patch has
    *        the wrong size or a height is not finite
    */
-  void setHeights(std::size_t i0, std::size_t j0, std::size_t width, std::size_t height, const std::vector<float>& heights);
+  void setHeights(std::size_t i0, std::size_t j0, std::size_t width, std::size_t height,
+                  const std::vector<float>& heights);
 
   /**
    * @brief Copies the deformed heights of points `range` (inclusive) from `terrain` (same
@@ -198,7 +199,7 @@ private:
   /// stop there without a test of the level.
   std::vector<Level> levels_;
   std::vector<float, CacheLineAllocator<float>> mip_max_;  ///< the levels' tiles, one after another
-  float min_height_ = 0.f;   ///< a lower bound of all heights (exact after construction)
+  float min_height_ = 0.f;                                 ///< a lower bound of all heights (exact after construction)
 };
 
 }  // namespace sensors

@@ -31,15 +31,15 @@ namespace sensors
  */
 struct ImuConfig
 {
-  double rate = 100.0;                    ///< Hz, samples per second, > 0
-  double gyro_noise_density = 1.92e-4;    ///< rad/s/sqrt(Hz), N of the gyro, >= 0
-  double gyro_random_walk = 2.22e-6;      ///< rad/s^2/sqrt(Hz), K of the gyro bias, >= 0
-  double accel_noise_density = 1.83e-3;   ///< m/s^2/sqrt(Hz), N of the accelerometer, >= 0
-  double accel_random_walk = 7.75e-5;     ///< m/s^3/sqrt(Hz), K of the accelerometer bias, >= 0
-  double gyro_turn_on_bias = 0.0;         ///< rad/s, sigma of the bias at start, >= 0
-  double accel_turn_on_bias = 0.0;        ///< m/s^2, sigma of the bias at start, >= 0
-  double orientation_noise = 0.01;        ///< rad, white noise per axis on the orientation (assumed AHRS grade), >= 0
-  double gravity = 9.81;                  ///< m/s^2, along -z of the map (avsp_dynamics' value), >= 0
+  double rate = 100.0;                   ///< Hz, samples per second, > 0
+  double gyro_noise_density = 1.92e-4;   ///< rad/s/sqrt(Hz), N of the gyro, >= 0
+  double gyro_random_walk = 2.22e-6;     ///< rad/s^2/sqrt(Hz), K of the gyro bias, >= 0
+  double accel_noise_density = 1.83e-3;  ///< m/s^2/sqrt(Hz), N of the accelerometer, >= 0
+  double accel_random_walk = 7.75e-5;    ///< m/s^3/sqrt(Hz), K of the accelerometer bias, >= 0
+  double gyro_turn_on_bias = 0.0;        ///< rad/s, sigma of the bias at start, >= 0
+  double accel_turn_on_bias = 0.0;       ///< m/s^2, sigma of the bias at start, >= 0
+  double orientation_noise = 0.01;       ///< rad, white noise per axis on the orientation (assumed AHRS grade), >= 0
+  double gravity = 9.81;                 ///< m/s^2, along -z of the map (avsp_dynamics' value), >= 0
   /// Pose of the IMU in the body frame (IMU frame -> body frame); the lever arm makes a turning
   /// body's IMU feel centripetal and tangential acceleration.
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
@@ -56,24 +56,24 @@ void validateImuConfig(const ImuConfig& config);
  */
 struct ImuInput
 {
-  double time = 0.0;                                            ///< s
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();       ///< body frame -> map
-  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();    ///< m/s, map, of the body origin
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();   ///< rad/s, map
-  std::optional<Eigen::Vector3d> linear_acceleration;           ///< m/s^2, map, of the body origin
-  std::optional<Eigen::Vector3d> angular_acceleration;          ///< rad/s^2, map
+  double time = 0.0;                                           ///< s
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();      ///< body frame -> map
+  Eigen::Vector3d linear_velocity = Eigen::Vector3d::Zero();   ///< m/s, map, of the body origin
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< rad/s, map
+  std::optional<Eigen::Vector3d> linear_acceleration;          ///< m/s^2, map, of the body origin
+  std::optional<Eigen::Vector3d> angular_acceleration;         ///< rad/s^2, map
 };
 
 /// One sample, what sensor_msgs/Imu carries (all in the IMU frame).
 struct ImuSample
 {
-  double time = 0.0;  ///< s
-  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< IMU frame -> map (ENU, REP 145)
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();       ///< rad/s, IMU frame
-  Eigen::Vector3d linear_acceleration = Eigen::Vector3d::Zero();    ///< m/s^2, specific force, IMU frame
-  Eigen::Matrix3d orientation_covariance = Eigen::Matrix3d::Zero();         ///< rad^2 (white part)
-  Eigen::Matrix3d angular_velocity_covariance = Eigen::Matrix3d::Zero();    ///< (rad/s)^2 (white part)
-  Eigen::Matrix3d linear_acceleration_covariance = Eigen::Matrix3d::Zero(); ///< (m/s^2)^2 (white part)
+  double time = 0.0;                                                         ///< s
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();           ///< IMU frame -> map (ENU, REP 145)
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();                ///< rad/s, IMU frame
+  Eigen::Vector3d linear_acceleration = Eigen::Vector3d::Zero();             ///< m/s^2, specific force, IMU frame
+  Eigen::Matrix3d orientation_covariance = Eigen::Matrix3d::Zero();          ///< rad^2 (white part)
+  Eigen::Matrix3d angular_velocity_covariance = Eigen::Matrix3d::Zero();     ///< (rad/s)^2 (white part)
+  Eigen::Matrix3d linear_acceleration_covariance = Eigen::Matrix3d::Zero();  ///< (m/s^2)^2 (white part)
 };
 
 /**

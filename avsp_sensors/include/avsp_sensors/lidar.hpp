@@ -61,21 +61,21 @@ struct LidarConfig
   double max_range = 100.0;            ///< m, rays are cast this far (the range gate), > min_range
   /// Detection threshold: a target of reference_reflectivity at normal incidence in clear air
   /// is detected out to reference_range; received power scales as rho cos(i) T^2 / R^2.
-  double reference_range = 100.0;        ///< m, > 0
-  double reference_reflectivity = 0.8;   ///< (0, 1]
-  double range_noise = 0.02;             ///< m, standard deviation of the range, >= 0
-  double dropout = 0.0;                  ///< probability a pulse returns nothing, [0, 1]
-  double divergence_horizontal = 3.0e-3; ///< rad, full angle along the scan, >= 0
-  double divergence_vertical = 1.5e-3;   ///< rad, full angle across the scan, >= 0
-  double aperture_radius = 0.005;        ///< m, r of docs/MODELS.md 4, >= 0
-  double target_scale = 0.1;             ///< m, x of docs/MODELS.md 4 (scale of the scene's detail), > 0
-  std::size_t sub_rays = 0;              ///< 0: N from docs/MODELS.md 4's formula; else exactly this many
+  double reference_range = 100.0;         ///< m, > 0
+  double reference_reflectivity = 0.8;    ///< (0, 1]
+  double range_noise = 0.02;              ///< m, standard deviation of the range, >= 0
+  double dropout = 0.0;                   ///< probability a pulse returns nothing, [0, 1]
+  double divergence_horizontal = 3.0e-3;  ///< rad, full angle along the scan, >= 0
+  double divergence_vertical = 1.5e-3;    ///< rad, full angle across the scan, >= 0
+  double aperture_radius = 0.005;         ///< m, r of docs/MODELS.md 4, >= 0
+  double target_scale = 0.1;              ///< m, x of docs/MODELS.md 4 (scale of the scene's detail), > 0
+  std::size_t sub_rays = 0;               ///< 0: N from docs/MODELS.md 4's formula; else exactly this many
   ReturnMode return_mode = ReturnMode::kStrongest;
-  double echo_separation = 1.0;          ///< m, sub-ray hits closer in range merge into one echo, >= 0
-  double wavelength = 905e-9;            ///< m, for the fog law
-  double clutter_max_range = 10.0;       ///< m, falling particles farther than this are too faint, >= 0
-  double clutter_efficiency = 1.0;       ///< share of particle interceptions that echo, [0, 1]
-  float clutter_reflectivity = 0.1f;     ///< apparent reflectivity of a particle echo, [0, 1]
+  double echo_separation = 1.0;       ///< m, sub-ray hits closer in range merge into one echo, >= 0
+  double wavelength = 905e-9;         ///< m, for the fog law
+  double clutter_max_range = 10.0;    ///< m, falling particles farther than this are too faint, >= 0
+  double clutter_efficiency = 1.0;    ///< share of particle interceptions that echo, [0, 1]
+  float clutter_reflectivity = 0.1f;  ///< apparent reflectivity of a particle echo, [0, 1]
 };
 
 /// Names lidarPreset() knows: "VLP-16", "HDL-32E", "HDL-64E", "OS1-64".
@@ -119,9 +119,9 @@ struct LidarScanRequest
 {
   SensorMotion motion;
   Weather weather;
-  std::uint64_t sweep = 0;      ///< sweep number: with the seed, fixes every random draw
-  bool registered = true;       ///< true: points in the map (each at its firing pose); false: sensor frame at firing time
-  unsigned threads = 1;         ///< 0 = all cores; any count gives the same points
+  std::uint64_t sweep = 0;  ///< sweep number: with the seed, fixes every random draw
+  bool registered = true;   ///< true: points in the map (each at its firing pose); false: sensor frame at firing time
+  unsigned threads = 1;     ///< 0 = all cores; any count gives the same points
   std::uint32_t ignore_body = PrimitiveBvh::kNoId;  ///< the vehicle carrying the sensor
 };
 
@@ -131,15 +131,15 @@ struct LidarScan
   /// Column by column, channels in firing order; pulses without a return omitted. A PCL cloud
   /// (point_types.hpp): PCL's algorithms read it and pcl::toROSMsg publishes it as it is.
   LidarCloud points;
-  std::size_t pulses = 0;          ///< channels x columns
-  std::size_t rays = 0;            ///< sub-rays cast
-  std::size_t dropped = 0;         ///< pulses lost to `dropout`
-  std::size_t clutter = 0;         ///< points that are false returns from precipitation
+  std::size_t pulses = 0;   ///< channels x columns
+  std::size_t rays = 0;     ///< sub-rays cast
+  std::size_t dropped = 0;  ///< pulses lost to `dropout`
+  std::size_t clutter = 0;  ///< points that are false returns from precipitation
   /// Per point of `points`: true for a falling particle's echo (one of the `clutter` points). A
   /// map of the solid world leaves these out (OccupancyMap::insert), as a real pipeline's
   /// weather filter would; the cloud keeps them.
   std::vector<bool> particle_echo;
-  double duration = 0.0;           ///< s, one revolution
+  double duration = 0.0;  ///< s, one revolution
   bool registered = true;
 };
 

@@ -114,7 +114,7 @@ struct LidarCluster
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< m, mean of the points
   Eigen::Vector3d min = Eigen::Vector3d::Zero();       ///< m, lowest x, y, z of the points
   Eigen::Vector3d max = Eigen::Vector3d::Zero();       ///< m, highest x, y, z
-  double range = 0.0;  ///< m, horizontal distance from the sensor (the `origin` given) to the centroid
+  double range = 0.0;        ///< m, horizontal distance from the sensor (the `origin` given) to the centroid
   std::vector<int> indices;  ///< the points' indices in the input cloud, ascending
 
   std::size_t size() const { return indices.size(); }

@@ -53,12 +53,12 @@ EarthField earthFieldFromEnu(const Eigen::Vector3d& enu);
  */
 struct MagnetometerConfig
 {
-  double rate = 15.0;            ///< Hz, > 0
-  EarthField field;              ///< the site's field when `model` is not set
+  double rate = 15.0;  ///< Hz, > 0
+  EarthField field;    ///< the site's field when `model` is not set
   /// The geomagnetic model on the run's date over the map: when set, the sensor reads the model's
   /// field at its position (`field` is not used).
   std::optional<MapMagneticField> model;
-  double noise = 0.2e-6;         ///< T, white noise per axis (1 sigma), >= 0
+  double noise = 0.2e-6;                             ///< T, white noise per axis (1 sigma), >= 0
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< T, constant hard-iron offset, sensor frame, finite
   /// Pose of the sensor in the body frame (sensor frame -> body frame).
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
@@ -70,9 +70,9 @@ void validateMagnetometerConfig(const MagnetometerConfig& config);
 /// One sample, what sensor_msgs/MagneticField carries.
 struct MagSample
 {
-  double time = 0.0;                                        ///< s
-  Eigen::Vector3d field = Eigen::Vector3d::Zero();          ///< T, sensor frame
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();     ///< T^2, diag(noise^2)
+  double time = 0.0;                                     ///< s
+  Eigen::Vector3d field = Eigen::Vector3d::Zero();       ///< T, sensor frame
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< T^2, diag(noise^2)
 };
 
 /**

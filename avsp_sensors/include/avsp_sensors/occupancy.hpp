@@ -34,15 +34,15 @@ struct SensorMotion;
  */
 struct OccupancyConfig
 {
-  double resolution = 0.2;          ///< m, voxel edge, > 0
+  double resolution = 0.2;  ///< m, voxel edge, > 0
   /// m, rays are inserted this far: a return beyond it marks only the free space up to it; > 0
   /// (+inf: no limit).
   double max_range = 30.0;
-  double prob_hit = 0.7;            ///< P(occupied | hit), (0.5, 1)
-  double prob_miss = 0.4;           ///< P(occupied | ray passed), (0, 0.5)
-  double clamping_min = 0.1192;     ///< lower probability clamp, (0, 1)
-  double clamping_max = 0.971;      ///< upper probability clamp, (clamping_min, 1)
-  double occupancy_threshold = 0.5; ///< a voxel is occupied above this probability, (0, 1)
+  double prob_hit = 0.7;             ///< P(occupied | hit), (0.5, 1)
+  double prob_miss = 0.4;            ///< P(occupied | ray passed), (0, 0.5)
+  double clamping_min = 0.1192;      ///< lower probability clamp, (0, 1)
+  double clamping_max = 0.971;       ///< upper probability clamp, (clamping_min, 1)
+  double occupancy_threshold = 0.5;  ///< a voxel is occupied above this probability, (0, 1)
   /// Merge returns in the same voxel before casting, each ray then ending at its voxel's centre
   /// (OctoMap's computeDiscreteUpdate): the same occupied voxels, free voxels traced to the
   /// centres instead of the exact returns, half the cost of a lidar sweep whose near-range
@@ -98,8 +98,8 @@ struct OccupancyGrid2D
   static constexpr std::int8_t kFree = 0;
   static constexpr std::int8_t kOccupied = 100;
 
-  std::size_t width = 0, height = 0;  ///< cells along x and y
-  double resolution = 0.0;            ///< m per cell
+  std::size_t width = 0, height = 0;      ///< cells along x and y
+  double resolution = 0.0;                ///< m per cell
   double origin_x = 0.0, origin_y = 0.0;  ///< m, map position of cell (0, 0)'s corner
   std::vector<std::int8_t> data;
 

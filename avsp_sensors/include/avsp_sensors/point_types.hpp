@@ -36,7 +36,7 @@ struct LidarPoint
   std::uint16_t ring = 0;  ///< channel rank by elevation, 0 = lowest
   /// Bytes 18-19, not a field: zero, so that the copied message bytes are deterministic.
   std::uint16_t padding = 0;
-  float time = 0.0f;       ///< s after the sweep start
+  float time = 0.0f;  ///< s after the sweep start
 };
 static_assert(sizeof(LidarPoint) == 24, "LidarPoint must keep the 24-byte PointCloud2 layout");
 
@@ -49,10 +49,10 @@ using LidarCloud = pcl::PointCloud<LidarPoint>;
  */
 struct RadarPoint
 {
-  float x = 0.0f;           ///< m, radar frame
-  float y = 0.0f;           ///< m
-  float z = 0.0f;           ///< m
-  float range_rate = 0.0f;  ///< m/s, + receding
+  float x = 0.0f;             ///< m, radar frame
+  float y = 0.0f;             ///< m
+  float z = 0.0f;             ///< m
+  float range_rate = 0.0f;    ///< m/s, + receding
   std::int32_t cluster = -1;  ///< DBSCAN cluster index, -1 noise
 };
 static_assert(sizeof(RadarPoint) == 20, "RadarPoint must keep the 20-byte PointCloud2 layout");

@@ -36,16 +36,16 @@ struct Primitive
   Eigen::Vector3d half_extents = Eigen::Vector3d::Ones();  ///< m, a, b, c > 0
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();        ///< m, map
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< own frame -> map (orthonormal)
-  std::uint32_t id = 0;       ///< the object's or body's id, reported with hits
-  float reflectivity = 0.5f;  ///< diffuse reflectivity at the lidar's wavelength, [0, 1]
+  std::uint32_t id = 0;                                    ///< the object's or body's id, reported with hits
+  float reflectivity = 0.5f;                               ///< diffuse reflectivity at the lidar's wavelength, [0, 1]
 };
 
 /// A ray hit on a primitive.
 struct PrimitiveHit
 {
-  double t = 0.0;          ///< m along the ray
-  Eigen::Vector3d normal;  ///< unit outward normal at the hit, map
-  std::uint32_t index = 0; ///< index of the primitive in the set it was found in
+  double t = 0.0;           ///< m along the ray
+  Eigen::Vector3d normal;   ///< unit outward normal at the hit, map
+  std::uint32_t index = 0;  ///< index of the primitive in the set it was found in
 };
 
 /**
@@ -134,7 +134,7 @@ private:
 
   std::vector<Primitive> primitives_;
   std::vector<Eigen::Vector3d> lo_, hi_;  ///< primitiveBounds() of each primitive
-  std::vector<std::uint32_t> order_;  ///< primitive indices grouped by leaf
+  std::vector<std::uint32_t> order_;      ///< primitive indices grouped by leaf
   std::vector<Node> nodes_;
 };
 

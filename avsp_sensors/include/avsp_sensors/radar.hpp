@@ -27,16 +27,16 @@ struct RadarConfig
 {
   double horizontal_fov = 30.0 * 3.14159265358979323846 / 180.0;  ///< rad, (0, 2 pi)
   double vertical_fov = 4.4 * 3.14159265358979323846 / 180.0;     ///< rad, [0, pi)
-  std::size_t azimuth_rays = 61;    ///< rays across the HFOV (0.5 deg apart by default), >= 1
-  std::size_t elevation_rays = 9;   ///< rays across the VFOV (0.55 deg apart), >= 1
-  double min_range = 0.5;           ///< m, >= 0
-  double max_range = 150.0;         ///< m, > min_range
-  double range_noise = 0.0;         ///< m, standard deviation, >= 0
-  double range_rate_noise = 0.0;    ///< m/s, standard deviation, >= 0
+  std::size_t azimuth_rays = 61;   ///< rays across the HFOV (0.5 deg apart by default), >= 1
+  std::size_t elevation_rays = 9;  ///< rays across the VFOV (0.55 deg apart), >= 1
+  double min_range = 0.5;          ///< m, >= 0
+  double max_range = 150.0;        ///< m, > min_range
+  double range_noise = 0.0;        ///< m, standard deviation, >= 0
+  double range_rate_noise = 0.0;   ///< m/s, standard deviation, >= 0
   /// Ground hits become detections only when true: a radar's CFAR processing normally
   /// suppresses the ground's spread clutter, and left in, the ground forms clusters of its own.
   bool terrain_returns = false;
-  double cluster_eps = 1.0;         ///< m, DBSCAN eps
+  double cluster_eps = 1.0;            ///< m, DBSCAN eps
   std::size_t cluster_min_points = 3;  ///< DBSCAN min_points
 };
 
@@ -52,7 +52,7 @@ struct RadarDetection
   double elevation = 0.0;    ///< rad, + above the x-y plane
   double range_rate = 0.0;   ///< m/s, + moving away
   HitKind kind = HitKind::kNone;
-  std::uint32_t id = 0;      ///< object or body id
+  std::uint32_t id = 0;  ///< object or body id
 };
 
 /// One cluster of detections (avsp_msgs/RadarTarget).
@@ -64,17 +64,17 @@ struct RadarTarget
   double elevation = 0.0;    ///< rad, of the centroid, + up
   double range_rate = 0.0;   ///< m/s, mean of the detections' range rates, + receding
   std::uint32_t point_count = 0;
-  Eigen::Vector3d extent;    ///< m, size of the detections' axis-aligned box in the radar frame
+  Eigen::Vector3d extent;  ///< m, size of the detections' axis-aligned box in the radar frame
 };
 
 /// What to scan: where the radar is and how it moves.
 struct RadarScanRequest
 {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();    ///< radar frame -> map
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();        ///< m/s, map, of the radar's origin
-  std::uint64_t scan = 0;                                    ///< scan number (random streams)
-  unsigned threads = 1;                                      ///< 0 = all cores
-  std::uint32_t ignore_body = PrimitiveBvh::kNoId;           ///< the vehicle carrying the radar
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  ///< radar frame -> map
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();      ///< m/s, map, of the radar's origin
+  std::uint64_t scan = 0;                                  ///< scan number (random streams)
+  unsigned threads = 1;                                    ///< 0 = all cores
+  std::uint32_t ignore_body = PrimitiveBvh::kNoId;         ///< the vehicle carrying the radar
 };
 
 /// One scan.

@@ -36,10 +36,10 @@ enum class HitKind : std::uint8_t
 /// A ray to cast. direction must be a unit vector; ranges are metres along it.
 struct Ray
 {
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();       ///< m, map
-  Eigen::Vector3d direction = Eigen::Vector3d::UnitX();   ///< unit, map
-  double max_range = 100.0;                               ///< m, finite, >= 0
-  std::uint32_t ignore_body = PrimitiveBvh::kNoId;        ///< body id not to hit (the sensor's own vehicle)
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< m, map
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitX();  ///< unit, map
+  double max_range = 100.0;                              ///< m, finite, >= 0
+  std::uint32_t ignore_body = PrimitiveBvh::kNoId;       ///< body id not to hit (the sensor's own vehicle)
 };
 
 /// The first thing a ray met.
@@ -50,8 +50,8 @@ struct RayHit
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();       ///< unit outward surface normal, map
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();      ///< m/s, map velocity of the surface point hit
   HitKind kind = HitKind::kNone;
-  std::uint32_t id = 0;       ///< object or body id (kObject, kBody)
-  float reflectivity = 0.f;   ///< diffuse reflectivity of the surface hit, [0, 1]
+  std::uint32_t id = 0;      ///< object or body id (kObject, kBody)
+  float reflectivity = 0.f;  ///< diffuse reflectivity of the surface hit, [0, 1]
 
   bool hit() const { return kind != HitKind::kNone; }
 };

@@ -130,9 +130,9 @@ struct UltrasonicSetup
 struct OccupancySetup
 {
   OccupancyConfig config;
-  std::size_t slices = 4;      ///< time slices per sweep (insert(scan, motion, slices)), >= 1
-  double publish_rate = 1.0;   ///< Hz, occupied cells and 2-D grid, > 0
-  double grid_size = 60.0;     ///< m, side of the square 2-D grid centred on the vehicle, > 0
+  std::size_t slices = 4;     ///< time slices per sweep (insert(scan, motion, slices)), >= 1
+  double publish_rate = 1.0;  ///< Hz, occupied cells and 2-D grid, > 0
+  double grid_size = 60.0;    ///< m, side of the square 2-D grid centred on the vehicle, > 0
   /// Thresholds and cell size of the 2-D grid (its window is set around the vehicle).
   GridProjection projection;
 };
@@ -143,11 +143,11 @@ struct SuiteConfig
   std::optional<LidarSetup> lidar;
   std::optional<RadarSetup> radar;
   std::optional<GpsSetup> gps;
-  std::optional<ImuConfig> imu;            ///< mount inside (ImuConfig::mount)
+  std::optional<ImuConfig> imu;                    ///< mount inside (ImuConfig::mount)
   std::optional<MagnetometerConfig> magnetometer;  ///< mount inside
   std::vector<UltrasonicSetup> ultrasonics;
   std::optional<OccupancySetup> occupancy;  ///< requires a lidar
-  std::uint64_t seed = 0;                  ///< every sensor's seed derives from it
+  std::uint64_t seed = 0;                   ///< every sensor's seed derives from it
 };
 
 /**

@@ -29,13 +29,13 @@ class Scene;
  */
 struct UltrasonicConfig
 {
-  double rate = 10.0;                  ///< Hz, > 0
+  double rate = 10.0;                         ///< Hz, > 0
   double field_of_view = 0.2617993877991494;  ///< rad, full cone angle (15 deg), (0, pi)
-  double min_range = 0.02;             ///< m, >= 0
-  double max_range = 4.0;              ///< m, > min_range
-  double noise = 0.01;                 ///< m, range noise (1 sigma), >= 0
-  std::size_t rings = 2;               ///< rings of rays around the axis (the last on the cone's edge), >= 1
-  std::size_t rays_per_ring = 8;       ///< rays on each ring, >= 3
+  double min_range = 0.02;                    ///< m, >= 0
+  double max_range = 4.0;                     ///< m, > min_range
+  double noise = 0.01;                        ///< m, range noise (1 sigma), >= 0
+  std::size_t rings = 2;                      ///< rings of rays around the axis (the last on the cone's edge), >= 1
+  std::size_t rays_per_ring = 8;              ///< rays on each ring, >= 3
 };
 
 /// @throw std::invalid_argument naming the field ("UltrasonicConfig: max_range must be ...")

@@ -16,9 +16,9 @@ namespace sensors
 struct Weather
 {
   double fog_visibility = std::numeric_limits<double>::infinity();  ///< m, meteorological visibility; +inf = no fog
-  double rain_rate = 0.0;             ///< mm/h
-  double snow_rate = 0.0;             ///< mm/h, snowfall rate
-  bool wet_snow = false;              ///< wet (melting) snow instead of dry: different law
+  double rain_rate = 0.0;                                           ///< mm/h
+  double snow_rate = 0.0;                                           ///< mm/h, snowfall rate
+  bool wet_snow = false;  ///< wet (melting) snow instead of dry: different law
 };
 
 /**

@@ -91,7 +91,8 @@ bool cameraEnvironmentFromMessage(const avsp_msgs::Environment& msg, const Weath
     return true;
   };
   const bool sun_given = !Eigen::Vector3d(msg.sun_direction.x, msg.sun_direction.y, msg.sun_direction.z).isZero(0.0);
-  const bool moon_given = !Eigen::Vector3d(msg.moon_direction.x, msg.moon_direction.y, msg.moon_direction.z).isZero(0.0);
+  const bool moon_given =
+      !Eigen::Vector3d(msg.moon_direction.x, msg.moon_direction.y, msg.moon_direction.z).isZero(0.0);
   if (!direction(msg.sun_direction, "sun_direction", e.sun_direction) ||
       !direction(msg.moon_direction, "moon_direction", e.moon_direction))
     return false;

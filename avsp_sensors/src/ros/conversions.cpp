@@ -226,9 +226,8 @@ visualization_msgs::MarkerArray radarMarkers(const RadarScan& scan, const std_ms
     const double s = std::clamp(t.range_rate / 10.0, -1.0, 1.0);
     char label[64];
     std::snprintf(label, sizeof(label), "%.1f m %+.1f m/s", t.range, t.range_rate);
-    appendLabelledBox(out, header, "radar_targets", id, t.centroid,
-                      t.extent.cwiseMax(0.2), static_cast<float>(0.5 - 0.5 * s),
-                      static_cast<float>(0.5 + 0.5 * s), 0.2f, 0.6f, label);
+    appendLabelledBox(out, header, "radar_targets", id, t.centroid, t.extent.cwiseMax(0.2),
+                      static_cast<float>(0.5 - 0.5 * s), static_cast<float>(0.5 + 0.5 * s), 0.2f, 0.6f, label);
   }
   return out;
 }
@@ -320,7 +319,7 @@ sensor_msgs::Range toRange(const UltrasonicReading& r, const std_msgs::Header& h
 }
 
 visualization_msgs::MarkerArray occupiedCellMarkers(const std::vector<OccupiedCell>& cells,
-                                                     const std_msgs::Header& header, double z_low, double z_high)
+                                                    const std_msgs::Header& header, double z_low, double z_high)
 {
   visualization_msgs::MarkerArray out;
   visualization_msgs::Marker clear;

@@ -111,8 +111,8 @@ public:
       throw StartupError("parameter " + key(k) + " must be an integer (got " + typeName(v) + ")");
     const int value = static_cast<int>(v);
     if (value < 0 || static_cast<std::size_t>(value) < min || static_cast<std::size_t>(value) > max)
-      throw StartupError("parameter " + key(k) + " = " + std::to_string(value) + " must be in [" +
-                         std::to_string(min) + ", " + std::to_string(max) + "]");
+      throw StartupError("parameter " + key(k) + " = " + std::to_string(value) + " must be in [" + std::to_string(min) +
+                         ", " + std::to_string(max) + "]");
     return static_cast<std::size_t>(value);
   }
 
@@ -208,11 +208,33 @@ std::optional<LidarClusterConfig> parseLidarClustering(const Section& lidar)
 
 std::optional<LidarSetup> parseLidar(const Section& s)
 {
-  s.allowOnly({ "enabled", "preset", "frame", "registered", "channels", "rotation_rate", "columns", "clockwise",
-                "start_azimuth", "min_range", "max_range", "reference_range", "reference_reflectivity",
-                "range_noise", "dropout", "divergence_horizontal", "divergence_vertical", "aperture_radius",
-                "target_scale", "sub_rays", "return_mode", "echo_separation", "wavelength", "clutter_max_range",
-                "clutter_efficiency", "clutter_reflectivity", "clustering" });
+  s.allowOnly({ "enabled",
+                "preset",
+                "frame",
+                "registered",
+                "channels",
+                "rotation_rate",
+                "columns",
+                "clockwise",
+                "start_azimuth",
+                "min_range",
+                "max_range",
+                "reference_range",
+                "reference_reflectivity",
+                "range_noise",
+                "dropout",
+                "divergence_horizontal",
+                "divergence_vertical",
+                "aperture_radius",
+                "target_scale",
+                "sub_rays",
+                "return_mode",
+                "echo_separation",
+                "wavelength",
+                "clutter_max_range",
+                "clutter_efficiency",
+                "clutter_reflectivity",
+                "clustering" });
   if (!s.flag("enabled", true))
     return std::nullopt;
   LidarSetup setup;
@@ -249,8 +271,8 @@ std::optional<LidarSetup> parseLidar(const Section& s)
       ch.allowOnly({ "elevation", "azimuth_offset", "time_offset" });
       if (!ch.has("elevation"))
         throw StartupError("parameter " + ch.key("elevation") + " is required (rad)");
-      c.channels.push_back({ ch.number("elevation", 0.0), ch.number("azimuth_offset", 0.0),
-                             ch.number("time_offset", 0.0) });
+      c.channels.push_back(
+          { ch.number("elevation", 0.0), ch.number("azimuth_offset", 0.0), ch.number("time_offset", 0.0) });
     }
   }
   setup.registered = s.flag("registered", true);
@@ -385,7 +407,8 @@ std::optional<MagnetometerConfig> parseMagnetometer(const Section& s, SensorsSpe
     // A fixed field is the user's statement of the site's field: all three elements, no defaults.
     for (const char* k : elements)
       if (!s.has(k))
-        throw StartupError("parameter " + s.key(k) + " is required with model 'fixed' (the site's field: intensity T, "
+        throw StartupError("parameter " + s.key(k) +
+                           " is required with model 'fixed' (the site's field: intensity T, "
                            "inclination_deg and declination_deg deg)");
     c.field.intensity = s.number("intensity", 0.0);
     c.field.inclination_deg = s.number("inclination_deg", 0.0);
@@ -456,10 +479,10 @@ void parseUltrasonics(const Section& parent, const std::string& name, SensorsSpe
       // URDF's rpy: fixed-axis roll about x, then pitch about y, then yaw about z.
       Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
       pose.translation() = xyz;
-      pose.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-                       Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                       Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-                          .toRotationMatrix();
+      pose.linear() =
+          (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+           Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+              .toRotationMatrix();
       mount.pose = pose;
     }
     spec.suite.ultrasonics.push_back(u);
@@ -480,12 +503,33 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
   for (int k = 0; k < list.size(); ++k)
   {
     const Section s(&list[k], path + "[" + std::to_string(k) + "]");
-    s.allowOnly({ "name", "projection", "width", "height", "hfov_deg", "rate", "x", "y", "z", "roll", "pitch", "yaw",
-                  "outputs", "distortion", "stereo_baseline", "max_range", "shadows", "shadow_range",
-                  "min_exposure_lux", "sky_gain", "fog_contrast_threshold", "thermal_min", "thermal_max",
+    s.allowOnly({ "name",
+                  "projection",
+                  "width",
+                  "height",
+                  "hfov_deg",
+                  "rate",
+                  "x",
+                  "y",
+                  "z",
+                  "roll",
+                  "pitch",
+                  "yaw",
+                  "outputs",
+                  "distortion",
+                  "stereo_baseline",
+                  "max_range",
+                  "shadows",
+                  "shadow_range",
+                  "min_exposure_lux",
+                  "sky_gain",
+                  "fog_contrast_threshold",
+                  "thermal_min",
+                  "thermal_max",
                   "precipitation" });
     if (!s.has("name"))
-      throw StartupError("parameter " + s.key("name") + " is required (topics <vehicle>/<name>/..., frame "
+      throw StartupError("parameter " + s.key("name") +
+                         " is required (topics <vehicle>/<name>/..., frame "
                          "<vehicle>/<name>_optical)");
     CameraConfig c;
     c.name = s.link("name", "");
@@ -514,11 +558,13 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
     {
       XmlRpcValue outputs = s.get("outputs");
       if (outputs.getType() != XmlRpcValue::TypeArray || outputs.size() == 0)
-        throw StartupError("parameter " + s.key("outputs") + " must be a non-empty list of rgb, depth, semantic, thermal");
+        throw StartupError("parameter " + s.key("outputs") +
+                           " must be a non-empty list of rgb, depth, semantic, thermal");
       c.rgb = c.depth = c.semantic = c.thermal = false;
       for (int o = 0; o < outputs.size(); ++o)
       {
-        const std::string out = outputs[o].getType() == XmlRpcValue::TypeString ? static_cast<std::string>(outputs[o]) : "";
+        const std::string out =
+            outputs[o].getType() == XmlRpcValue::TypeString ? static_cast<std::string>(outputs[o]) : "";
         if (out == "rgb")
           c.rgb = true;
         else if (out == "depth")
@@ -528,7 +574,8 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
         else if (out == "thermal")
           c.thermal = true;
         else
-          throw StartupError("parameter " + s.key("outputs") + "[" + std::to_string(o) + "] must be one of rgb, depth, "
+          throw StartupError("parameter " + s.key("outputs") + "[" + std::to_string(o) +
+                             "] must be one of rgb, depth, "
                              "semantic, thermal");
       }
     }
@@ -536,7 +583,8 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
     {
       XmlRpcValue d = s.get("distortion");
       if (d.getType() != XmlRpcValue::TypeArray || d.size() != 5)
-        throw StartupError("parameter " + s.key("distortion") + " must be a list of 5 numbers (plumb_bob k1, k2, p1, "
+        throw StartupError("parameter " + s.key("distortion") +
+                           " must be a list of 5 numbers (plumb_bob k1, k2, p1, "
                            "p2, k3)");
       for (int i = 0; i < 5; ++i)
       {
@@ -556,10 +604,10 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
     // URDF's rpy: fixed-axis roll about x, then pitch about y, then yaw about z.
     c.mount = Eigen::Isometry3d::Identity();
     c.mount.translation() = xyz;
-    c.mount.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-                        Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                        Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-                           .toRotationMatrix();
+    c.mount.linear() =
+        (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+            .toRotationMatrix();
     const double baseline = s.number("stereo_baseline", 0.0);
     if (!(baseline >= 0.0 && std::isfinite(baseline)))
       throw StartupError("parameter " + s.key("stereo_baseline") + " must be finite and >= 0 m (0: monocular)");
@@ -590,8 +638,8 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
 std::optional<OccupancySetup> parseOccupancy(const Section& s, bool has_lidar)
 {
   s.allowOnly({ "enabled", "resolution", "max_range", "prob_hit", "prob_miss", "clamping_min", "clamping_max",
-                "occupancy_threshold", "discretize", "voxel_filter", "slices", "publish_rate", "grid_size", "grid_resolution",
-                "obstacle_height", "max_height", "min_height", "free_max_height" });
+                "occupancy_threshold", "discretize", "voxel_filter", "slices", "publish_rate", "grid_size",
+                "grid_resolution", "obstacle_height", "max_height", "min_height", "free_max_height" });
   // Without a lidar there is nothing to build the map from: off unless asked for explicitly.
   if (!s.flag("enabled", has_lidar))
     return std::nullopt;
@@ -662,7 +710,7 @@ SensorsSpec parseSensors(const XmlRpc::XmlRpcValue* vehicle, const std::string& 
                          const XmlRpc::XmlRpcValue* common, const std::string& common_path)
 {
   const Section v(vehicle, vehicle_path), c(common, common_path);
-  const std::vector<std::string> sections{ "lidar", "radar",      "gps",       "imu",
+  const std::vector<std::string> sections{ "lidar",        "radar",      "gps",       "imu",
                                            "magnetometer", "ultrasonic", "occupancy", "cameras" };
   v.allowOnly(sections);
   c.allowOnly(sections);

@@ -195,8 +195,9 @@ public:
       throw StartupError("parameter ~world_frame must not be empty");
     per_vehicle_odom_frames_ = avsp::node::boolParam(pnh_, "per_vehicle_odom_frames", false);
     if (per_vehicle_odom_frames_ && pnh_.hasParam("world_frame"))
-      throw StartupError("parameters ~world_frame and ~per_vehicle_odom_frames exclude each other (the latter puts "
-                         "each vehicle in <v>/odom)");
+      throw StartupError(
+          "parameters ~world_frame and ~per_vehicle_odom_frames exclude each other (the latter puts "
+          "each vehicle in <v>/odom)");
     const int seed = boundedIntParam(pnh_, "seed", 0, 0, 2147483647);
     threads_ = static_cast<unsigned>(boundedIntParam(pnh_, "threads", 0, 0, 256));
     const double timeout = boundedParam(pnh_, "odometry_timeout", 1.0, 0.0, 3600.0);
@@ -246,11 +247,12 @@ public:
       done_pub_ = nh_.advertise<avsp_msgs::StepDone>("/lockstep/done", 10);
       tick_sub_ = nh_.subscribe("/clock", 100, &Impl::onTick, this, ros::TransportHints().tcpNoDelay());
     }
-    ROS_INFO("sensors_node: %zu vehicle(s) and %zu agent(s) on %s (%zu objects), world frame '%s', %u ray-casting "
-             "thread(s)%s",
-             vehicles_.size(), agents_.size(), source_.c_str(), objects_.size(),
-             per_vehicle_odom_frames_ ? "<v>/odom" : world_frame_.c_str(), threads_,
-             threads_ == 0 ? " (0 = all cores)" : "");
+    ROS_INFO(
+        "sensors_node: %zu vehicle(s) and %zu agent(s) on %s (%zu objects), world frame '%s', %u ray-casting "
+        "thread(s)%s",
+        vehicles_.size(), agents_.size(), source_.c_str(), objects_.size(),
+        per_vehicle_odom_frames_ ? "<v>/odom" : world_frame_.c_str(), threads_,
+        threads_ == 0 ? " (0 = all cores)" : "");
   }
 
   /// One line per vehicle on stdout: wall time per sweep, scan, state and map publication.
@@ -260,12 +262,13 @@ public:
     {
       const VehicleIo::Costs& c = v->costs;
       auto per = [](double total, std::size_t n) { return n > 0 ? 1e3 * total / static_cast<double>(n) : 0.0; };
-      std::printf("sensors_node: %s cost (wall ms): lidar %.1f per sweep + OctoMap insertion %.1f + PointCloud2 %.1f "
-                  "(%zu sweeps); radar %.2f per scan (%zu); GPS/IMU/mag/ultrasonic %.3f per state (%zu); occupied "
-                  "cells + 2-D grid %.1f per publication (%zu)\n",
-                  v->name.c_str(), per(c.lidar, c.sweeps), per(c.occupancy, c.sweeps), per(c.cloud, c.sweeps),
-                  c.sweeps, per(c.radar, c.radar_scans), c.radar_scans, per(c.other, c.states), c.states,
-                  per(c.map_products, c.maps), c.maps);
+      std::printf(
+          "sensors_node: %s cost (wall ms): lidar %.1f per sweep + OctoMap insertion %.1f + PointCloud2 %.1f "
+          "(%zu sweeps); radar %.2f per scan (%zu); GPS/IMU/mag/ultrasonic %.3f per state (%zu); occupied "
+          "cells + 2-D grid %.1f per publication (%zu)\n",
+          v->name.c_str(), per(c.lidar, c.sweeps), per(c.occupancy, c.sweeps), per(c.cloud, c.sweeps), c.sweeps,
+          per(c.radar, c.radar_scans), c.radar_scans, per(c.other, c.states), c.states, per(c.map_products, c.maps),
+          c.maps);
       if (c.clusterings > 0)
         std::printf("sensors_node: %s lidar clustering (wall ms): %.2f per sweep (%zu sweeps)\n", v->name.c_str(),
                     per(c.clustering, c.clusterings), c.clusterings);
@@ -312,8 +315,9 @@ private:
     if (!required && !given)
       return std::nullopt;
     if (!pnh_.hasParam("latitude") || !pnh_.hasParam("longitude"))
-      throw StartupError("parameters ~latitude and ~longitude (deg, the map origin's WGS-84 position) are required "
-                         "with a GPS or a magnetometer on a geomagnetic model (magnetometer/model other than fixed)");
+      throw StartupError(
+          "parameters ~latitude and ~longitude (deg, the map origin's WGS-84 position) are required "
+          "with a GPS or a magnetometer on a geomagnetic model (magnetometer/model other than fixed)");
     const double lat = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
     const double lon = boundedParam(pnh_, "longitude", 0.0, -180.0, 180.0);
     const double alt = boundedParam(pnh_, "altitude", 0.0, -1e4, 1e5);
@@ -327,7 +331,8 @@ private:
     auto v = std::make_unique<VehicleIo>();
     v->name = entry.name;
     v->index = index;
-    const std::string where = "vehicle '" + entry.name + "' (model '" + entry.model + "', ~config_dir " + config_dir + ")";
+    const std::string where =
+        "vehicle '" + entry.name + "' (model '" + entry.model + "', ~config_dir " + config_dir + ")";
     asn::VehicleFrames frames;
     try
     {
@@ -423,7 +428,8 @@ private:
     for (const at::SoilParameters& soil : terrain.palette())
     {
       const double wet = soil.moisture.saturated > 0.0 ? soil.moisture.initial / soil.moisture.saturated : 0.0;
-      palette.push_back({ soil.name, as::soilAlbedo(soil.name), static_cast<float>(std::min(1.0, std::max(0.0, wet))) });
+      palette.push_back(
+          { soil.name, as::soilAlbedo(soil.name), static_cast<float>(std::min(1.0, std::max(0.0, wet))) });
     }
     std::vector<std::uint8_t> soil_map;
     if (palette.size() > 1)
@@ -441,9 +447,9 @@ private:
     {
       const at::AgentType type = agents_[k].spec().type;
       camera_materials_.setBody(static_cast<std::uint32_t>(vehicles_.size() + k),
-                                type == at::AgentType::kDeer       ? as::kClassAnimal :
-                                type == at::AgentType::kPedestrian ? as::kClassPerson :
-                                                                     as::kClassVehicle);
+                                type == at::AgentType::kDeer         ? as::kClassAnimal
+                                : type == at::AgentType::kPedestrian ? as::kClassPerson
+                                                                     : as::kClassVehicle);
     }
   }
 
@@ -535,8 +541,7 @@ private:
         v.cells_pub = vnh.advertise<visualization_msgs::MarkerArray>("octomap/occupied_cells", 2);
         v.grid_pub = vnh.advertise<nav_msgs::OccupancyGrid>("occupancy/grid", 2);
         v.save_service = pnh_.advertiseService<avsp_msgs::SaveMap::Request, avsp_msgs::SaveMap::Response>(
-            v.name + "/save_map",
-            [this, raw](avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res) {
+            v.name + "/save_map", [this, raw](avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res) {
               return onSaveMap(*raw, req, res);
             });
       }
@@ -587,8 +592,8 @@ private:
     if (!asn::stateFromOdometry(msg, v.world_frame, v.base_frame, state, why))
     {
       ++v.odometry_ignored;
-      warnThrottled(2.0, "sensors_node: %s ignored: %s; the vehicle keeps its last good state",
-                        v.odom_topic.c_str(), why.c_str());
+      warnThrottled(2.0, "sensors_node: %s ignored: %s; the vehicle keeps its last good state", v.odom_topic.c_str(),
+                    why.c_str());
       return;
     }
     if (state.time == v.last_stamp)
@@ -600,14 +605,15 @@ private:
         break;
       case as::StateSynchronizer::Push::kNotAfterLast:
         ++v.odometry_ignored;
-        warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s is not after the previous one",
-                          v.odom_topic.c_str(), state.time);
+        warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s is not after the previous one", v.odom_topic.c_str(),
+                      state.time);
         return;
       case as::StateSynchronizer::Push::kLate:
         ++v.odometry_ignored;
-        warnThrottled(2.0, "sensors_node: %s ignored: stamp %.6f s arrived after the sensors moved past it "
-                               "(the vehicle was silent longer than ~odometry_timeout)",
-                          v.odom_topic.c_str(), state.time);
+        warnThrottled(2.0,
+                      "sensors_node: %s ignored: stamp %.6f s arrived after the sensors moved past it "
+                      "(the vehicle was silent longer than ~odometry_timeout)",
+                      v.odom_topic.c_str(), state.time);
         return;
     }
   }
@@ -634,7 +640,7 @@ private:
     {
       ++ignored_["/terrain/ruts"];
       warnThrottled(5.0, "sensors_node: /terrain/ruts from %s in frame '%s', expected 'map'; ignored",
-                        publisher.c_str(), msg->header.frame_id.c_str());
+                    publisher.c_str(), msg->header.frame_id.c_str());
       return;
     }
     schedule(msg->header.stamp, [this, msg, publisher] {
@@ -656,7 +662,7 @@ private:
     {
       ++ignored_["/terrain/toppled"];
       warnThrottled(5.0, "sensors_node: /terrain/toppled ignored: frame '%s', expected 'map'",
-                        msg->header.frame_id.c_str());
+                    msg->header.frame_id.c_str());
       return;
     }
     schedule(msg->header.stamp, [this, msg] {
@@ -680,8 +686,7 @@ private:
     if (!asn::weatherFromEnvironment(*msg, weather, why))
     {
       ++ignored_["/environment"];
-      warnThrottled(5.0, "sensors_node: /environment ignored: %s; the lidar keeps the last good weather",
-                        why.c_str());
+      warnThrottled(5.0, "sensors_node: /environment ignored: %s; the lidar keeps the last good weather", why.c_str());
       return;
     }
     schedule(msg->header.stamp, [this, weather] { weather_ = weather; });
@@ -732,9 +737,8 @@ public:
     for (const auto& v : vehicles_)
     {
       VehicleIo* raw = v.get();
-      diagnostics_->add(v->name, [this, raw](diagnostic_updater::DiagnosticStatusWrapper& s) {
-        vehicleStatus(*raw, s);
-      });
+      diagnostics_->add(v->name,
+                        [this, raw](diagnostic_updater::DiagnosticStatusWrapper& s) { vehicleStatus(*raw, s); });
     }
     diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { inputStatus(s); });
   }
@@ -800,8 +804,9 @@ public:
         for (std::size_t k : sync_->waitedOut())
           ++vehicles_[k]->waited_out;
         for (std::size_t k : sync_->waitedOut())
-          warnThrottled(5.0, "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going "
-                             "on without it",
+          warnThrottled(5.0,
+                        "sensors_node: %s silent while the others ran ~odometry_timeout ahead of %.3f s; going "
+                        "on without it",
                         vehicles_[k]->odom_topic.c_str(), batch->time);
       }
       if (!worldKnownAt(batch->time))
@@ -818,8 +823,8 @@ public:
       for (const auto& v : vehicles_)
         if (const std::optional<as::VehicleState>& s = sync_->latest(v->index))
         {
-          const std::vector<as::Body> b = as::vehicleBodies(v->boxes, *s, static_cast<std::uint32_t>(v->index),
-                                                            body_reflectivity_);
+          const std::vector<as::Body> b =
+              as::vehicleBodies(v->boxes, *s, static_cast<std::uint32_t>(v->index), body_reflectivity_);
           bodies.insert(bodies.end(), b.begin(), b.end());
         }
       appendAgentBodies(bodies, batch->time);
@@ -941,8 +946,8 @@ private:
         v.cells_pub.publish(asn::occupiedCellMarkers(v.sensors->occupancy()->occupiedCells(), with(v.world_frame),
                                                      p.z() - 2.0, p.z() + 4.0));
       if (v.grid_pub.getNumSubscribers() > 0)
-        v.grid_pub.publish(asn::toOccupancyGrid(v.sensors->occupancyGrid(p.x(), p.y(), scene_->terrain()),
-                                                with(v.world_frame)));
+        v.grid_pub.publish(
+            asn::toOccupancyGrid(v.sensors->occupancyGrid(p.x(), p.y(), scene_->terrain()), with(v.world_frame)));
       ++costs.maps;
       costs.map_products += (ros::WallTime::now() - start).toSec();
     }
@@ -1033,7 +1038,7 @@ private:
   ros::NodeHandle& pnh_;
   std::string world_frame_ = "odom";
   bool per_vehicle_odom_frames_ = false;  ///< ~per_vehicle_odom_frames
-  at::OutputFolder output_;  // where <v>/save_map may write
+  at::OutputFolder output_;               // where <v>/save_map may write
   unsigned threads_ = 0;
   float body_reflectivity_ = 0.5f;
   std::string source_;
@@ -1051,7 +1056,7 @@ private:
   std::vector<geometry_msgs::TransformStamped> static_frames_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   ros::Subscriber ruts_sub_, toppled_sub_, environment_sub_;
-  double max_lag_ = 1.0;  ///< s, ~max_lag: sensing further behind /clock is a warning
+  double max_lag_ = 1.0;                          ///< s, ~max_lag: sensing further behind /clock is a warning
   std::map<std::string, std::uint64_t> ignored_;  ///< messages ignored per input topic
   std::uint64_t ignored_reported_ = 0;            ///< their sum at the last diagnostics publication
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
@@ -1060,9 +1065,9 @@ private:
   double environment_reached_ = -std::numeric_limits<double>::infinity();  ///< s, latest /environment stamp
   double ruts_period_ = 0.0;  ///< s, ~ruts_period (0: sense without waiting for the ruts)
   double ruts_reached_ = -std::numeric_limits<double>::infinity();  ///< s, latest end-of-ruts marker
-  std::optional<as::StateSynchronizer::Batch> held_;  ///< popped, waiting for /environment or the ruts
-  double lockstep_interval_ = 0.01;  ///< s, lockstep_clock's ~sync_interval
-  std::optional<double> reported_;   ///< last interval end reported sensed, s
+  std::optional<as::StateSynchronizer::Batch> held_;                ///< popped, waiting for /environment or the ruts
+  double lockstep_interval_ = 0.01;                                 ///< s, lockstep_clock's ~sync_interval
+  std::optional<double> reported_;                                  ///< last interval end reported sensed, s
   ros::Publisher done_pub_;
   ros::Subscriber tick_sub_;
 };

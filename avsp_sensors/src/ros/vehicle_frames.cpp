@@ -20,7 +20,8 @@ Eigen::Isometry3d toIsometry(const urdf::Pose& p)
 {
   Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
   out.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  out.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized().toRotationMatrix();
+  out.linear() =
+      Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized().toRotationMatrix();
   return out;
 }
 }  // namespace

@@ -81,13 +81,13 @@ Eigen::Vector3d agentBoundsCentre(AgentType type);
 /// What an agent does (a scenario's or a node's `~agents` entry).
 struct AgentSpec
 {
-  std::string name;                    ///< unique, a ROS name without '/': frame agents/<name>
+  std::string name;  ///< unique, a ROS name without '/': frame agents/<name>
   AgentType type = AgentType::kDeer;
-  std::vector<Eigen::Vector2d> path;   ///< m, map (x, y): the points the path passes through
-  double speed = 0.0;                  ///< m/s along the path, >= 0; 0 = standing at path[0]
-  double start_time = 0.0;             ///< s (sim time) when it sets off from path[0], >= 0
-  bool loop = false;                   ///< the path closes (last point back to the first) and repeats
-  double yaw = 0.0;                    ///< rad: heading of an agent with a single path point
+  std::vector<Eigen::Vector2d> path;  ///< m, map (x, y): the points the path passes through
+  double speed = 0.0;                 ///< m/s along the path, >= 0; 0 = standing at path[0]
+  double start_time = 0.0;            ///< s (sim time) when it sets off from path[0], >= 0
+  bool loop = false;                  ///< the path closes (last point back to the first) and repeats
+  double yaw = 0.0;                   ///< rad: heading of an agent with a single path point
 };
 
 /**

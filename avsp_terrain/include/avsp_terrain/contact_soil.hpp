@@ -24,10 +24,10 @@ constexpr double kMaxPointStiffness = 1e10;
 /// A point's pressure at a penetration and how it changes with it.
 struct PointLoad
 {
-  double sigma = 0.0;     ///< Pa
-  double slope = 0.0;     ///< Pa/m, d sigma / d penetration going deeper (loading)
-  double unload = 0.0;    ///< Pa/m, d sigma / d penetration coming back up (unloading: elastic)
-  bool virgin = false;    ///< the point yields (first loading): its permanent sinkage grows
+  double sigma = 0.0;   ///< Pa
+  double slope = 0.0;   ///< Pa/m, d sigma / d penetration going deeper (loading)
+  double unload = 0.0;  ///< Pa/m, d sigma / d penetration coming back up (unloading: elastic)
+  bool virgin = false;  ///< the point yields (first loading): its permanent sinkage grows
 };
 
 /**

@@ -106,19 +106,19 @@ struct ContactForces
   /// N: Mohr-Coulomb limit of the loaded soil, sum of (c + sigma tan phi) A: the most its shear
   /// can give in any direction at any slip (T7 at full shear displacement).
   double shear_strength = 0.0;
-  double shear_slope = 0.0;         ///< N per unit slip: d |shear force| / d |shear slip| at this slip (T11)
-  double shear_cap_slope = 0.0;     ///< N/m: d |shear force| / d shear_cap (the soil displaced to the cap)
+  double shear_slope = 0.0;      ///< N per unit slip: d |shear force| / d |shear slip| at this slip (T11)
+  double shear_cap_slope = 0.0;  ///< N/m: d |shear force| / d shear_cap (the soil displaced to the cap)
   /// N/m: d |shear force| / d j at j = 0 with all the soil under the gear displaced alike, the
   /// strength over Janosi's K: the slope its elastic part unloads on (a gear that stops sliding
   /// springs back by force / this, of the order of K, not by its whole slip).
   double shear_elastic_slope = 0.0;
-  double contact_length = 0.0;      ///< m, loaded length along travel (a track: the whole track's)
-  double normal_stiffness = 0.0;    ///< N/m, d normal_force / d sinkage pressing deeper (loading)
-  double unload_stiffness = 0.0;    ///< N/m, the same coming back up (the soil's elastic part)
+  double contact_length = 0.0;    ///< m, loaded length along travel (a track: the whole track's)
+  double normal_stiffness = 0.0;  ///< N/m, d normal_force / d sinkage pressing deeper (loading)
+  double unload_stiffness = 0.0;  ///< N/m, the same coming back up (the soil's elastic part)
   /// Share (0-1) of the footprint on rigid surfaces (near a wheel's bottom, or the whole plate):
   /// the soil there carries nothing, a tyre or track pad pressed on it does (the vehicle's model).
   double rigid_share = 0.0;
-  int rigid_soil = -1;              ///< palette index of that surface, -1 when none
+  int rigid_soil = -1;                          ///< palette index of that surface, -1 when none
   std::vector<std::uint32_t> toppled_objects;   ///< object ids this step pushed over
   std::vector<std::uint32_t> standing_objects;  ///< object ids under the footprint still standing
 };
@@ -319,22 +319,22 @@ private:
   struct LoadedPoint
   {
     std::uint32_t i, j;
-    std::uint8_t soil;   ///< palette index
-    bool deforms;        ///< the point itself is under the running gear (its state changes)
-    bool virgin;         ///< ... on first loading (it yields: its permanent sinkage grows)
-    double weight;       ///< share of the point's cell under the footprint, (0, 2.25)
+    std::uint8_t soil;      ///< palette index
+    bool deforms;           ///< the point itself is under the running gear (its state changes)
+    bool virgin;            ///< ... on first loading (it yields: its permanent sinkage grows)
+    double weight;          ///< share of the point's cell under the footprint, (0, 2.25)
     double along0, along1;  ///< m, its loaded stretch along the direction of travel (footprint frame)
-    double x0, x1;       ///< m, its strip behind the leading edge (shear displacement, T11)
-    double penetration;  ///< m, below the current unloaded surface, at the point
-    double sigma;        ///< Pa, mean over its cell (a wheel's strip: the unpressed part counting 0)
-    double pressed;      ///< of its cell along the travel, the part the gear presses (where cohesion acts)
-    double sigma_point;  ///< Pa, at the point (what its state records)
-    double slope;        ///< Pa/m, d sigma / d penetration, loading
-    double unload;       ///< Pa/m, unloading
-    double elastic;      ///< m, the part of the sinkage that springs back
-    double depth;        ///< m, Bekker soils: sinkage below the undeformed surface (plastic + penetration)
-    double rim_slope;    ///< wheel on Bekker soil: horizontal / vertical rim pressure, + opposes travel
-    double flow_volume;  ///< m^3 that flowed away this step (T4), for transport (T5)
+    double x0, x1;          ///< m, its strip behind the leading edge (shear displacement, T11)
+    double penetration;     ///< m, below the current unloaded surface, at the point
+    double sigma;           ///< Pa, mean over its cell (a wheel's strip: the unpressed part counting 0)
+    double pressed;         ///< of its cell along the travel, the part the gear presses (where cohesion acts)
+    double sigma_point;     ///< Pa, at the point (what its state records)
+    double slope;           ///< Pa/m, d sigma / d penetration, loading
+    double unload;          ///< Pa/m, unloading
+    double elastic;         ///< m, the part of the sinkage that springs back
+    double depth;           ///< m, Bekker soils: sinkage below the undeformed surface (plastic + penetration)
+    double rim_slope;       ///< wheel on Bekker soil: horizontal / vertical rim pressure, + opposes travel
+    double flow_volume;     ///< m^3 that flowed away this step (T4), for transport (T5)
     double shear_fraction;  ///< of flow_volume, the slip-driven part (T4's b2 term)
   };
 
@@ -387,9 +387,9 @@ private:
   std::vector<double> arrivals_;     ///< scratch: soil arriving per point of the contact's window, m
   std::vector<WindowPoint> window_;  ///< scratch: the points round a wheel's footprint (fillWindow)
   std::vector<std::uint8_t> under_;  ///< scratch of spreadFlow(): 1 where a point of the window is loaded
-  std::vector<long> landing_;        ///< scratch of spreadFlow(): where soil dragged from a window point lands, -1 unknown
-  std::vector<long> landing_path_;   ///< scratch of landingOf()
-  int drag_di_ = 0, drag_dj_ = 0;  ///< the grid step along which this contact's slip drags soil
+  std::vector<long> landing_;  ///< scratch of spreadFlow(): where soil dragged from a window point lands, -1 unknown
+  std::vector<long> landing_path_;  ///< scratch of landingOf()
+  int drag_di_ = 0, drag_dj_ = 0;   ///< the grid step along which this contact's slip drags soil
   /// m, length of the grid step (di, dj) at [(dj + 1) * 3 + di + 1] (forcesAndDeform's drag direction)
   std::array<double, 9> step_length_{};
   std::size_t window_i0_ = 0, window_j0_ = 0, window_columns_ = 0, window_rows_ = 0;
@@ -398,8 +398,8 @@ private:
   double window_top_ = 0.0;
   // Change tracking: per tile, its state at the start of the interval once it changed in it.
   bool tracking_ = false;
-  std::vector<std::unique_ptr<Tile>> before_;  ///< same indexing as tiles_, null = unchanged
-  std::vector<std::size_t> changed_tiles_;     ///< tiles with a before_ copy, in first-change order
+  std::vector<std::unique_ptr<Tile>> before_;       ///< same indexing as tiles_, null = unchanged
+  std::vector<std::size_t> changed_tiles_;          ///< tiles with a before_ copy, in first-change order
   std::vector<std::unique_ptr<Tile>> spare_tiles_;  ///< before_ buffers of past intervals, for reuse
 };
 

@@ -36,11 +36,11 @@ public:
  */
 struct HeightRaster
 {
-  double origin_x = 0;       ///< map x of grid point (0, 0) (the south-west point), m
-  double origin_y = 0;       ///< map y of grid point (0, 0), m
-  double cell_size = 0;      ///< spacing of the grid points along x and y, m, > 0
-  std::size_t columns = 0;   ///< grid points along x
-  std::size_t rows = 0;      ///< grid points along y
+  double origin_x = 0;         ///< map x of grid point (0, 0) (the south-west point), m
+  double origin_y = 0;         ///< map y of grid point (0, 0), m
+  double cell_size = 0;        ///< spacing of the grid points along x and y, m, > 0
+  std::size_t columns = 0;     ///< grid points along x
+  std::size_t rows = 0;        ///< grid points along y
   std::vector<float> heights;  ///< m, row-major, index j * columns + i; NaN = no data
 
   /// Number of no-data (NaN) heights.
@@ -68,12 +68,12 @@ struct Png16Georef
  */
 struct ClassRaster
 {
-  double origin_x = 0;                ///< map x of grid point (0, 0) (the south-west point), m
-  double origin_y = 0;                ///< map y of grid point (0, 0), m
-  double cell_size = 0;               ///< spacing of the grid points along x and y, m, > 0
-  std::size_t columns = 0;            ///< grid points along x
-  std::size_t rows = 0;               ///< grid points along y
-  std::vector<std::uint8_t> values;   ///< row-major, index j * columns + i
+  double origin_x = 0;               ///< map x of grid point (0, 0) (the south-west point), m
+  double origin_y = 0;               ///< map y of grid point (0, 0), m
+  double cell_size = 0;              ///< spacing of the grid points along x and y, m, > 0
+  std::size_t columns = 0;           ///< grid points along x
+  std::size_t rows = 0;              ///< grid points along y
+  std::vector<std::uint8_t> values;  ///< row-major, index j * columns + i
 };
 
 /// Default budget of grid points of a raster read from a file (a node's ~max_cells): 250 M

@@ -26,11 +26,11 @@ public:
 /// Heights of a rectangle of grid points (index row * width + col, rows along map y).
 struct HeightPatch
 {
-  double origin_x = 0.0;    ///< m, map x of the patch's point (0, 0)
-  double origin_y = 0.0;    ///< m, map y of the patch's point (0, 0)
-  double resolution = 0.0;  ///< m, spacing of the points (square cells)
-  std::size_t width = 0;    ///< points along map x
-  std::size_t height = 0;   ///< points along map y
+  double origin_x = 0.0;       ///< m, map x of the patch's point (0, 0)
+  double origin_y = 0.0;       ///< m, map y of the patch's point (0, 0)
+  double resolution = 0.0;     ///< m, spacing of the points (square cells)
+  std::size_t width = 0;       ///< points along map x
+  std::size_t height = 0;      ///< points along map y
   std::vector<float> heights;  ///< m, map z
 };
 

@@ -52,17 +52,17 @@ struct MoistureRow
   double cohesion = 0.0;        ///< Pa
   double friction_angle = 0.0;  ///< rad
   double n = 0.0;
-  double k_c = 0.0;             ///< N/m^(n+1)
-  double k_phi = 0.0;           ///< N/m^(n+2)
+  double k_c = 0.0;    ///< N/m^(n+1)
+  double k_phi = 0.0;  ///< N/m^(n+2)
 };
 
 /// How a soil's moisture evolves and what it changes (docs/MODELS.md section 3).
 struct MoistureSpec
 {
-  double initial = 0.0;          ///< moisture at which `strength`/`bekker` were given
-  double dry = 0.0;              ///< moisture the soil dries towards without rain
-  double saturated = 0.0;        ///< moisture it cannot exceed (> 0)
-  double wetting_per_mm = 0.0;   ///< moisture added per mm of rain, times (1 - w / saturated)
+  double initial = 0.0;               ///< moisture at which `strength`/`bekker` were given
+  double dry = 0.0;                   ///< moisture the soil dries towards without rain
+  double saturated = 0.0;             ///< moisture it cannot exceed (> 0)
+  double wetting_per_mm = 0.0;        ///< moisture added per mm of rain, times (1 - w / saturated)
   double drying_time_constant = 0.0;  ///< s, e-folding time of drying towards `dry`
   std::vector<MoistureRow> table;     ///< other moistures; empty: strength independent of moisture
 };
@@ -71,24 +71,24 @@ struct MoistureSpec
 struct SoilParameters
 {
   std::string name;
-  std::string source;           ///< where the published values come from
+  std::string source;  ///< where the published values come from
   SinkageModel model = SinkageModel::kSimple;
   // Simple model (T2-T6, T12).
-  double h0 = 0.0;              ///< m, depth to the hard layer
-  double rho0 = 0.0;            ///< kg/m^3, initial bulk density
-  CompressionCurve compression; ///< rho(sigma)
-  double elastic_e = 0.0;       ///< 1/Pa (T3)
-  double b1 = 0.0;              ///< m/Pa, bearing flow factor (T4)
-  double b2 = 0.0;              ///< 1/Pa, shearing flow factor (T4)
+  double h0 = 0.0;                  ///< m, depth to the hard layer
+  double rho0 = 0.0;                ///< kg/m^3, initial bulk density
+  CompressionCurve compression;     ///< rho(sigma)
+  double elastic_e = 0.0;           ///< 1/Pa (T3)
+  double b1 = 0.0;                  ///< m/Pa, bearing flow factor (T4)
+  double b2 = 0.0;                  ///< 1/Pa, shearing flow factor (T4)
   double rolling_resistance = 0.0;  ///< f (T12); rigid surfaces: a tyre's rolling resistance coefficient
   // Strength (T7).
   double cohesion = 0.0;        ///< c, Pa
   double friction_angle = 0.0;  ///< phi, rad
   double shear_modulus = 0.0;   ///< K, m (Janosi-Hanamoto)
   // Bekker-Wong (T13).
-  double n = 0.0;               ///< sinkage exponent
-  double k_c = 0.0;             ///< N/m^(n+1)
-  double k_phi = 0.0;           ///< N/m^(n+2)
+  double n = 0.0;      ///< sinkage exponent
+  double k_c = 0.0;    ///< N/m^(n+1)
+  double k_phi = 0.0;  ///< N/m^(n+2)
   /// N/m^3: Bekker soils' unloading and reloading stiffness: below the largest sinkage reached a
   /// point springs back and is reloaded at p = k_unload z_r (z_r below its rebounded surface), as
   /// the elastic modulus K of Project Chrono's SCM terrain; first loading follows k z^n.

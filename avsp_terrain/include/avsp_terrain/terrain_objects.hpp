@@ -18,11 +18,11 @@ enum class ObjectType : std::uint8_t
 {
   kTree,
   kShrub,
-  kGrass,     ///< a patch: adds rolling resistance, never blocks
+  kGrass,  ///< a patch: adds rolling resistance, never blocks
   kRock,
   kPole,
-  kFence,     ///< one fence segment
-  kBarrier,   ///< concrete barrier
+  kFence,    ///< one fence segment
+  kBarrier,  ///< concrete barrier
   kBuilding
 };
 
@@ -45,7 +45,7 @@ struct TerrainObject
   double strength = std::numeric_limits<double>::infinity();
   double rolling_resistance = 0.0;  ///< f added to wheels inside a grass patch
   bool toppled = false;
-  double fall_direction = 0.0;      ///< rad, map direction it fell towards (valid when toppled)
+  double fall_direction = 0.0;  ///< rad, map direction it fell towards (valid when toppled)
 };
 
 /**

@@ -64,22 +64,22 @@ double finiteParam(const ros::NodeHandle& pnh, const std::string& key, double fa
 std::array<float, 3> soilColour(const std::string& soil)
 {
   if (soil == "asphalt")
-    return {0.25f, 0.25f, 0.27f};
+    return { 0.25f, 0.25f, 0.27f };
   if (soil == "gravel")
-    return {0.58f, 0.55f, 0.50f};
+    return { 0.58f, 0.55f, 0.50f };
   if (soil == "dry_sand")
-    return {0.86f, 0.78f, 0.55f};
+    return { 0.86f, 0.78f, 0.55f };
   if (soil == "sandy_loam")
-    return {0.60f, 0.48f, 0.33f};
+    return { 0.60f, 0.48f, 0.33f };
   if (soil == "clay")
-    return {0.66f, 0.42f, 0.28f};
+    return { 0.66f, 0.42f, 0.28f };
   if (soil == "mud")
-    return {0.36f, 0.28f, 0.20f};
+    return { 0.36f, 0.28f, 0.20f };
   if (soil == "snow")
-    return {0.95f, 0.95f, 0.97f};
+    return { 0.95f, 0.95f, 0.97f };
   if (soil == "grass_over_loam")
-    return {0.36f, 0.55f, 0.25f};
-  return {0.8f, 0.2f, 0.8f};
+    return { 0.36f, 0.55f, 0.25f };
+  return { 0.8f, 0.2f, 0.8f };
 }
 
 std::array<float, 4> objectColour(at::ObjectType type)
@@ -87,23 +87,23 @@ std::array<float, 4> objectColour(at::ObjectType type)
   switch (type)
   {
     case at::ObjectType::kTree:
-      return {0.13f, 0.40f, 0.13f, 1.f};
+      return { 0.13f, 0.40f, 0.13f, 1.f };
     case at::ObjectType::kShrub:
-      return {0.25f, 0.50f, 0.18f, 1.f};
+      return { 0.25f, 0.50f, 0.18f, 1.f };
     case at::ObjectType::kGrass:
-      return {0.45f, 0.70f, 0.30f, 0.6f};
+      return { 0.45f, 0.70f, 0.30f, 0.6f };
     case at::ObjectType::kRock:
-      return {0.50f, 0.50f, 0.48f, 1.f};
+      return { 0.50f, 0.50f, 0.48f, 1.f };
     case at::ObjectType::kPole:
-      return {0.45f, 0.35f, 0.25f, 1.f};
+      return { 0.45f, 0.35f, 0.25f, 1.f };
     case at::ObjectType::kFence:
-      return {0.70f, 0.72f, 0.75f, 0.5f};
+      return { 0.70f, 0.72f, 0.75f, 0.5f };
     case at::ObjectType::kBarrier:
-      return {0.80f, 0.80f, 0.78f, 1.f};
+      return { 0.80f, 0.80f, 0.78f, 1.f };
     case at::ObjectType::kBuilding:
-      return {0.60f, 0.45f, 0.40f, 1.f};
+      return { 0.60f, 0.45f, 0.40f, 1.f };
   }
-  return {1.f, 0.f, 1.f, 1.f};
+  return { 1.f, 0.f, 1.f, 1.f };
 }
 
 }  // namespace
@@ -111,8 +111,7 @@ std::array<float, 4> objectColour(at::ObjectType type)
 class TerrainNode::Impl
 {
 public:
-  Impl(ros::NodeHandle& nh, ros::NodeHandle& pnh)
-    : nh_(nh), pnh_(pnh), soils_(at::SoilLibrary::load(soilsFile(pnh)))
+  Impl(ros::NodeHandle& nh, ros::NodeHandle& pnh) : nh_(nh), pnh_(pnh), soils_(at::SoilLibrary::load(soilsFile(pnh)))
   {
     frame_id_ = avsp::node::stringParam(pnh_, "frame_id", "map");
     if (frame_id_.empty())
@@ -125,7 +124,8 @@ public:
     const std::size_t step = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(mesh_resolution / dx)));
     const std::size_t chunk_cells =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(chunk_size / (step * dx)))) * step;
-    mesher_ = std::make_unique<at::TerrainMesher>(terrain_->base().columns(), terrain_->base().rows(), step, chunk_cells);
+    mesher_ =
+        std::make_unique<at::TerrainMesher>(terrain_->base().columns(), terrain_->base().rows(), step, chunk_cells);
     rut_lift_ = static_cast<float>(finiteParam(pnh_, "rut_marker_lift", 0.02, -1.0));
     mesh_refresh_period_ = finiteParam(pnh_, "mesh_refresh_period", 10.0, 0.0);
 
@@ -134,12 +134,12 @@ public:
 
     // Mesh and rut markers go out as changed chunks; a new subscriber first gets every chunk
     // (a latched topic would only replay the last change).
-    mesh_pub_ = nh_.advertise<visualization_msgs::MarkerArray>(
-        "/terrain/mesh", 10, [this](const ros::SingleSubscriberPublisher& sub) {
-          visualization_msgs::MarkerArray all;
-          all.markers = mesh_markers_;
-          sub.publish(all);
-        });
+    mesh_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("/terrain/mesh", 10,
+                                                               [this](const ros::SingleSubscriberPublisher& sub) {
+                                                                 visualization_msgs::MarkerArray all;
+                                                                 all.markers = mesh_markers_;
+                                                                 sub.publish(all);
+                                                               });
     rut_markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>(
         "/terrain/rut_markers", 10, [this](const ros::SingleSubscriberPublisher& sub) {
           if (rut_markers_.empty())
@@ -314,9 +314,9 @@ private:
       m.action = visualization_msgs::Marker::ADD;
       const bool round = o.type == at::ObjectType::kTree || o.type == at::ObjectType::kShrub ||
                          o.type == at::ObjectType::kPole || o.type == at::ObjectType::kRock;
-      m.type = o.type == at::ObjectType::kRock ? visualization_msgs::Marker::SPHERE :
-               round                           ? visualization_msgs::Marker::CYLINDER :
-                                                 visualization_msgs::Marker::CUBE;
+      m.type = o.type == at::ObjectType::kRock ? visualization_msgs::Marker::SPHERE
+               : round                         ? visualization_msgs::Marker::CYLINDER
+                                               : visualization_msgs::Marker::CUBE;
       const auto colour = objectColour(o.type);
       m.color.r = colour[0];
       m.color.g = colour[1];
@@ -357,7 +357,7 @@ private:
     if (points.empty())
       return;
     // One latched patch over all loaded ruts, so a consumer that starts later still gets them.
-    at::PointRange all{terrain_->base().columns(), terrain_->base().rows(), 0, 0};
+    at::PointRange all{ terrain_->base().columns(), terrain_->base().rows(), 0, 0 };
     for (const auto& [i, j] : points)
     {
       all.i0 = std::min(all.i0, i);
@@ -426,8 +426,9 @@ private:
     if (!std::isfinite(rain) || rain < 0.0 || !std::isfinite(snow) || snow < 0.0)
     {
       ++environment_.ignored;
-      ROS_WARN_THROTTLE(5.0, "terrain_node: /environment rain_rate_mm_h %g / snow_rate_mm_h %g must be finite and "
-                             ">= 0; message ignored, soil kept as it was",
+      ROS_WARN_THROTTLE(5.0,
+                        "terrain_node: /environment rain_rate_mm_h %g / snow_rate_mm_h %g must be finite and "
+                        ">= 0; message ignored, soil kept as it was",
                         rain, snow);
       return;
     }
@@ -524,7 +525,7 @@ private:
   at::PointColour colour_, rut_colour_;
   float rut_lift_ = 0.02f;
   std::set<std::size_t> dirty_chunks_;
-  std::vector<visualization_msgs::Marker> mesh_markers_;          ///< by chunk id, as last published
+  std::vector<visualization_msgs::Marker> mesh_markers_;           ///< by chunk id, as last published
   std::map<std::size_t, visualization_msgs::Marker> rut_markers_;  ///< chunks that show ruts
 
   at::SoilParameters weather_soil_;

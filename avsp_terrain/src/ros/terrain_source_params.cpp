@@ -46,8 +46,8 @@ TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
   s.course.length_x = boundedParam(pnh, "course_length_x", 600.0, 1.0, 1e5);
   s.course.length_y = boundedParam(pnh, "course_length_y", 400.0, 1.0, 1e5);
   // XML-RPC integers are 32-bit: the budget is given in grid points up to 2^31 - 1.
-  s.max_cells = static_cast<std::uint64_t>(
-      boundedIntParam(pnh, "max_cells", static_cast<int>(kDefaultMaxPoints), 1, 2147483647));
+  s.max_cells =
+      static_cast<std::uint64_t>(boundedIntParam(pnh, "max_cells", static_cast<int>(kDefaultMaxPoints), 1, 2147483647));
   return s;
 }
 

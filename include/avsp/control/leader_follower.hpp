@@ -43,11 +43,11 @@ namespace control
 /// What a leader's V2V broadcast tells the follower (avsp_msgs/VehicleState).
 struct LeaderState
 {
-  double stamp = 0.0;    ///< s, time of the state
-  double x = 0.0;        ///< m, map
-  double y = 0.0;        ///< m, map
-  double heading = 0.0;  ///< rad, map, 0 = east, counter-clockwise +
-  double speed = 0.0;    ///< m/s, along the leader's body x axis
+  double stamp = 0.0;         ///< s, time of the state
+  double x = 0.0;             ///< m, map
+  double y = 0.0;             ///< m, map
+  double heading = 0.0;       ///< rad, map, 0 = east, counter-clockwise +
+  double speed = 0.0;         ///< m/s, along the leader's body x axis
   double acceleration = 0.0;  ///< m/s^2, along the leader's body x axis
 };
 
@@ -56,7 +56,7 @@ struct LeaderFollowerOptions
 {
   /// Pursuit and speed loop; the speed ramp defaults to 2 m/s^2 (not 1): a follower must be
   /// able to out-accelerate a leader ramping at 1 m/s^2 to close the gap it lost meanwhile.
-  TrackingOptions tracking = TrackingOptions{LookaheadOptions{}, PidGains{}, 0.05, 1.0, 2.0};
+  TrackingOptions tracking = TrackingOptions{ LookaheadOptions{}, PidGains{}, 0.05, 1.0, 2.0 };
   double gap = 15.0;                ///< m, desired distance along the path behind the leader, >= 0
   double offset = 0.0;              ///< m, normal offset from the leader's path, + left
   double gap_gain = 0.3;            ///< 1/s, speed per metre of gap error, > 0
@@ -75,12 +75,12 @@ void validate(const LeaderFollowerOptions& options);
 struct FollowerStatus
 {
   TrackingStatus tracking;
-  bool leader_known = false;    ///< a broadcast has arrived
-  bool leader_fresh = false;    ///< the latest is at most leader_timeout old
-  bool too_close = false;       ///< within safety_distance (braking)
-  double gap = 0.0;             ///< m, measured gap along the path (0 when the leader is unknown)
-  double desired_gap = 0.0;     ///< m
-  double leader_speed = 0.0;    ///< m/s, latest broadcast
+  bool leader_known = false;  ///< a broadcast has arrived
+  bool leader_fresh = false;  ///< the latest is at most leader_timeout old
+  bool too_close = false;     ///< within safety_distance (braking)
+  double gap = 0.0;           ///< m, measured gap along the path (0 when the leader is unknown)
+  double desired_gap = 0.0;   ///< m
+  double leader_speed = 0.0;  ///< m/s, latest broadcast
 };
 
 /// Leader–follower pursuit on V2V breadcrumbs (see file comment).
@@ -123,17 +123,17 @@ private:
   bool leader_known_ = false;
   LeaderState leader_;
   bool has_own_ = false;
-  Vec2 own_;               ///< the follower's latest base_link position (seeds the breadcrumbs)
+  Vec2 own_;  ///< the follower's latest base_link position (seeds the breadcrumbs)
   bool has_base_s_ = false;
-  double base_s_ = 0.0;    ///< the follower base_link's arc length at the last step
+  double base_s_ = 0.0;  ///< the follower base_link's arc length at the last step
 };
 
 /// Formation shapes (docs/MODELS.md section 5).
 enum class FormationType
 {
-  kColumn,   ///< single file: each vehicle behind the one before it
-  kLine,     ///< abreast of the leader, alternately right and left of it
-  kDiamond   ///< leader ahead, two abreast behind it, one behind them (more: a column behind)
+  kColumn,  ///< single file: each vehicle behind the one before it
+  kLine,    ///< abreast of the leader, alternately right and left of it
+  kDiamond  ///< leader ahead, two abreast behind it, one behind them (more: a column behind)
 };
 
 /// @throw std::invalid_argument for anything but "column", "line", "diamond"

@@ -36,10 +36,10 @@ struct Pose2
 /// The nearest place on a path to a point.
 struct PathProjection
 {
-  double s = 0.0;          ///< m, arc length of the nearest point (may exceed endS() on the end ray)
-  Vec2 point;              ///< m, the nearest point
-  double lateral = 0.0;    ///< m, signed distance of the query point from the path, + = left of it
-  double distance = 0.0;   ///< m, |lateral| (or the distance to the first point before the start)
+  double s = 0.0;         ///< m, arc length of the nearest point (may exceed endS() on the end ray)
+  Vec2 point;             ///< m, the nearest point
+  double lateral = 0.0;   ///< m, signed distance of the query point from the path, + = left of it
+  double distance = 0.0;  ///< m, |lateral| (or the distance to the first point before the start)
 };
 
 /// A polyline with arc length, an end ray, and normal offsets.
@@ -74,9 +74,9 @@ public:
   bool empty() const { return points_.empty(); }
   const std::vector<Vec2>& points() const { return points_; }
   double startS() const { return s_.empty() ? 0.0 : s_.front(); }  ///< m, arc length of the first point
-  double endS() const { return s_.empty() ? 0.0 : s_.back(); }      ///< m, arc length of the last point
-  double length() const { return endS() - startS(); }                ///< m
-  double sAt(std::size_t index) const { return s_.at(index); }      ///< m, arc length of point `index`
+  double endS() const { return s_.empty() ? 0.0 : s_.back(); }     ///< m, arc length of the last point
+  double length() const { return endS() - startS(); }              ///< m
+  double sAt(std::size_t index) const { return s_.at(index); }     ///< m, arc length of point `index`
 
   /// Direction of the end ray (rad): the set end heading, else the last segment's (0 with < 2 points).
   double endHeading() const;

@@ -41,9 +41,9 @@ struct TrackingOptions
 {
   LookaheadOptions lookahead;
   PidGains pid;
-  double coast_band = 0.05;   ///< effort below 0 where the vehicle coasts before braking, [0, 1)
-  double brake_gain = 1.0;    ///< brake per unit of (negative) effort beyond the coast band, > 0
-  double max_accel = 1.0;     ///< m/s^2, > 0: fastest rise of the commanded speed
+  double coast_band = 0.05;  ///< effort below 0 where the vehicle coasts before braking, [0, 1)
+  double brake_gain = 1.0;   ///< brake per unit of (negative) effort beyond the coast band, > 0
+  double max_accel = 1.0;    ///< m/s^2, > 0: fastest rise of the commanded speed
 };
 
 /// @throw std::invalid_argument naming the field (lookahead_*, speed_*, coast_band, brake_gain, max_accel)
@@ -56,14 +56,14 @@ void validate(const SteeringGeometry& geometry);
 struct TrackingStatus
 {
   Command command;
-  double s = 0.0;              ///< m, arc length of the reference point's projection
-  double cross_track = 0.0;    ///< m, lateral distance of the reference point from its slot (path + offset), + left
-  double lookahead = 0.0;      ///< m, L_d used
-  Vec2 target;                 ///< m, map: the pure pursuit target
-  double curvature = 0.0;      ///< 1/m, commanded
-  double target_speed = 0.0;   ///< m/s, what the caller asked for
+  double s = 0.0;                ///< m, arc length of the reference point's projection
+  double cross_track = 0.0;      ///< m, lateral distance of the reference point from its slot (path + offset), + left
+  double lookahead = 0.0;        ///< m, L_d used
+  Vec2 target;                   ///< m, map: the pure pursuit target
+  double curvature = 0.0;        ///< 1/m, commanded
+  double target_speed = 0.0;     ///< m/s, what the caller asked for
   double commanded_speed = 0.0;  ///< m/s, the ramped target the PID tracked
-  double speed = 0.0;          ///< m/s, measured
+  double speed = 0.0;            ///< m/s, measured
 };
 
 /// Pure pursuit + speed PID on a path (see file comment).
@@ -90,8 +90,7 @@ public:
    * @param offset m, normal offset from the path, + left
    * @param t s, time of the measurement (the PID's dt is the difference to the previous step)
    */
-  TrackingStatus track(const Path& path, const Pose2& base, double speed, double target_speed, double offset,
-                       double t);
+  TrackingStatus track(const Path& path, const Pose2& base, double speed, double target_speed, double offset, double t);
 
   /// A braked command (throttle 0, brake 1, steering 0); resets the PID's integral.
   Command stop();
@@ -100,7 +99,7 @@ public:
   void resetProgress() { has_s_ = false; }
 
   bool hasProgress() const { return has_s_; }
-  double progress() const { return s_; }      ///< m, the reference point's last arc length
+  double progress() const { return s_; }  ///< m, the reference point's last arc length
   const SteeringGeometry& geometry() const { return geometry_; }
   const TrackingOptions& options() const { return options_; }
 

@@ -25,9 +25,9 @@ namespace control
 /// Speed-dependent lookahead distance L_d = clamp(min + gain |v|, min, max).
 struct LookaheadOptions
 {
-  double min = 4.0;    ///< m, > 0: lookahead at standstill
-  double gain = 0.8;   ///< s, >= 0: added lookahead per m/s of speed
-  double max = 20.0;   ///< m, >= min
+  double min = 4.0;   ///< m, > 0: lookahead at standstill
+  double gain = 0.8;  ///< s, >= 0: added lookahead per m/s of speed
+  double max = 20.0;  ///< m, >= min
 };
 
 /**
@@ -50,8 +50,8 @@ double purePursuitCurvature(const Pose2& pose, const Vec2& target);
 /// Where pure pursuit aims on a path.
 struct PursuitTarget
 {
-  double s = 0.0;        ///< m, arc length of the target on the path
-  Vec2 point;            ///< m, map: the target (offset from the path by the normal offset)
+  double s = 0.0;          ///< m, arc length of the target on the path
+  Vec2 point;              ///< m, map: the target (offset from the path by the normal offset)
   double curvature = 0.0;  ///< 1/m, purePursuitCurvature(pose, point)
 };
 

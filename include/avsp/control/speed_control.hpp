@@ -23,11 +23,11 @@ namespace control
 /// Gains of the speed PID. Effort 1 = full throttle, -1 = full brake (before brake_gain).
 struct PidGains
 {
-  double kp = 0.5;               ///< effort per m/s of speed error, >= 0
-  double ki = 0.1;               ///< effort per m of accumulated speed error (per m/s per s), >= 0
-  double kd = 0.0;               ///< effort per m/s^2 of measured acceleration, >= 0
-  double integral_limit = 0.6;   ///< |I| bound (effort), (0, 1]
-  bool anti_windup = true;       ///< false: plain PID (I integrates without bound; for comparison)
+  double kp = 0.5;              ///< effort per m/s of speed error, >= 0
+  double ki = 0.1;              ///< effort per m of accumulated speed error (per m/s per s), >= 0
+  double kd = 0.0;              ///< effort per m/s^2 of measured acceleration, >= 0
+  double integral_limit = 0.6;  ///< |I| bound (effort), (0, 1]
+  bool anti_windup = true;      ///< false: plain PID (I integrates without bound; for comparison)
 };
 
 /// @throw std::invalid_argument naming the field (speed_kp, speed_ki, speed_kd,
@@ -56,7 +56,7 @@ public:
   /// Forgets the integral and the previous measurement.
   void reset();
 
-  double integralTerm() const { return integral_; }   ///< effort units
+  double integralTerm() const { return integral_; }  ///< effort units
   const PidGains& gains() const { return gains_; }
 
 private:
@@ -102,8 +102,7 @@ public:
    * @param approach_speed m/s, > 0: lowest target before the goal
    * @throw std::invalid_argument naming the argument when inconsistent
    */
-  SpeedProfile(std::vector<double> waypoint_s, std::vector<double> segment_speeds, double decel,
-               double approach_speed);
+  SpeedProfile(std::vector<double> waypoint_s, std::vector<double> segment_speeds, double decel, double approach_speed);
 
   /// m/s, the prescribed speed of the segment holding arc length s (first before it, last beyond).
   double segmentSpeed(double s) const;

@@ -31,19 +31,19 @@ namespace control
 /// How the steering command turns the vehicle.
 enum class SteeringKind
 {
-  kAckermann,     ///< steered wheels: s = fraction of the full-lock centre angle
-  kDifferential   ///< skid-steer or tracked: s = side speed difference (skidSteerSides)
+  kAckermann,    ///< steered wheels: s = fraction of the full-lock centre angle
+  kDifferential  ///< skid-steer or tracked: s = side speed difference (skidSteerSides)
 };
 
 /// The figures a controller needs to turn a curvature into a command.
 struct SteeringGeometry
 {
   SteeringKind kind = SteeringKind::kAckermann;
-  double wheelbase = 0.0;               ///< m, Ackermann L (> 0)
-  double max_angle = 0.0;               ///< rad, Ackermann centre angle at full lock, (0, pi/2)
-  double reference_x = 0.0;             ///< m, x in base_link of the point whose path the arc is
-  double effective_track_width = 0.0;   ///< m, differential B (> 0)
-  double max_speed = 0.0;               ///< m/s, drivetrain max speed (> 0)
+  double wheelbase = 0.0;              ///< m, Ackermann L (> 0)
+  double max_angle = 0.0;              ///< rad, Ackermann centre angle at full lock, (0, pi/2)
+  double reference_x = 0.0;            ///< m, x in base_link of the point whose path the arc is
+  double effective_track_width = 0.0;  ///< m, differential B (> 0)
+  double max_speed = 0.0;              ///< m/s, drivetrain max speed (> 0)
 };
 
 /**

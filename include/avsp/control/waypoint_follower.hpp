@@ -40,10 +40,10 @@ struct Waypoint
 struct WaypointFollowerOptions
 {
   TrackingOptions tracking;
-  double decel = 1.0;            ///< m/s^2, > 0: braking ahead of slower segments and the goal
-  double approach_speed = 0.7;   ///< m/s, > 0: lowest target speed before the goal
-  double goal_tolerance = 1.5;   ///< m, > 0: base_link this close to the last waypoint = arrived
-  double lead_time = 1.0;        ///< s, >= 0: the profile is read lead_time x speed ahead (speed-loop lag)
+  double decel = 1.0;           ///< m/s^2, > 0: braking ahead of slower segments and the goal
+  double approach_speed = 0.7;  ///< m/s, > 0: lowest target speed before the goal
+  double goal_tolerance = 1.5;  ///< m, > 0: base_link this close to the last waypoint = arrived
+  double lead_time = 1.0;       ///< s, >= 0: the profile is read lead_time x speed ahead (speed-loop lag)
 };
 
 /**

@@ -41,8 +41,8 @@ struct Site
 /// Air at the observer, for refraction.
 struct Atmosphere
 {
-  double pressure_hpa = 1010.0;    ///< hPa, station pressure
-  double temperature_k = 283.15;   ///< K
+  double pressure_hpa = 1010.0;   ///< hPa, station pressure
+  double temperature_k = 283.15;  ///< K
 };
 
 /**
@@ -83,8 +83,8 @@ double deltaT(double year);
 /// Nutation (Meeus chapter 22, low precision: 0.5" in longitude, 0.1" in obliquity).
 struct Nutation
 {
-  double longitude = 0.0;   ///< rad, delta psi
-  double obliquity = 0.0;   ///< rad, delta epsilon
+  double longitude = 0.0;       ///< rad, delta psi
+  double obliquity = 0.0;       ///< rad, delta epsilon
   double mean_obliquity = 0.0;  ///< rad, epsilon_0 (Meeus eq. 22.2)
   double true_obliquity() const { return mean_obliquity + obliquity; }
 };

@@ -43,11 +43,11 @@ double ambientIlluminance(double sun_elevation, double moon_elevation, double mo
 /// What the model needs at start-up.
 struct EnvironmentConfig
 {
-  Site site;                       ///< the scenario's geodetic reference
-  double start_utc = 0.0;          ///< Unix s, world time at sim time 0
-  double time_acceleration = 1.0;  ///< world seconds per sim-clock second, > 0
-  double air_temperature = 288.15; ///< K, > 0
-  WeatherTimeline timeline;        ///< weather events over sim time
+  Site site;                        ///< the scenario's geodetic reference
+  double start_utc = 0.0;           ///< Unix s, world time at sim time 0
+  double time_acceleration = 1.0;   ///< world seconds per sim-clock second, > 0
+  double air_temperature = 288.15;  ///< K, > 0
+  WeatherTimeline timeline;         ///< weather events over sim time
 };
 
 /// Everything /environment carries, at one sim time.
@@ -58,7 +58,7 @@ struct EnvironmentState
   SkyState sky;                    ///< Sun and Moon
   double ambient_light = 0.0;      ///< lx
   WeatherState weather;
-  double air_temperature = 0.0;    ///< K
+  double air_temperature = 0.0;  ///< K
 };
 
 class EnvironmentModel

@@ -26,10 +26,10 @@ constexpr double kKoschmieder = 3.912;
 struct WeatherState
 {
   double fog_visibility = std::numeric_limits<double>::infinity();  ///< m; +inf = no fog
-  double rain_rate_mm_h = 0.0;   ///< mm/h
-  double snow_rate_mm_h = 0.0;   ///< mm/h, liquid-water equivalent
-  double hail_rate_mm_h = 0.0;   ///< mm/h, liquid-water equivalent
-  double wind_x = 0.0, wind_y = 0.0, wind_z = 0.0;  ///< m/s, air velocity in map (ENU)
+  double rain_rate_mm_h = 0.0;                                      ///< mm/h
+  double snow_rate_mm_h = 0.0;                                      ///< mm/h, liquid-water equivalent
+  double hail_rate_mm_h = 0.0;                                      ///< mm/h, liquid-water equivalent
+  double wind_x = 0.0, wind_y = 0.0, wind_z = 0.0;                  ///< m/s, air velocity in map (ENU)
 };
 
 /// One timeline entry.
@@ -38,7 +38,7 @@ struct WeatherEvent
   double start = 0.0;  ///< s, sim clock
   double end = 0.0;    ///< s, sim clock, > start
   double ramp = 0.0;   ///< s, linear fade in after start and out before end; 2 ramp <= end - start
-  double fog_visibility = std::numeric_limits<double>::infinity();  ///< m at full strength; +inf = no fog
+  double fog_visibility = std::numeric_limits<double>::infinity();          ///< m at full strength; +inf = no fog
   double rain_rate_mm_h = 0.0, snow_rate_mm_h = 0.0, hail_rate_mm_h = 0.0;  ///< at full strength
   double wind_x = 0.0, wind_y = 0.0, wind_z = 0.0;                          ///< m/s at full strength
 };

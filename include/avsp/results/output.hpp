@@ -26,9 +26,9 @@ namespace results
 class Json
 {
 public:
-  Json() = default;                       ///< null
-  Json(bool b);                           ///< NOLINT: implicit on purpose, like a JSON literal
-  Json(double number);                    ///< NaN and infinities become null (JSON has none)
+  Json() = default;     ///< null
+  Json(bool b);         ///< NOLINT: implicit on purpose, like a JSON literal
+  Json(double number);  ///< NaN and infinities become null (JSON has none)
   Json(int number) : Json(static_cast<double>(number)) {}
   Json(std::uint32_t number) : Json(static_cast<double>(number)) {}
   Json(std::size_t number) : Json(static_cast<double>(number)) {}

@@ -25,8 +25,8 @@ namespace results
 /// Why a run stopped before its duration.
 struct Abort
 {
-  std::string node;    ///< resolved node name, e.g. "/sensors"
-  std::string reason;  ///< e.g. "exited with code 1; its last error: ..."
+  std::string node;       ///< resolved node name, e.g. "/sensors"
+  std::string reason;     ///< e.g. "exited with code 1; its last error: ..."
   double sim_time = 0.0;  ///< s, sim time when the failure was seen
 };
 

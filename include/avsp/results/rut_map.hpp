@@ -22,11 +22,11 @@ namespace results
 /// A regular grid of values (row-major, index row * width + col, rows along map y).
 struct Grid
 {
-  double origin_x = 0.0;    ///< m, map x of the centre of cell (0, 0)
-  double origin_y = 0.0;    ///< m, map y of the centre of cell (0, 0)
-  double resolution = 0.0;  ///< m, cell size (square)
-  std::size_t width = 0;    ///< cells along map x
-  std::size_t height = 0;   ///< cells along map y
+  double origin_x = 0.0;      ///< m, map x of the centre of cell (0, 0)
+  double origin_y = 0.0;      ///< m, map y of the centre of cell (0, 0)
+  double resolution = 0.0;    ///< m, cell size (square)
+  std::size_t width = 0;      ///< cells along map x
+  std::size_t height = 0;     ///< cells along map y
   std::vector<float> values;  ///< NaN = no data
 };
 

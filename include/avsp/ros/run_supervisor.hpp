@@ -33,7 +33,10 @@ public:
   /// The first failure seen, if any.
   std::optional<results::Abort> abort() const { return watch_.abort(); }
   /// Fails the run for a reason of the recorder's own (e.g. an interrupt).
-  void fail(const std::string& node, const std::string& reason, double sim_time) { watch_.fail(node, reason, sim_time); }
+  void fail(const std::string& node, const std::string& reason, double sim_time)
+  {
+    watch_.fail(node, reason, sim_time);
+  }
   const results::RunWatch& watch() const { return watch_; }
 
 private:

@@ -19,7 +19,7 @@ struct Generated
 {
   std::string launch_file;  ///< written file ("-" when printed)
   std::string output_dir;
-  std::string rviz_file;    ///< the run's RViz configuration (written beside the launch file)
+  std::string rviz_file;  ///< the run's RViz configuration (written beside the launch file)
   scenario::Scenario scenario;
   bool end_launch = false;  ///< --end-launch
 };

@@ -21,11 +21,11 @@ struct LaunchOptions
   /// RViz's configuration file (absolute; scenario_launch writes the run's own beside the
   /// launch file, rviz_config.hpp); empty: the package's rviz/avsp.rviz
   std::string rviz_config;
-  std::string output_dir;         ///< run_recorder's results folder (absolute)
-  std::string vehicles_dir;       ///< the folder the scenario's models were checked against
-  double progress_period = 1.0;   ///< run_recorder: wall s between progress lines
-  double clock_rate = 100.0;      ///< dynamics_node's /clock rate (Hz)
-  bool start_gate = true;         ///< hold the physics until every node is up (start_gate node)
+  std::string output_dir;        ///< run_recorder's results folder (absolute)
+  std::string vehicles_dir;      ///< the folder the scenario's models were checked against
+  double progress_period = 1.0;  ///< run_recorder: wall s between progress lines
+  double clock_rate = 100.0;     ///< dynamics_node's /clock rate (Hz)
+  bool start_gate = true;        ///< hold the physics until every node is up (start_gate node)
   /// Whether run_recorder / agents_node are built: a missing one is left out of the launch
   /// file (without the recorder the run has no end). Both exist in a complete build.
   bool have_run_recorder = true, have_agents_node = true;
@@ -50,8 +50,8 @@ struct LaunchCommand
 {
   std::string scenario;  ///< the scenario file
   LaunchOptions options;
-  std::string out;       ///< generated file; "-" = stdout; empty = <output_dir>/<name>.launch
-  std::string config_dir;  ///< folder with vehicles/ and soils.yaml; empty = the package's config
+  std::string out;          ///< generated file; "-" = stdout; empty = <output_dir>/<name>.launch
+  std::string config_dir;   ///< folder with vehicles/ and soils.yaml; empty = the package's config
   bool check_only = false;  ///< validate only, write nothing
   /// --end-launch (scenario_node): when the run ends, end the roslaunch that started this node
   /// with a SIGINT (a clean end, without roslaunch's "REQUIRED process has died" banner)

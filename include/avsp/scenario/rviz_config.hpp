@@ -19,10 +19,10 @@ namespace scenario
 /// sensors_node will configure it (the caller reads that through the node's own parser).
 struct VehicleDisplays
 {
-  std::string name;          ///< the vehicle (its topic namespace)
-  bool lidar = false;        ///< <v>/avt_341/points
-  bool radar = false;        ///< <v>/radar/points, <v>/radar/markers
-  bool occupancy = false;    ///< <v>/octomap/occupied_cells, <v>/occupancy/grid
+  std::string name;        ///< the vehicle (its topic namespace)
+  bool lidar = false;      ///< <v>/avt_341/points
+  bool radar = false;      ///< <v>/radar/points, <v>/radar/markers
+  bool occupancy = false;  ///< <v>/octomap/occupied_cells, <v>/occupancy/grid
   /// Camera names with an RGB output (<v>/<camera>/image_raw); a stereo pair is two cameras,
   /// "<pair>/left" and "<pair>/right".
   std::vector<std::string> rgb_cameras;

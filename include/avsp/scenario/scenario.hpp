@@ -59,19 +59,19 @@ struct TerrainSpec
   Kind kind = Kind::kDefaultCourse;
   // default course
   std::uint64_t course_seed = 1;
-  double course_cell_size = 0.1;  ///< m
+  double course_cell_size = 0.1;                            ///< m
   double course_length_x = 600.0, course_length_y = 400.0;  ///< m
   // file: a saved .avspterrain or a DEM (.asc, .tif/.tiff, .png)
-  std::string file;             ///< absolute (relative paths are resolved against the scenario's folder)
+  std::string file;                 ///< absolute (relative paths are resolved against the scenario's folder)
   std::string soil = "sandy_loam";  ///< DEM soil everywhere
-  bool has_png = false;         ///< a .png DEM's georeference given
+  bool has_png = false;             ///< a .png DEM's georeference given
   double png_cell_size = 0.0, png_z_scale = 0.0, png_origin_x = 0.0, png_origin_y = 0.0, png_z_offset = 0.0;
   // flat
   std::string flat_soil;
-  double flat_size = 100.0, flat_cell_size = 0.1;  ///< m
-  bool transport = true;        ///< T5 soil transport
+  double flat_size = 100.0, flat_cell_size = 0.1;        ///< m
+  bool transport = true;                                 ///< T5 soil transport
   std::uint64_t max_cells = terrain::kDefaultMaxPoints;  ///< grid-point budget of every node holding the terrain
-  std::string soils_file;       ///< absolute; empty = LoadOptions::soils_file
+  std::string soils_file;                                ///< absolute; empty = LoadOptions::soils_file
 
   /// The terrain-source parameters of the component nodes (avsp_terrain README, "Terrain
   /// source parameters") and soils_file, in a fixed order.
@@ -95,11 +95,11 @@ const char* toString(ControllerType type);
 struct ControllerSpec
 {
   ControllerType type = ControllerType::kExternal;
-  std::string path;                ///< waypoints: name of the path in Scenario::paths
-  std::string leader;              ///< leader_follower: vehicle followed
-  double gap = 15.0, offset = 0.0; ///< leader_follower: m, m (+ left)
-  bool from_formation = false;     ///< leader/gap/offset come from the formation
-  YAML::Node params;               ///< further controller_node parameters (a map; may be null)
+  std::string path;                 ///< waypoints: name of the path in Scenario::paths
+  std::string leader;               ///< leader_follower: vehicle followed
+  double gap = 15.0, offset = 0.0;  ///< leader_follower: m, m (+ left)
+  bool from_formation = false;      ///< leader/gap/offset come from the formation
+  YAML::Node params;                ///< further controller_node parameters (a map; may be null)
 };
 
 struct VehicleSpec
@@ -117,10 +117,10 @@ struct VehicleSpec
 struct FormationSpec
 {
   bool present = false;
-  std::string type_name;                 ///< column | line | diamond
+  std::string type_name;  ///< column | line | diamond
   control::FormationType type = control::FormationType::kColumn;
-  double spacing = 15.0, width = 5.0;    ///< m
-  std::vector<std::string> vehicles;     ///< in slot order; the first leads
+  double spacing = 15.0, width = 5.0;  ///< m
+  std::vector<std::string> vehicles;   ///< in slot order; the first leads
 };
 
 struct V2VSpec
@@ -156,25 +156,25 @@ std::vector<PartitionSpec> balancedPartitions(const std::vector<std::string>& na
 
 struct Scenario
 {
-  std::string file;   ///< as given to loadScenario()
-  std::string name;   ///< the file's name without folder and extension
+  std::string file;  ///< as given to loadScenario()
+  std::string name;  ///< the file's name without folder and extension
   TerrainSpec terrain;
   double latitude = 0.0, longitude = 0.0, altitude = 0.0;  ///< deg, deg, m
-  std::string start_utc;            ///< ISO 8601 ending in Z
-  double time_acceleration = 1.0;   ///< world s per sim s
-  YAML::Node weather;               ///< environment_node's ~weather list (validated); may be null
-  YAML::Node sensors;               ///< sensors_node's ~sensors sections for every vehicle; may be null
+  std::string start_utc;                                   ///< ISO 8601 ending in Z
+  double time_acceleration = 1.0;                          ///< world s per sim s
+  YAML::Node weather;  ///< environment_node's ~weather list (validated); may be null
+  YAML::Node sensors;  ///< sensors_node's ~sensors sections for every vehicle; may be null
   std::vector<VehicleSpec> vehicles;
   std::map<std::string, std::vector<Waypoint>> paths;
   FormationSpec formation;
   V2VSpec v2v;
-  YAML::Node agents;                ///< agents_node's ~agents list (validated); may be null
+  YAML::Node agents;  ///< agents_node's ~agents list (validated); may be null
   /// Dynamics partitions (`partitions:` N or an explicit list); empty = one dynamics_node
   /// that is its own clock. Each vehicle is in exactly one.
   std::vector<PartitionSpec> partitions;
   std::vector<MachineSpec> machines;  ///< `machines:` (only those partitions name)
   std::uint64_t seed = 0;
-  double duration = 0.0;            ///< s of sim time
+  double duration = 0.0;  ///< s of sim time
 
   /// Index of the vehicle called `name`, or -1.
   int vehicleIndex(const std::string& name) const;
@@ -198,8 +198,8 @@ std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& 
 
 struct LoadOptions
 {
-  std::string vehicles_dir;   ///< folder of <model>.yaml (required)
-  std::string soils_file;     ///< soil library when the scenario names none (required)
+  std::string vehicles_dir;  ///< folder of <model>.yaml (required)
+  std::string soils_file;    ///< soil library when the scenario names none (required)
   /// Used for the start-pose check; empty = loadTerrainFootprint. Tests give a cheap one.
   TerrainLoader terrain_loader;
   bool check_terrain = true;  ///< false: skip loading the terrain (no start-pose check)

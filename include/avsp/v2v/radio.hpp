@@ -35,13 +35,13 @@ struct Vec3
 /// Radio parameters (the node's private parameters of the same names).
 struct RadioOptions
 {
-  double range = 300.0;            ///< m, maximum antenna-to-antenna distance, > 0
-  double latency = 0.0;            ///< s of sim time from a state's stamp to its delivery, >= 0
-  double loss_probability = 0.0;   ///< [0, 1], independent per (message, receiver)
-  bool line_of_sight = false;      ///< terrain blocks the ray between antennas
-  double antenna_height = 1.5;     ///< m above the broadcast position, >= 0
-  double los_step = 1.0;           ///< m between terrain samples along the ray, > 0
-  std::uint64_t seed = 0;          ///< loss draws
+  double range = 300.0;           ///< m, maximum antenna-to-antenna distance, > 0
+  double latency = 0.0;           ///< s of sim time from a state's stamp to its delivery, >= 0
+  double loss_probability = 0.0;  ///< [0, 1], independent per (message, receiver)
+  bool line_of_sight = false;     ///< terrain blocks the ray between antennas
+  double antenna_height = 1.5;    ///< m above the broadcast position, >= 0
+  double los_step = 1.0;          ///< m between terrain samples along the ray, > 0
+  std::uint64_t seed = 0;         ///< loss draws
 };
 
 /// Terrain height (m) at map (x, y); false where there is no terrain.
@@ -50,29 +50,29 @@ using HeightFunction = std::function<bool(double x, double y, double& height)>;
 /// Why a link is up or down.
 enum class Link
 {
-  Up,               ///< in range, line of sight clear (or not checked)
-  OutOfRange,       ///< farther than `range`
-  Blocked,          ///< in range, the terrain blocks the ray
-  Unknown           ///< one of the two has not broadcast yet
+  Up,          ///< in range, line of sight clear (or not checked)
+  OutOfRange,  ///< farther than `range`
+  Blocked,     ///< in range, the terrain blocks the ray
+  Unknown      ///< one of the two has not broadcast yet
 };
 
 /// One scheduled delivery: the broadcast `message` (the caller's id) to vehicle `receiver` at `due`.
 struct Delivery
 {
-  double due = 0.0;            ///< s, sim time
-  std::size_t receiver = 0;    ///< index into the vehicle list
-  std::uint64_t message = 0;   ///< the id the caller gave transmit()
+  double due = 0.0;           ///< s, sim time
+  std::size_t receiver = 0;   ///< index into the vehicle list
+  std::uint64_t message = 0;  ///< the id the caller gave transmit()
 };
 
 /// Counters since construction (for diagnostics and tests).
 struct RadioStats
 {
-  std::uint64_t broadcasts = 0;     ///< transmit() calls
-  std::uint64_t delivered = 0;      ///< deliveries scheduled
-  std::uint64_t lost = 0;           ///< in range and in sight, dropped by the loss draw
-  std::uint64_t out_of_range = 0;   ///< (message, receiver) pairs beyond range
-  std::uint64_t blocked = 0;        ///< pairs in range blocked by the terrain
-  std::uint64_t unknown = 0;        ///< pairs whose receiver had no position yet
+  std::uint64_t broadcasts = 0;    ///< transmit() calls
+  std::uint64_t delivered = 0;     ///< deliveries scheduled
+  std::uint64_t lost = 0;          ///< in range and in sight, dropped by the loss draw
+  std::uint64_t out_of_range = 0;  ///< (message, receiver) pairs beyond range
+  std::uint64_t blocked = 0;       ///< pairs in range blocked by the terrain
+  std::uint64_t unknown = 0;       ///< pairs whose receiver had no position yet
 };
 
 class Radio

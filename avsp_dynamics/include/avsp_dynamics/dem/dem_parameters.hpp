@@ -44,21 +44,21 @@ struct ParticleClass
 struct DemParameters
 {
   /// Size distribution: three sieve fractions of 10, 12.5 and 15 mm radius.
-  std::vector<ParticleClass> particles = {{0.010, 0.3}, {0.0125, 0.4}, {0.015, 0.3}};
-  double youngs_modulus = 5.0e7;   ///< Pa, particles and meshes (Hertz contact)
-  double poisson_ratio = 0.3;      ///< [0, 0.5)
-  double restitution = 0.3;        ///< coefficient of restitution, (0, 1]
-  double friction = 0.5;           ///< Coulomb coefficient particle-particle, >= 0
-  double rolling_friction = 0.3;   ///< rolling resistance coefficient (LIGGGHTS epsd2), >= 0
-  double wall_friction = 0.6;      ///< Coulomb coefficient particle-mesh (wheel rim, plates), >= 0
-  double bulk_density = 1600.0;    ///< kg/m^3, the bed's bulk density (a soil's rho0)
-  double timestep = 5.0e-5;        ///< s, DEM step
+  std::vector<ParticleClass> particles = { { 0.010, 0.3 }, { 0.0125, 0.4 }, { 0.015, 0.3 } };
+  double youngs_modulus = 5.0e7;      ///< Pa, particles and meshes (Hertz contact)
+  double poisson_ratio = 0.3;         ///< [0, 0.5)
+  double restitution = 0.3;           ///< coefficient of restitution, (0, 1]
+  double friction = 0.5;              ///< Coulomb coefficient particle-particle, >= 0
+  double rolling_friction = 0.3;      ///< rolling resistance coefficient (LIGGGHTS epsd2), >= 0
+  double wall_friction = 0.6;         ///< Coulomb coefficient particle-mesh (wheel rim, plates), >= 0
+  double bulk_density = 1600.0;       ///< kg/m^3, the bed's bulk density (a soil's rho0)
+  double timestep = 5.0e-5;           ///< s, DEM step
   double coupling_interval = 1.0e-3;  ///< s, how often poses go in and forces come out; a whole number of DEM steps
   /// Largest DEM step as a fraction of the Rayleigh time of the smallest particle (the
   /// stability limit of the Hertz contact stiffness; LIGGGHTS' manual advises < 20 %).
   double stability_fraction = 0.2;
-  double memory_budget = 2.0e9;    ///< bytes the particles may take (kBytesPerParticle each)
-  std::uint64_t seed = 1;          ///< particle placement; a run is a function of it
+  double memory_budget = 2.0e9;  ///< bytes the particles may take (kBytesPerParticle each)
+  std::uint64_t seed = 1;        ///< particle placement; a run is a function of it
 };
 
 /// Bytes per particle assumed for the memory budget: LIGGGHTS' per-atom arrays (about 0.4 kB)

@@ -107,8 +107,8 @@ struct DemDomain
 /// What the soil did to one body over the last coupling interval.
 struct BodyLoad
 {
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< N, mean over the interval's DEM steps
-  Eigen::Vector3d torque = Eigen::Vector3d::Zero();  ///< N m about the reference point, mean
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();      ///< N, mean over the interval's DEM steps
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();     ///< N m about the reference point, mean
   Eigen::Vector3d reference = Eigen::Vector3d::Zero();  ///< m, the body's reference point now
 };
 
@@ -213,8 +213,8 @@ private:
  *        `grousers` > 0, that many lugs across the rim, radial plates `grouser_height` tall
  *        (the tread of an off-road tyre or a rover wheel).
  */
-std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vector3d& axle, double radius,
-                                double width, int facets, int grousers = 0, double grouser_height = 0.0);
+std::vector<Triangle> wheelMesh(const Eigen::Vector3d& centre, const Eigen::Vector3d& axle, double radius, double width,
+                                int facets, int grousers = 0, double grouser_height = 0.0);
 
 /// A flat rectangular plate (length along x, width along y) of negligible thickness, its bottom
 /// face at `centre`, normal down: a bevameter's plate.

@@ -22,12 +22,12 @@ namespace dem
 /// Where the patch runs.
 struct PatchSpec
 {
-  double x_start = 0.0;       ///< m, the patch's rear end at the start (map x)
-  double x_end = 0.0;         ///< m, the segment's end: the patch stops there
-  double y_min = 0.0;         ///< m, the patch's side at lower y (it is the template's width wide)
-  double length = 2.0;        ///< m, a whole number of template lengths
-  double front_margin = 0.75; ///< m: the patch moves on when what it follows is nearer its front
-  double clearance = 0.6;     ///< m of domain above the highest ground (room for the wheels)
+  double x_start = 0.0;        ///< m, the patch's rear end at the start (map x)
+  double x_end = 0.0;          ///< m, the segment's end: the patch stops there
+  double y_min = 0.0;          ///< m, the patch's side at lower y (it is the template's width wide)
+  double length = 2.0;         ///< m, a whole number of template lengths
+  double front_margin = 0.75;  ///< m: the patch moves on when what it follows is nearer its front
+  double clearance = 0.6;      ///< m of domain above the highest ground (room for the wheels)
 };
 
 /**

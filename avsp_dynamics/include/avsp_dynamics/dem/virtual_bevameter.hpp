@@ -33,35 +33,35 @@ namespace dem
 /// One plate's pressure-sinkage record.
 struct PlateSinkageCurve
 {
-  double width = 0.0;             ///< m, the plate's smaller side (Bekker's b)
-  double length = 0.0;            ///< m
-  std::vector<double> sinkage;    ///< m below the bed's surface, one per coupling interval
-  std::vector<double> pressure;   ///< Pa
+  double width = 0.0;            ///< m, the plate's smaller side (Bekker's b)
+  double length = 0.0;           ///< m
+  std::vector<double> sinkage;   ///< m below the bed's surface, one per coupling interval
+  std::vector<double> pressure;  ///< Pa
 };
 
 /// One shear test's record.
 struct ShearCurve
 {
-  double normal_stress = 0.0;         ///< Pa, dead weight over the plate's area
-  std::vector<double> displacement;   ///< m, j
-  std::vector<double> shear_stress;   ///< Pa, tau
+  double normal_stress = 0.0;        ///< Pa, dead weight over the plate's area
+  std::vector<double> displacement;  ///< m, j
+  std::vector<double> shear_stress;  ///< Pa, tau
 };
 
 /// Bekker-Wong pressure-sinkage parameters and how well they fit.
 struct BekkerFit
 {
   double n = 0.0;
-  double k_c = 0.0;     ///< N/m^(n+1)
-  double k_phi = 0.0;   ///< N/m^(n+2)
+  double k_c = 0.0;            ///< N/m^(n+1)
+  double k_phi = 0.0;          ///< N/m^(n+2)
   double rms_log_error = 0.0;  ///< root mean square of log(p_fit / p) over the fitted points
 };
 
 /// Mohr-Coulomb strength and Janosi's shear deformation modulus.
 struct ShearFit
 {
-  double cohesion = 0.0;        ///< Pa (c)
-  double friction_angle = 0.0;  ///< rad (phi)
-  double shear_modulus = 0.0;   ///< m (K)
+  double cohesion = 0.0;            ///< Pa (c)
+  double friction_angle = 0.0;      ///< rad (phi)
+  double shear_modulus = 0.0;       ///< m (K)
   std::vector<double> peak_stress;  ///< Pa, tau_max per curve
 };
 
@@ -88,18 +88,18 @@ ShearFit fitShear(const std::vector<ShearCurve>& curves);
 /// walls is stiffened by them).
 struct BevameterSpec
 {
-  std::vector<double> plate_widths = {0.05, 0.08};  ///< m
-  double plate_length = 0.15;    ///< m, along the bed
-  double press_speed = 0.1;      ///< m/s
-  double max_sinkage = 0.03;     ///< m, the press stops there
-  std::vector<double> normal_stresses = {5.0e3, 1.0e4};  ///< Pa, shear tests
-  double shear_speed = 0.1;      ///< m/s
-  double shear_travel = 0.06;    ///< m
-  double shear_plate_length = 0.12;  ///< m
-  double shear_plate_width = 0.10;   ///< m
-  int grousers = 3;              ///< lugs under the shear plate
-  double grouser_height = 0.015; ///< m
-  double fit_min_sinkage = 0.005;  ///< m, plate points below this are left out of the fit
+  std::vector<double> plate_widths = { 0.05, 0.08 };       ///< m
+  double plate_length = 0.15;                              ///< m, along the bed
+  double press_speed = 0.1;                                ///< m/s
+  double max_sinkage = 0.03;                               ///< m, the press stops there
+  std::vector<double> normal_stresses = { 5.0e3, 1.0e4 };  ///< Pa, shear tests
+  double shear_speed = 0.1;                                ///< m/s
+  double shear_travel = 0.06;                              ///< m
+  double shear_plate_length = 0.12;                        ///< m
+  double shear_plate_width = 0.10;                         ///< m
+  int grousers = 3;                                        ///< lugs under the shear plate
+  double grouser_height = 0.015;                           ///< m
+  double fit_min_sinkage = 0.005;                          ///< m, plate points below this are left out of the fit
 };
 
 /// What a virtual bevameter run gives.

@@ -22,11 +22,11 @@ namespace dem
 /// The rig's wheel.
 struct WheelRigSpec
 {
-  double radius = 0.15;  ///< m, > 0
-  double width = 0.1;    ///< m, > 0
-  double load = 150.0;   ///< N, vertical load on the soil at rest (the wheel's body weighs this), > 0
-  int facets = 48;       ///< flat faces round the rim, >= 12
-  int grousers = 0;      ///< lugs across the rim (0: a smooth rim)
+  double radius = 0.15;         ///< m, > 0
+  double width = 0.1;           ///< m, > 0
+  double load = 150.0;          ///< N, vertical load on the soil at rest (the wheel's body weighs this), > 0
+  int facets = 48;              ///< flat faces round the rim, >= 12
+  int grousers = 0;             ///< lugs across the rim (0: a smooth rim)
   double grouser_height = 0.0;  ///< m, their height above the rim, in (0, radius) with grousers
 };
 
@@ -35,10 +35,10 @@ struct WheelRigState
 {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();    ///< m, wheel centre (ODE)
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s, wheel centre (ODE)
-  double spin_rate = 0.0;     ///< rad/s about +y (+ rolls towards +x)
-  BodyLoad soil;              ///< the DEM's mean force and torque over the last interval
-  double sinkage = 0.0;       ///< m, ground under the wheel before it was set down minus the rim's lowest point
-  double slip = 0.0;          ///< 1 - v / (omega r) when the wheel spins forward, else 0
+  double spin_rate = 0.0;                              ///< rad/s about +y (+ rolls towards +x)
+  BodyLoad soil;                                       ///< the DEM's mean force and torque over the last interval
+  double sinkage = 0.0;  ///< m, ground under the wheel before it was set down minus the rim's lowest point
+  double slip = 0.0;     ///< 1 - v / (omega r) when the wheel spins forward, else 0
 };
 
 /**

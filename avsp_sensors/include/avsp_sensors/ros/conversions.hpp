@@ -111,7 +111,7 @@ sensor_msgs::Range toRange(const UltrasonicReading& reading, const std_msgs::Hea
  *        (blue) to `z_high` (red).
  */
 visualization_msgs::MarkerArray occupiedCellMarkers(const std::vector<OccupiedCell>& cells,
-                                                     const std_msgs::Header& header, double z_low, double z_high);
+                                                    const std_msgs::Header& header, double z_low, double z_high);
 
 /// The 2-D grid as nav_msgs/OccupancyGrid (origin at the grid's corner, z 0, no rotation).
 nav_msgs::OccupancyGrid toOccupancyGrid(const OccupancyGrid2D& grid, const std_msgs::Header& header);

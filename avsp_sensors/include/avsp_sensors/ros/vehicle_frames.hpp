@@ -25,9 +25,9 @@ namespace node
 struct VehicleFrames
 {
   std::string urdf_path;
-  std::string root_link;                         ///< the URDF's root (base_link)
+  std::string root_link;                           ///< the URDF's root (base_link)
   std::map<std::string, Eigen::Isometry3d> links;  ///< link -> its pose in the root link, joints at 0
-  std::vector<BodyBox> boxes;                    ///< collision boxes of the chassis links, in the root link
+  std::vector<BodyBox> boxes;                      ///< collision boxes of the chassis links, in the root link
 
   /// Pose of `link` in the root link. @throw std::invalid_argument naming the link and the URDF
   const Eigen::Isometry3d& link(const std::string& name) const;
