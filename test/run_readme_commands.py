@@ -190,6 +190,22 @@ def stop(proc, grace=20):
             proc.wait()
 
 
+def as_user(cmd, repo):
+    """`cmd` in a user's shell as the README sets it up: Debian's python first, the install space's
+    setup.sh (not the build's test environment, whose package path also holds the source tree,
+    which makes `roslaunch avsp X.launch` ambiguous)."""
+    return "export PATH=/usr/bin:$PATH; . '%s/install/setup.sh'; %s" % (repo, cmd)
+
+
+def user_env(env):
+    """The test's environment without the ROS paths of the build it runs in."""
+    clean = {k: v for k, v in env.items()
+             if not k.startswith(("ROS_PACKAGE_PATH", "CMAKE_PREFIX_PATH", "PYTHONPATH", "LD_LIBRARY_PATH",
+                                  "PKG_CONFIG_PATH", "ROSLISP_PACKAGE_DIRECTORIES", "COLCON_PREFIX_PATH",
+                                  "AMENT_PREFIX_PATH", "CATKIN_"))}
+    return clean
+
+
 def run_long(cmd, condition, limit, env, cwd):
     """Starts `cmd` on the block's master, waits for its ready condition, stops it."""
     log = os.path.join(cwd, "command.log")
@@ -228,11 +244,12 @@ def run_one_shot(cmd, files, env, cwd):
     return msgs
 
 
-def bad_list_parameter(env, cwd):
+def bad_list_parameter(env, cwd, repo):
     """A list parameter given as YAML text must be valid YAML: exit 1 naming the key."""
     master = start_master(env)
     try:
-        p = subprocess.run(["rosrun", "avsp", "v2v_radio_node", "_vehicles:=[m113, mrzr"], cwd=cwd, env=env,
+        p = subprocess.run(["bash", "-c", as_user("rosrun avsp v2v_radio_node '_vehicles:=[m113, mrzr'", repo)],
+                           cwd=cwd, env=env,
                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True, timeout=60)
     finally:
         stop(master)
@@ -246,8 +263,13 @@ def main(argv):
         sys.stderr.write(__doc__)
         return 2
     repo, result = os.path.abspath(argv[1]), argv[2]
-    env = dict(os.environ, ROS_IP="127.0.0.1")
+    env = user_env(dict(os.environ, ROS_IP="127.0.0.1"))
     env.pop("ROS_HOSTNAME", None)
+    if not os.path.isfile(os.path.join(repo, "install", "setup.sh")):
+        sys.stderr.write("run_readme_commands: no %s/install/setup.sh: the READMEs' commands run from the install "
+                         "space (colcon build)\n" % repo)
+        write_junit(result, "readme_commands", [("install_space", ["no install/setup.sh (colcon build)"])])
+        return 0
     scratch = tempfile.mkdtemp(prefix="avsp_readme_")
     scenario = os.path.join(scratch, "my.yaml")
     shutil.copy(os.path.join(repo, "config", "scenarios", "reference_traverse_ci.yaml"), scenario)
@@ -274,13 +296,17 @@ def main(argv):
                     if master is None:
                         env["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % free_port()
                         master = start_master(env)
-                    cmd = substituted(raw, scenario)
+                    cmd = as_user(substituted(raw, scenario), repo)
                     cwd = tempfile.mkdtemp(dir=scratch)
                     start = time.time()
                     long_rule = next(((c, lim) for pat, c, lim in LONG_RUNNING if re.search(pat, raw)), None)
                     shot_rule = next((files for pat, files in ONE_SHOT if re.search(pat, raw)), None)
                     if long_rule:
                         msgs = run_long(cmd, long_rule[0], long_rule[1], env, cwd)
+                        # The next command gets a fresh master: a stopped run's nodes may leave
+                        # registrations whose ports other processes then take.
+                        stop(master)
+                        master = None
                     elif shot_rule is not None:
                         msgs = run_one_shot(cmd, shot_rule, env, cwd)
                     else:
@@ -293,7 +319,7 @@ def main(argv):
                 if master is not None:
                     stop(master)
         env["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % free_port()
-        cases.append(("bad_yaml_list_parameter", bad_list_parameter(env, scratch)))
+        cases.append(("bad_yaml_list_parameter", bad_list_parameter(env, scratch, repo)))
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     print("readme_commands: %d commands run, %d the environment, %d not run (reasons above), %d synopses"

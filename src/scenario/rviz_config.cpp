@@ -48,6 +48,20 @@ YAML::Node markers(const std::string& name, const std::string& topic, bool enabl
   return d;
 }
 
+/// A PointCloud2 display: points drawn as `style`, coloured by `colour_transformer`, the latest
+/// cloud only.
+YAML::Node pointCloud(const std::string& name, const std::string& topic, const std::string& style,
+                      const std::string& colour_transformer)
+{
+  YAML::Node d = display("rviz/PointCloud2", name, true);
+  d["Topic"] = topic;
+  d["Style"] = style;
+  d["Color Transformer"] = colour_transformer;
+  d["Decay Time"] = 0;
+  d["Queue Size"] = 10;
+  return d;
+}
+
 /// Displays of one vehicle's topics, in a group named after it.
 YAML::Node vehicleGroup(const VehicleSpec& v, const VehicleDisplays& shown)
 {
@@ -87,26 +101,17 @@ YAML::Node vehicleGroup(const VehicleSpec& v, const VehicleDisplays& shown)
   }
   if (shown.lidar)
   {
-    YAML::Node points = display("rviz/PointCloud2", "Lidar points (avt_341/points)", true);
-    points["Topic"] = ns + "avt_341/points";
-    points["Style"] = "Points";
+    YAML::Node points = pointCloud("Lidar points (avt_341/points)", ns + "avt_341/points", "Points", "Intensity");
     points["Size (Pixels)"] = 2;
-    points["Color Transformer"] = "Intensity";
     points["Channel Name"] = "intensity";
     points["Use rainbow"] = true;
-    points["Decay Time"] = 0;
-    points["Queue Size"] = 10;
     list.push_back(points);
   }
   if (shown.radar)
   {
-    YAML::Node points = display("rviz/PointCloud2", "Radar points (radar/points)", true);
-    points["Topic"] = ns + "radar/points";
-    points["Style"] = "Spheres";
+    YAML::Node points = pointCloud("Radar points (radar/points)", ns + "radar/points", "Spheres", "FlatColor");
     points["Size (m)"] = 0.2;
-    points["Color Transformer"] = "FlatColor";
     points["Color"] = "255; 85; 0";
-    points["Queue Size"] = 10;
     list.push_back(points);
     list.push_back(markers("Radar targets (radar/markers)", ns + "radar/markers", true));
   }
