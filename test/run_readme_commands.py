@@ -48,10 +48,9 @@ NOT_RUN = [
                              "reference_traverse.launch (make demo: test main_job)"),
     (r"^make (demo-gui|screenshot|build|clean)\b", "make targets around the build and RViz; `make test` (CI) builds"),
     (r"^nft ", "changes the host's firewall (root); measured by hand (docs/design/avsp.md, network exposure)"),
-    (r"^sudo apt-get install libtf-dev", "the AVT-341 stack's recipe needs GitHub and its build "
-                                         "(tests avt_341_contract and avt_341/route_check cover AVSP's side)"),
-    (r"avt_ws|CGoodin/avt_341|avt_341_stack\.launch", "the AVT-341 stack's recipe needs GitHub and its build "
-                                                      "(tests avt_341_contract and avt_341/route_check cover AVSP's side)"),
+    (r"^sudo apt-get install libtf-dev|avt_ws|CGoodin/avt_341|avt_341_stack\.launch",
+     "the AVT-341 stack's recipe needs GitHub and its build (tests avt_341_contract and avt_341/route_check "
+     "cover AVSP's side)"),
     (r"^rosrun avsp_terrain export_course$", "the tool's name in prose; README.md's `rosrun avsp_terrain "
                                              "export_course --out course.tif --soil-map soil.png` runs it"),
     (r"^export PATH=/usr/bin:\$PATH$", "ENV"),

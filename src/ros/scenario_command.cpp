@@ -19,9 +19,9 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 
+#include <avsp_terrain/output_file.hpp>
 #include <ros/package.h>
 #include <yaml-cpp/yaml.h>
 
@@ -173,18 +173,23 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
   }
   out.output_dir = dir;
   out.end_launch = cmd.end_launch;
-  {
+  // Both files through avsp_terrain's checked write (every write, the fsync and the close).
+  auto write = [&](const fs::path& path, const std::string& bytes) {
     std::error_code ec;
-    fs::create_directories(rviz_file.parent_path(), ec);
-    std::ofstream f(rviz_file);
-    f << generateRvizConfig(out.scenario, displays);
-    f.close();
-    if (!f)
+    fs::create_directories(fs::absolute(path).parent_path(), ec);
+    try
     {
-      std::cerr << program << ": cannot write " << rviz_file.string() << "\n";
-      return 3;
+      avsp::terrain::writeBytes(path.string(), bytes);
+      return true;
     }
-  }
+    catch (const std::exception& e)
+    {
+      std::cerr << program << ": cannot write " << path.string() << ": " << e.what() << "\n";
+      return false;
+    }
+  };
+  if (!write(rviz_file, generateRvizConfig(out.scenario, displays)))
+    return 3;
   out.rviz_file = rviz_file.string();
   if (file == "-")
   {
@@ -192,16 +197,8 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
     out.launch_file = "-";
     return 0;
   }
-  std::error_code ec;
-  fs::create_directories(fs::absolute(file).parent_path(), ec);
-  std::ofstream f(file);
-  f << text;
-  f.close();
-  if (!f)
-  {
-    std::cerr << program << ": cannot write " << file << "\n";
+  if (!write(file, text))
     return 3;
-  }
   out.launch_file = fs::absolute(file).string();
   return 0;
 }
