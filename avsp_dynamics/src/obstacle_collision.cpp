@@ -289,6 +289,18 @@ void ObstacleCollision::removeLastVehicle()
   vehicles_.pop_back();
 }
 
+void ObstacleCollision::removeVehicle(std::size_t index)
+{
+  if (index >= vehicles_.size())
+    throw std::out_of_range("ObstacleCollision::removeVehicle: no vehicle " + std::to_string(index));
+  destroyVehicle(vehicles_[index]);
+  vehicles_.erase(vehicles_.begin() + static_cast<std::ptrdiff_t>(index));
+  // A geom's data names its vehicle's index (collect() reads it): the moved ones get their new one.
+  for (std::size_t k = index; k < vehicles_.size(); ++k)
+    for (std::size_t g = 0; g < vehicles_[k].geoms.size(); ++g)
+      dGeomSetData(vehicles_[k].geoms[g], vehicleTag(k, g));
+}
+
 const CollisionReport& ObstacleCollision::report(std::size_t vehicle) const
 {
   if (vehicle >= vehicles_.size())

@@ -118,6 +118,9 @@ public:
   void addVehicle(const std::vector<CollisionBox>& boxes, const VehicleBodies& bodies);
   /// Removes the geoms of the vehicle added last (World::addVehicle's rollback).
   void removeLastVehicle();
+  /// Removes the geoms of vehicle `index`; the later vehicles move down one index (their geoms
+  /// are tagged again). @throw std::out_of_range for an unknown index
+  void removeVehicle(std::size_t index);
 
   /// Before the ODE step: finds the contacts, makes rigid contact joints in `group`, applies the
   /// toppleable objects' resistance and topples those that give.

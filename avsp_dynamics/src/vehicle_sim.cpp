@@ -714,6 +714,17 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
   return vehicles_.size() - 1;
 }
 
+void World::removeVehicle(std::size_t vehicle)
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::removeVehicle: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  const auto at = static_cast<std::ptrdiff_t>(vehicle);
+  collision_->removeVehicle(vehicle);  // geoms before the bodies they ride on
+  vehicles_.erase(vehicles_.begin() + at);
+  ode_->vehicle_bodies.erase(ode_->vehicle_bodies.begin() + at);
+}
+
 void World::setGravity(const Eigen::Vector3d& gravity)
 {
   if (!gravity.allFinite() || std::abs(gravity.norm() - options_.gravity) > 1e-9 * std::max(1.0, options_.gravity))

@@ -5,18 +5,22 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
+#include <avsp_msgs/RemoveVehicle.h>
+#include <avsp_msgs/SpawnVehicle.h>
 #include <avsp_msgs/SetVehiclePose.h>
 #include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
@@ -718,6 +722,11 @@ TEST(DynamicsNodeLockstep, ABarrierThatWaitsSendsTheClockAgain)
 }
 }  // namespace
 
+namespace
+{
+avsp_msgs::SpawnVehicle spawnRequest(const std::string& name, const std::string& model, double x, double y, double yaw);
+}  // namespace
+
 // Run control (run_control.test): dynamics_node (the clock, as fast as it can) paused, stepped
 // and resumed through ~pause, ~step and ~resume, beside a twin vehicle in a node that follows
 // that clock without any of it. The clock holds while paused, ~step advances it by exactly its
@@ -924,7 +933,216 @@ TEST(RunControl, SetVehiclePose)
   inside.request.y = 205.0;
   ASSERT_TRUE(course.call(inside));
   EXPECT_TRUE(inside.response.success) << inside.response.message;
+  // ~spawn_vehicle there too: refused naming the building.
+  ros::ServiceClient course_spawn = nh.serviceClient<avsp_msgs::SpawnVehicle>("/course_sim/spawn_vehicle");
+  ASSERT_TRUE(course_spawn.waitForExistence(ros::Duration(10.0)));
+  avsp_msgs::SpawnVehicle spawn_inside = spawnRequest("visitor", "mrzr", 60.0, 223.0, 0.0);
+  ASSERT_TRUE(course_spawn.call(spawn_inside));
+  EXPECT_FALSE(spawn_inside.response.success);
+  EXPECT_NE(spawn_inside.response.message.find("'visitor' would stand in building"), std::string::npos)
+      << spawn_inside.response.message;
   std::printf("[set pose] %s | %s\n", call.response.message.c_str(), inside.response.message.c_str());
+}
+
+namespace
+{
+/// One of spawn_vehicle.test's dynamics_nodes: its clock, its vehicles' odometry (by vehicle
+/// name), its run-control services.
+struct SpawnSim
+{
+  ros::NodeHandle nh;
+  std::string ns;  ///< "" or "/b": where the node's vehicles are
+  double clock = -1.0;
+  std::map<std::string, std::vector<nav_msgs::Odometry>> odom;
+  std::map<std::string, ros::Subscriber> odom_subs;
+  ros::Subscriber clock_sub;
+  ros::ServiceClient pause, step, spawn, remove;
+  ros::Publisher ego_cmd;
+  std::string why;  ///< why the last stepBy() failed
+
+  SpawnSim(const std::string& ns_, const std::string& node) : ns(ns_)
+  {
+    clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
+        node + "/clock", 10000, [this](const rosgraph_msgs::Clock::ConstPtr& c) { clock = c->clock.toSec(); });
+    pause = nh.serviceClient<std_srvs::Trigger>(node + "/pause");
+    step = nh.serviceClient<avsp_msgs::StepPhysics>(node + "/step");
+    spawn = nh.serviceClient<avsp_msgs::SpawnVehicle>(node + "/spawn_vehicle");
+    remove = nh.serviceClient<avsp_msgs::RemoveVehicle>(node + "/remove_vehicle");
+    ego_cmd = nh.advertise<avsp_msgs::DriveCommand>(ns + "/ego/cmd_drive", 1, true);
+    watch("ego");
+  }
+
+  void watch(const std::string& vehicle)
+  {
+    odom_subs[vehicle] = nh.subscribe<nav_msgs::Odometry>(
+        ns + "/" + vehicle + "/avt_341/odometry", 100000,
+        [this, vehicle](const nav_msgs::Odometry::ConstPtr& m) { odom[vehicle].push_back(*m); });
+  }
+
+  /// ~step `n` steps (paused), then waits until the clock and the ego's odometry got there.
+  bool stepBy(std::uint32_t n)
+  {
+    avsp_msgs::StepPhysics sp;
+    sp.request.steps = n;
+    if (!step.call(sp) || !sp.response.success)
+    {
+      why = "~step: " + sp.response.message;
+      return false;
+    }
+    const double until = sp.response.until;
+    const double last_odom = std::floor(until * 100.0 + 1e-6) / 100.0;  // 100 Hz odometry
+    const bool reached = spinUntil(
+        [&] {
+          return clock >= until - 1e-9 && !odom["ego"].empty() &&
+                 odom["ego"].back().header.stamp.toSec() >= last_odom - 1e-9;
+        },
+        60.0);
+    if (!reached)
+      why = "clock at " + std::to_string(clock) + " s, ego odometry at " +
+            (odom["ego"].empty() ? std::string("none") : std::to_string(odom["ego"].back().header.stamp.toSec())) +
+            ", waiting for " + std::to_string(until);
+    return reached;
+  }
+};
+
+avsp_msgs::SpawnVehicle spawnRequest(const std::string& name, const std::string& model, double x, double y, double yaw)
+{
+  avsp_msgs::SpawnVehicle call;
+  call.request.name = name;
+  call.request.model = model;
+  call.request.x = x;
+  call.request.y = y;
+  call.request.yaw = yaw;
+  return call;
+}
+
+bool sameOdometry(const nav_msgs::Odometry& a, const nav_msgs::Odometry& b)
+{
+  const auto &p = a.pose.pose, &q = b.pose.pose;
+  return a.header.stamp == b.header.stamp && p.position.x == q.position.x && p.position.y == q.position.y &&
+         p.position.z == q.position.z && p.orientation.x == q.orientation.x && p.orientation.y == q.orientation.y &&
+         p.orientation.z == q.orientation.z && p.orientation.w == q.orientation.w &&
+         a.twist.twist.linear.x == b.twist.twist.linear.x && a.twist.twist.angular.z == b.twist.twist.angular.z;
+}
+
+bool topicPublished(const std::string& topic)
+{
+  ros::master::V_TopicInfo topics;
+  ros::master::getTopics(topics);
+  return std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) { return t.name == topic; });
+}
+}  // namespace
+
+// ~spawn_vehicle and ~remove_vehicle (spawn_vehicle.test). Both nodes are paused before their
+// first step; the ego (from x = -25 m) drives along +x at throttle 0.4. At t = 0.5 s an mrzr
+// "blocker" is spawned 12 m ahead in its way (braked: no command), at t = 6 s it is removed. The
+// ego runs into it and pushes it, never through it, then, once it is gone, drives over the place
+// where it stood. Bad requests, made
+// on spawn_a only, are refused naming what is wrong; the same script gives the same odometry, bit
+// for bit, in both nodes, so the refusals changed nothing and the calls act deterministically.
+TEST(SpawnVehicle, SpawnedVehicleCollidesAndLeavesDeterministically)
+{
+  SpawnSim a("", "/spawn_a"), b("/b", "/b/spawn_b");
+  for (SpawnSim* s : { &a, &b })
+  {
+    ASSERT_TRUE(s->pause.waitForExistence(ros::Duration(60.0)));
+    ASSERT_TRUE(s->spawn.waitForExistence(ros::Duration(10.0)));
+    ASSERT_TRUE(s->remove.waitForExistence(ros::Duration(10.0)));
+    std_srvs::Trigger trig;
+    ASSERT_TRUE(s->pause.call(trig));
+    ASSERT_TRUE(trig.response.success) << trig.response.message;
+    ASSERT_TRUE(spinUntil([&] { return s->odom_subs["ego"].getNumPublishers() > 0; }, 30.0));
+    avsp_msgs::DriveCommand cmd;
+    cmd.throttle = 0.4;
+    s->ego_cmd.publish(cmd);  // latched; the node waits for it before its first step
+    ASSERT_TRUE(s->stepBy(500)) << s->ns << ": " << s->why;
+  }
+
+  // Refused, naming the reason (spawn_a only).
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  struct Bad
+  {
+    avsp_msgs::SpawnVehicle call;
+    std::string says;
+  };
+  for (Bad& bad :
+       std::vector<Bad>{ { spawnRequest("blocker", "rover7", 12.0, 0.0, 0.0), "no model 'rover7' in ~config_dir" },
+                         { spawnRequest("blocker", "rover7", 12.0, 0.0, 0.0), "fed_alpha" },  // the known ones listed
+                         { spawnRequest("ego", "mrzr", 12.0, 0.0, 0.0), "already a vehicle 'ego'" },
+                         { spawnRequest("two words", "mrzr", 12.0, 0.0, 0.0), "must be a valid ROS name" },
+                         { spawnRequest("blocker", "mrzr", nan, 0.0, 0.0), "must be finite" },
+                         { spawnRequest("blocker", "mrzr", 12.0, 0.0, nan), "must be finite" },
+                         { spawnRequest("blocker", "mrzr", 100.0, 0.0, 0.0), "off the terrain" },
+                         { spawnRequest("blocker", "mrzr", -23.0, 1.0, 0.0), "would stand on vehicle 'ego'" } })
+  {
+    ASSERT_TRUE(a.spawn.call(bad.call));
+    EXPECT_FALSE(bad.call.response.success) << bad.says;
+    EXPECT_NE(bad.call.response.message.find(bad.says), std::string::npos) << bad.call.response.message;
+  }
+  avsp_msgs::RemoveVehicle unknown;
+  unknown.request.name = "blocker";
+  ASSERT_TRUE(a.remove.call(unknown));
+  EXPECT_FALSE(unknown.response.success);
+  EXPECT_NE(unknown.response.message.find("no vehicle 'blocker' (vehicles: ego)"), std::string::npos)
+      << unknown.response.message;
+  EXPECT_FALSE(topicPublished("/blocker/avt_341/odometry"));
+
+  // The script, on both.
+  for (SpawnSim* s : { &a, &b })
+  {
+    s->watch("blocker");
+    avsp_msgs::SpawnVehicle call = spawnRequest("blocker", "mrzr", -13.0, 0.0, 0.0);
+    ASSERT_TRUE(s->spawn.call(call));
+    ASSERT_TRUE(call.response.success) << call.response.message;
+    EXPECT_NE(call.response.message.find("at t = 0.5 s"), std::string::npos) << call.response.message;
+    ASSERT_TRUE(spinUntil([&] { return s->odom_subs["blocker"].getNumPublishers() > 0; }, 30.0));
+    ASSERT_TRUE(s->stepBy(5500)) << s->ns << ": " << s->why;
+    avsp_msgs::RemoveVehicle remove;
+    remove.request.name = "blocker";
+    ASSERT_TRUE(s->remove.call(remove));
+    ASSERT_TRUE(remove.response.success) << remove.response.message;
+    EXPECT_NE(remove.response.message.find("at t = 6 s"), std::string::npos) << remove.response.message;
+    ASSERT_TRUE(s->remove.call(remove));
+    EXPECT_FALSE(remove.response.success) << "removed twice";
+    ASSERT_TRUE(s->stepBy(3000)) << s->ns << ": " << s->why;
+  }
+  EXPECT_FALSE(topicPublished("/blocker/avt_341/odometry")) << "the removed vehicle's odometry is still advertised";
+
+  const std::vector<nav_msgs::Odometry>& blocker = a.odom["blocker"];
+  const std::vector<nav_msgs::Odometry>& ego = a.odom["ego"];
+  ASSERT_FALSE(blocker.empty());
+  // Odometry at every 10 ms from 0.51 s to 6 s, set down where asked.
+  EXPECT_NEAR(blocker.front().header.stamp.toSec(), 0.51, 1e-6);
+  EXPECT_NEAR(blocker.back().header.stamp.toSec(), 6.0, 1e-6);
+  EXPECT_EQ(blocker.size(), 550u);
+  EXPECT_NEAR(blocker.front().pose.pose.position.x, -13.0, 0.05);
+  EXPECT_NEAR(blocker.front().pose.pose.position.y, 0.0, 0.05);
+  // The ego against the blocker: its x while the blocker stood stays behind the blocker's rear.
+  double ego_x_at_removal = 0.0, ego_max_x = 0.0;
+  for (const nav_msgs::Odometry& o : ego)
+  {
+    if (o.header.stamp.toSec() <= 6.0 + 1e-9)
+      ego_x_at_removal = o.pose.pose.position.x;
+    ego_max_x = std::max(ego_max_x, o.pose.pose.position.x);
+  }
+  const double blocker_x = blocker.back().pose.pose.position.x;
+  std::printf(
+      "[spawn] ego at x = %.2f m when the blocker (then at x = %.2f m) was removed at 6 s; ego at %.2f m at "
+      "9 s; %zu blocker and %zu ego odometry messages\n",
+      ego_x_at_removal, blocker_x, ego.back().pose.pose.position.x, blocker.size(), ego.size());
+  EXPECT_LT(ego_x_at_removal, blocker_x - 3.0) << "the ego passed through the blocker";
+  EXPECT_GT(blocker_x, blocker.front().pose.pose.position.x + 0.5) << "the ego never pushed the blocker";
+  EXPECT_GT(ego_max_x, blocker_x + 3.0) << "after the removal the ego did not drive over the blocker's place";
+
+  // The same script, the same bits (and the refusals on spawn_a changed nothing).
+  for (const std::string& v : { std::string("ego"), std::string("blocker") })
+  {
+    const auto &x = a.odom[v], &y = b.odom[v];
+    ASSERT_EQ(x.size(), y.size()) << v;
+    for (std::size_t k = 0; k < x.size(); ++k)
+      ASSERT_TRUE(sameOdometry(x[k], y[k])) << v << " message " << k << " at " << x[k].header.stamp.toSec();
+  }
+  EXPECT_EQ(ego.size(), 900u);
 }
 
 int main(int argc, char** argv)

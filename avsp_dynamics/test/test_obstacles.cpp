@@ -422,6 +422,80 @@ TEST(Obstacles, WeakPushLeavesAShrubStanding)
   EXPECT_NEAR(-force, traction, 0.05 * traction);
 }
 
+// World::removeVehicle between steps: a at -20 m runs at 8 m/s towards b (0 m) and c (12 m),
+// parked in its way; b is taken out just before a reaches it. a passes b's place (b's geoms are
+// gone) and runs into c, now index 1 (its geoms tagged again: the contact is reported on index 1,
+// equal and opposite to a's). Unknown indices throw and change nothing; the same script gives the
+// same bits twice; a vehicle added after a removal takes the next index.
+TEST(Obstacles, RemovedVehicleLeavesTheWorldAndTheOthersKeepColliding)
+{
+  const VehicleModel m = vehicle("fed_alpha");
+  struct Run
+  {
+    std::vector<double> a, c;  ///< fingerprints at the end
+    double a_x_at_removal = 0.0, a_max_x = 0.0, c_x_before = 0.0, c_x_after = 0.0, worst_third_law = 0.0;
+    double largest_impulse = 0.0;
+    std::size_t count_after = 0, readded = 0;
+    std::string c_name;
+  };
+  const auto run = [&] {
+    Run r;
+    auto ground = flatGround(-40.0, 80.0, 20.0);
+    World world(*ground);
+    const std::size_t a = world.addVehicle(m, world.restingPose(m, -20.0, 0.0, 0.0, 0.0), "a");
+    const std::size_t b = world.addVehicle(m, world.restingPose(m, 0.0, 0.0, 0.0, 0.0), "b");
+    world.addVehicle(m, world.restingPose(m, 12.0, 0.0, 0.0, 0.0), "c");
+    for (std::size_t v = 0; v < 3; ++v)
+      world.setCommand(v, DriveCommand{ 0.0, 1.0, 0.0 });
+    world.advance(0.5);
+    world.setVelocity(a, Eigen::Vector3d(8.0, 0.0, 0.0));
+    world.setCommand(a, DriveCommand{ 0.0, 0.0, 0.0 });
+    // 1.5 s at 8 m/s: a's front (about 2.5 m ahead of its origin) is a metre short of b's rear.
+    world.advance(1.5);
+    EXPECT_EQ(world.state(b).obstacle_contacts, 0u);
+    r.a_x_at_removal = world.state(a).pose.translation().x();
+    r.c_x_before = world.state(2).pose.translation().x();
+    EXPECT_THROW(world.removeVehicle(3), std::out_of_range);
+    EXPECT_EQ(world.vehicleCount(), 3u) << "a refused removal changes nothing";
+    world.removeVehicle(b);
+    r.count_after = world.vehicleCount();
+    const std::size_t c = 1;  // c moved down one index
+    r.c_name = world.state(c).name;
+    world.setCommand(c, DriveCommand{ 0.0, 0.0, 0.0 });  // c unbraked: a pushes it
+    for (int k = 0; k < 3000; ++k)
+    {
+      world.step();
+      const VehicleState &sa = world.state(a), &sc = world.state(c);
+      r.a_max_x = std::max(r.a_max_x, sa.pose.translation().x());
+      r.worst_third_law = std::max(r.worst_third_law, (sa.obstacle_impulse + sc.obstacle_impulse).norm());
+      r.largest_impulse = std::max(r.largest_impulse, sc.obstacle_impulse.norm());
+    }
+    r.c_x_after = world.state(c).pose.translation().x();
+    r.a = fingerprint(world.state(a));
+    r.c = fingerprint(world.state(c));
+    r.readded = world.addVehicle(m, world.restingPose(m, -30.0, 0.0, 0.0, 0.0), "b");
+    world.step();
+    return r;
+  };
+  const Run first = run(), second = run();
+  std::printf(
+      "b removed with a at x = %.2f m; a then reached x = %.2f m (b stood at 0) and pushed c from %.2f to %.2f m; "
+      "largest impulse on c %.1f N s, |impulse a + impulse c| <= %.3g N s\n",
+      first.a_x_at_removal, first.a_max_x, first.c_x_before, first.c_x_after, first.largest_impulse,
+      first.worst_third_law);
+  EXPECT_EQ(first.count_after, 2u);
+  EXPECT_EQ(first.c_name, "c");
+  EXPECT_LT(first.a_x_at_removal, -3.0);
+  EXPECT_GT(first.a_max_x, 3.0) << "a stopped where b was: b's geoms are still there";
+  EXPECT_LT(first.a_max_x, first.c_x_after - 4.8) << "a passed through c";
+  EXPECT_GT(first.c_x_after, first.c_x_before + 0.1) << "c was not pushed";
+  EXPECT_GT(first.largest_impulse, 10.0) << "no contact reported on c's new index";
+  EXPECT_LT(first.worst_third_law, 1e-9 * first.largest_impulse);
+  EXPECT_EQ(first.readded, 2u);
+  EXPECT_TRUE(sameBits(first.a, second.a));
+  EXPECT_TRUE(sameBits(first.c, second.c));
+}
+
 // A fed_alpha at 8 m/s runs into the back of another at rest (unbraked): they collide instead
 // of passing through each other, the contact forces are equal and opposite, and the total
 // momentum survives the impact (nearly plastic: they part slowly).

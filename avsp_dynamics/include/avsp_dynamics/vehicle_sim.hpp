@@ -259,6 +259,14 @@ public:
   std::size_t addVehicle(const VehicleModel& model, const Eigen::Isometry3d& pose, const std::string& name = "");
 
   /**
+   * @brief Takes a vehicle out of the world between steps: its bodies, joints and collision
+   *        geoms are destroyed; the soil keeps its ruts. The vehicles added after it move down
+   *        one index (k becomes k - 1), so a caller holding indices renumbers them.
+   * @throw std::out_of_range for an unknown vehicle index (nothing changes)
+   */
+  void removeVehicle(std::size_t vehicle);
+
+  /**
    * @brief Sets the command a vehicle follows from the next step on (fields clamped).
    * @throw CommandError naming the field when a field is NaN or infinite (the previous
    *        command stays in force)

@@ -39,9 +39,11 @@
 #include "avsp_dynamics/ros/dynamics_node.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <limits>
 #include <map>
@@ -54,8 +56,10 @@
 
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/RemoveVehicle.h>
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/SetVehiclePose.h>
+#include <avsp_msgs/SpawnVehicle.h>
 #include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
@@ -269,6 +273,8 @@ public:
       step_srv_ = pnh_.advertiseService("step", &Impl::onStep, this);
     }
     set_pose_srv_ = pnh_.advertiseService("set_vehicle_pose", &Impl::onSetVehiclePose, this);
+    spawn_srv_ = pnh_.advertiseService("spawn_vehicle", &Impl::onSpawnVehicle, this);
+    remove_srv_ = pnh_.advertiseService("remove_vehicle", &Impl::onRemoveVehicle, this);
     setUpDiagnostics();
     ROS_INFO("dynamics_node: %zu vehicle(s) on %s, step %.4f s, %s, real_time_factor %g", vehicles_.size(),
              source_.c_str(), options.step, publish_clock_ ? "publishing /clock" : "following /clock",
@@ -1000,9 +1006,9 @@ private:
     return true;
   }
 
-  /// The first standing object (not grass, not toppled) whose footprint meets the bounding box
-  /// of the vehicle's collision boxes at `pose`: "<type> <id> at (x, y)", or "".
-  std::string standingObjectUnder(const ad::VehicleModel& model, const Eigen::Isometry3d& pose) const
+  /// The map-frame bounding box (x0, y0, x1, y1) of a model's collision boxes at `pose`; empty
+  /// (x0 > x1) for a model without collision boxes.
+  static std::array<double, 4> footprint(const ad::VehicleModel& model, const Eigen::Isometry3d& pose)
   {
     double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
     for (const ad::CollisionBox& b : model.collision_boxes)
@@ -1013,6 +1019,14 @@ private:
         const Eigen::Vector3d p = pose * (b.pose * local);
         x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x()), y0 = std::min(y0, p.y()), y1 = std::max(y1, p.y());
       }
+    return { x0, y0, x1, y1 };
+  }
+
+  /// The first standing object (not grass, not toppled) whose footprint meets the bounding box
+  /// of the vehicle's collision boxes at `pose`: "<type> <id> at (x, y)", or "".
+  std::string standingObjectUnder(const ad::VehicleModel& model, const Eigen::Isometry3d& pose) const
+  {
+    const auto [x0, y0, x1, y1] = footprint(model, pose);
     if (!(x0 <= x1))
       return "";
     for (std::uint32_t id : objects_.query(x0, y0, x1, y1))
@@ -1024,6 +1038,134 @@ private:
              shortNumber(o.y) + ")";
     }
     return "";
+  }
+
+  /// The first vehicle of the run (not `except`) whose footprint where it is now meets the
+  /// model's at `pose`: its name, or "".
+  std::string vehicleUnder(const ad::VehicleModel& model, const Eigen::Isometry3d& pose,
+                           const VehicleIo* except = nullptr) const
+  {
+    const std::array<double, 4> a = footprint(model, pose);
+    for (const auto& v : vehicles_)
+    {
+      if (v.get() == except)
+        continue;
+      const std::array<double, 4> b = footprint(v->model, world_->state(v->id).pose);
+      if (a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3])
+        return v->name;
+    }
+    return "";
+  }
+
+  // ---- ~spawn_vehicle, ~remove_vehicle -------------------------------------------------------
+  // Between two steps, like every callback: for a reproducible script, ~pause, ~step to the
+  // instant, call, ~resume. A partition's vehicles are fixed at start-up (its peers hold proxies
+  // of them), so a partitioned run refuses both.
+
+  bool onSpawnVehicle(avsp_msgs::SpawnVehicle::Request& req, avsp_msgs::SpawnVehicle::Response& res)
+  {
+    res.success = false;
+    std::string why;
+    const auto named = [&](const std::string& n) {
+      return std::any_of(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return v->name == n; });
+    };
+    if (!partition_.empty())
+      res.message = "refused: partition '" + partition_ + "' runs a fixed set of vehicles (~partition)";
+    else if (req.name.empty() || req.name.find('/') != std::string::npos || !ros::names::validate(req.name, why))
+      res.message = "refused: name '" + req.name + "' must be a valid ROS name without '/'";
+    else if (named(req.name))
+      res.message = "refused: there is already a vehicle '" + req.name + "'";
+    else if (req.model.empty() || req.model.find('/') != std::string::npos ||
+             !std::filesystem::is_regular_file(config_dir_ + "/" + req.model + ".yaml"))
+      res.message = "refused: no model '" + req.model + "' in ~config_dir " + config_dir_ +
+                    " (models: " + joined(knownModels()) + ")";
+    else if (!std::isfinite(req.x) || !std::isfinite(req.y) || !std::isfinite(req.yaw))
+      res.message = "refused: x, y and yaw must be finite numbers";
+    else
+    {
+      try
+      {
+        const ad::VehicleModel model = ad::loadVehicleModel(config_dir_ + "/" + req.model + ".yaml");
+        const Eigen::Isometry3d pose = world_->restingPose(model, req.x, req.y, req.yaw, 0.01);
+        const std::string object = standingObjectUnder(model, pose);
+        const std::string vehicle = vehicleUnder(model, pose);
+        if (!object.empty())
+          res.message = "refused: at (" + shortNumber(req.x) + ", " + shortNumber(req.y) + ") '" + req.name +
+                        "' would stand in " + object;
+        else if (!vehicle.empty())
+          res.message = "refused: at (" + shortNumber(req.x) + ", " + shortNumber(req.y) + ") '" + req.name +
+                        "' would stand on vehicle '" + vehicle + "'";
+        else
+        {
+          addVehicle(VehicleSpec{ req.name, req.model, req.x, req.y, req.yaw }, false);
+          transforms_.resize(vehicles_.size());
+          publishOdomFrames();
+          VehicleIo* raw = vehicles_.back().get();
+          diagnostics_->add(raw->name,
+                            [this, raw](diagnostic_updater::DiagnosticStatusWrapper& st) { vehicleStatus(*raw, st); });
+          res.success = true;
+          res.message = "'" + req.name + "' (" + req.model + ") set down at (" + shortNumber(req.x) + ", " +
+                        shortNumber(req.y) + "), yaw " + shortNumber(req.yaw) +
+                        " rad, at t = " + shortNumber(world_->time()) + " s";
+        }
+      }
+      catch (const std::exception& e)
+      {
+        res.message = std::string("refused: ") + e.what();
+      }
+    }
+    if (res.success)
+      ROS_INFO("dynamics_node: ~spawn_vehicle: %s", res.message.c_str());
+    else
+      ROS_WARN("dynamics_node: ~spawn_vehicle: %s (nothing changed)", res.message.c_str());
+    return true;
+  }
+
+  bool onRemoveVehicle(avsp_msgs::RemoveVehicle::Request& req, avsp_msgs::RemoveVehicle::Response& res)
+  {
+    res.success = false;
+    const auto it =
+        std::find_if(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return v->name == req.name; });
+    std::vector<std::string> names;
+    for (const auto& v : vehicles_)
+      names.push_back(v->name);
+    if (!partition_.empty())
+      res.message = "refused: partition '" + partition_ + "' runs a fixed set of vehicles (~partition)";
+    else if (it == vehicles_.end())
+      res.message = "refused: no vehicle '" + req.name + "' (vehicles: " + joined(names) + ")";
+    else
+    {
+      VehicleIo& v = **it;
+      if (v.ran && ruts_every_ > 0 && ruts_pub_.getNumSubscribers() > 0)
+        publishRuts();  // its ruts so far, before its rut area goes
+      const std::size_t id = v.id;
+      diagnostics_->removeByName(v.name);
+      world_->removeVehicle(id);
+      for (auto& o : vehicles_)
+        if (o->id > id)
+          --o->id;  // World::removeVehicle moved the later ones down
+      transforms_.erase(transforms_.begin() + (it - vehicles_.begin()));
+      vehicles_.erase(it);  // its subscribers and publishers shut down with it
+      res.success = true;
+      res.message = "'" + req.name + "' removed at t = " + shortNumber(world_->time()) + " s";
+    }
+    if (res.success)
+      ROS_INFO("dynamics_node: ~remove_vehicle: %s", res.message.c_str());
+    else
+      ROS_WARN("dynamics_node: ~remove_vehicle: %s (nothing changed)", res.message.c_str());
+    return true;
+  }
+
+  /// The model names ~config_dir offers (<name>.yaml), sorted.
+  std::vector<std::string> knownModels() const
+  {
+    std::vector<std::string> out;
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(config_dir_, ec))
+      if (e.path().extension() == ".yaml")
+        out.push_back(e.path().stem().string());
+    std::sort(out.begin(), out.end());
+    return out;
   }
 
   /// ~lockstep_vehicles (names in ~vehicles) and ~lockstep_period / ~lockstep_timeout.
@@ -1295,8 +1437,9 @@ private:
       t.transform.rotation.w = 1.0;
       frames.push_back(t);
     }
-    static_tf_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
-    static_tf_->sendTransform(frames);
+    if (!static_tf_)
+      static_tf_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+    static_tf_->sendTransform(frames);  // by child frame: a vehicle spawned later adds its own
   }
 
   void publishStates()
@@ -1625,7 +1768,7 @@ private:
   bool paused_ = false;                                         ///< ~pause came (and no ~resume since)
   std::uint64_t pending_steps_ = 0;                             ///< ~step's steps not yet taken
   static constexpr std::uint64_t kMaxPendingSteps = 100000000;  ///< 1e8 (a day at 1 ms)
-  ros::ServiceServer pause_srv_, resume_srv_, step_srv_, set_pose_srv_;
+  ros::ServiceServer pause_srv_, resume_srv_, step_srv_, set_pose_srv_, spawn_srv_, remove_srv_;
   // With ~peers: the exchanges' transport and the protocol (declared after world_, objects_ and
   // the transport they refer to: destroyed before them).
   std::unique_ptr<RosExchangeTransport> transport_;
