@@ -6,6 +6,9 @@ of bad scenario files. Writes a JUnit XML result with one test case per check:
   unknown model, a vehicle inside a building; what only the nodes once refused: an unknown
   sensor key or lidar preset, a start time beyond ROS time, a looping agent on two points, a
   vehicle file with a negative mass) exits 1 and its message names the file and the key path;
+- launch_refuses_bad_scenario: `roslaunch reference_traverse.launch scenario:=<bad file>` exits 1
+  with the message naming the file and key, and starts no node (the launch file validates the
+  scenario while roslaunch loads it);
 - generated_launch: reference_traverse.launch (scenario_node) wrote the run's launch file into the
   results folder;
 - run_ends: the run ends by itself (run_recorder exits at `duration` s of sim time) within the
@@ -125,6 +128,18 @@ def bad_scenario_cases(scenario, env, tmp):
         if (path + ": " + key) not in err:
             msg.append("stderr does not name '%s: %s': %s" % (path, key, err.strip()))
         results.append(("bad_scenario_" + name, msg))
+    # roslaunch itself refuses it (reference_traverse.launch validates while it loads): exit 1,
+    # the message naming the file and key, no node started (issue 22, item 6).
+    path, key = next((p, k) for n, p, k in cases if n == "missing_key")
+    launch_file = os.path.join(root, "launch", "reference_traverse.launch")
+    launch_env = dict(env, ROS_MASTER_URI="http://127.0.0.1:%d" % free_port())
+    rc, out, err = run(["roslaunch", launch_file, "scenario:=" + path], launch_env, 120)
+    msg = [] if rc == 1 else ["roslaunch exited %d on a bad scenario, expected 1" % rc]
+    if (path + ": " + key) not in out + err:
+        msg.append("roslaunch's output does not name '%s: %s': %s" % (path, key, (out + err).strip()[-600:]))
+    if "process[" in out:
+        msg.append("a node was started: " + " | ".join(l for l in out.splitlines() if "process[" in l))
+    results.append(("launch_refuses_bad_scenario", msg))
     return results
 
 
