@@ -734,6 +734,421 @@ std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& 
   return out;
 }
 
+namespace
+{
+// parseScenario's sections, in the order it reads them (an error names the first bad key).
+
+/// geodetic_reference and time.
+void readPlaceAndTime(const Context& ctx, MapReader& top, Scenario& s)
+{
+  {
+    MapReader g(ctx, top.required("geodetic_reference"), "geodetic_reference");
+    s.latitude = requiredDouble(ctx, g, "latitude", -90.0, 90.0, "deg");
+    s.longitude = requiredDouble(ctx, g, "longitude", -180.0, 360.0, "deg east");
+    s.altitude = readDouble(ctx, g, "altitude", 0.0, -500.0, 9000.0, "m");
+    g.finish();
+  }
+  {
+    MapReader t(ctx, top.required("time"), "time");
+    s.start_utc = toString(ctx, t.required("start_utc"), "time.start_utc");
+    try
+    {
+      environment::parseRunStartUtc(s.start_utc);  // environment_node's rule
+    }
+    catch (const std::exception& e)
+    {
+      ctx.fail("time.start_utc", e.what());
+    }
+    s.time_acceleration = readDouble(ctx, t, "acceleration", 1.0, 1e-6, 1e6, "world s per sim s");
+    t.finish();
+  }
+}
+
+/// paths: named waypoint lists.
+void readPaths(const Context& ctx, MapReader& top, Scenario& s)
+{
+  const YAML::Node paths = top.get("paths");
+  if (present(paths))
+  {
+    MapReader p(ctx, paths, "paths");
+    for (const auto& kv : paths)
+    {
+      const std::string name = kv.first.Scalar();
+      s.paths[name] = readPath(ctx, p.get(name), p.key(name));
+    }
+    p.finish();
+  }
+}
+
+/// vehicles: each checked against its model's files (as dynamics_node will read them) and the
+/// paths. Returns the YAML list (the formation checks what each vehicle's controller sets).
+YAML::Node readVehicles(const Context& ctx, MapReader& top, const LoadOptions& options, Scenario& s)
+{
+  const YAML::Node vehicles = top.required("vehicles");
+  if (!vehicles.IsSequence() || vehicles.size() == 0)
+    ctx.fail("vehicles", "must be a non-empty list of vehicles");
+  std::set<std::string> names;
+  struct ModelLimits
+  {
+    double max_speed = 0.0, rest_height = 0.0, wheel_radius = 0.0;
+  };
+  std::map<std::string, ModelLimits> loaded_models;
+  const std::vector<std::string> models = knownModels(options.vehicles_dir);
+  for (std::size_t i = 0; i < vehicles.size(); ++i)
+  {
+    const std::string key = indexKey("vehicles", i);
+    MapReader m(ctx, vehicles[i], key);
+    VehicleSpec v;
+    v.name = toString(ctx, m.required("name"), m.key("name"));
+    if (!isRosName(v.name))
+      ctx.fail(m.key("name"), "'" + v.name + "' is not a valid name (a letter, then letters, digits, _)");
+    if (!names.insert(v.name).second)
+      ctx.fail(m.key("name"), "duplicate name '" + v.name + "'");
+    v.model = toString(ctx, m.required("model"), m.key("model"));
+    if (std::find(models.begin(), models.end(), v.model) == models.end())
+      ctx.fail(m.key("model"), "unknown model '" + v.model + "' (no " + options.vehicles_dir + "/" + v.model +
+                                   ".yaml; known: " + join(models) + ")");
+    // The vehicle's files as dynamics_node will read them (YAML, URDF, their consistency),
+    // whatever the layout: a bad file fails here, not at run time.
+    if (!loaded_models.count(v.model))
+    {
+      try
+      {
+        const dynamics::VehicleModel model = dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+        // The lowest running-gear point sets the rest height of base_link (suspension at 0).
+        ModelLimits limits;
+        limits.max_speed = model.drivetrain.max_speed;
+        double lowest = kInf;
+        auto consider = [&](const Eigen::Vector3d& centre, double radius) {
+          if (centre.z() - radius < lowest)
+          {
+            lowest = centre.z() - radius;
+            limits.wheel_radius = radius;
+          }
+        };
+        for (const dynamics::WheelSpec& w : model.wheels)
+          consider(w.rest_position, w.radius);
+        for (const dynamics::TrackSpec& t : model.tracks)
+          for (const dynamics::RoadWheelSpec& r : t.road_wheels)
+            consider(r.rest_position, r.radius);
+        limits.rest_height = -lowest;
+        loaded_models[v.model] = limits;
+      }
+      catch (const std::exception& e)
+      {
+        ctx.fail(m.key("model"), "'" + v.model + "': " + e.what());
+      }
+    }
+    v.max_speed = loaded_models[v.model].max_speed;
+    v.rest_height = loaded_models[v.model].rest_height;
+    v.wheel_radius = loaded_models[v.model].wheel_radius;
+    {
+      MapReader st(ctx, m.required("start"), m.key("start"));
+      v.x = requiredDouble(ctx, st, "x", -1e7, 1e7, "m");
+      v.y = requiredDouble(ctx, st, "y", -1e7, 1e7, "m");
+      v.yaw = readDouble(ctx, st, "yaw", 0.0, -100.0, 100.0, "rad");
+      st.finish();
+    }
+    const YAML::Node vs = m.get("sensors");
+    if (present(vs))
+      v.sensors = readSensors(ctx, vs, m.key("sensors"));
+    v.controller = readController(ctx, m.required("controller"), m.key("controller"));
+    if (v.controller.type == ControllerType::kWaypoints && !s.paths.count(v.controller.path))
+    {
+      std::vector<std::string> known;
+      for (const auto& kv : s.paths)
+        known.push_back(kv.first);
+      ctx.fail(m.key("controller.path"),
+               "unknown path '" + v.controller.path + "' (paths: " + (known.empty() ? "none" : join(known)) + ")");
+    }
+    m.finish();
+    s.vehicles.push_back(v);
+  }
+
+  return vehicles;
+}
+
+/// formation: leader, gap and offset of every member but the first.
+void readFormation(const Context& ctx, MapReader& top, const YAML::Node& vehicles, Scenario& s)
+{
+  const YAML::Node formation = top.get("formation");
+  if (present(formation))
+  {
+    MapReader f(ctx, formation, "formation");
+    FormationSpec& fs_ = s.formation;
+    fs_.present = true;
+    fs_.type_name = toString(ctx, f.required("type"), "formation.type");
+    try
+    {
+      fs_.type = control::formationFromString(fs_.type_name);
+    }
+    catch (const std::exception&)
+    {
+      ctx.fail("formation.type", "unknown '" + fs_.type_name + "' (column, line, diamond)");
+    }
+    fs_.spacing = readDouble(ctx, f, "spacing", 15.0, 0.1, 10000.0, "m");
+    fs_.width = readDouble(ctx, f, "width", 5.0, 0.1, 1000.0, "m");
+    const YAML::Node members = f.required("vehicles");
+    if (!members.IsSequence() || members.size() < 2)
+      ctx.fail("formation.vehicles", "must be a list of at least 2 vehicle names (the first leads)");
+    std::set<std::string> seen;
+    for (std::size_t k = 0; k < members.size(); ++k)
+    {
+      const std::string mk = indexKey("formation.vehicles", k);
+      const std::string name = toString(ctx, members[k], mk);
+      if (s.vehicleIndex(name) < 0)
+        ctx.fail(mk, "unknown vehicle '" + name + "'");
+      if (!seen.insert(name).second)
+        ctx.fail(mk, "'" + name + "' is listed twice");
+      fs_.vehicles.push_back(name);
+    }
+    f.finish();
+    const std::vector<control::FormationSlot> slots =
+        control::formationSlots(fs_.type, fs_.vehicles.size(), fs_.spacing, fs_.width);
+    for (std::size_t k = 1; k < fs_.vehicles.size(); ++k)
+    {
+      const int vi = s.vehicleIndex(fs_.vehicles[k]);
+      VehicleSpec& v = s.vehicles[static_cast<std::size_t>(vi)];
+      const std::string ck = indexKey("vehicles", static_cast<std::size_t>(vi)) + ".controller";
+      if (v.controller.type != ControllerType::kLeaderFollower)
+        ctx.fail(ck + ".type", "'" + v.name + "' is in the formation: its controller must be leader_follower");
+      const YAML::Node vc = vehicles[static_cast<std::size_t>(vi)]["controller"];
+      for (const char* k2 : { "leader", "gap", "offset" })
+        if (present(vc[k2]))
+          ctx.fail(ck + "." + k2, "set by the formation ('" + v.name + "' is in formation.vehicles)");
+      v.controller.leader = fs_.vehicles[static_cast<std::size_t>(slots[k].leader)];
+      v.controller.gap = slots[k].gap;
+      v.controller.offset = slots[k].offset;
+      v.controller.from_formation = true;
+    }
+  }
+}
+
+/// Every leader_follower's leader: known, not itself, no cycles.
+void checkLeaders(const Context& ctx, const Scenario& s)
+{
+  for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+  {
+    const VehicleSpec& v = s.vehicles[i];
+    if (v.controller.type != ControllerType::kLeaderFollower)
+      continue;
+    const std::string ck = indexKey("vehicles", i) + ".controller.leader";
+    if (v.controller.leader.empty())
+      ctx.fail(ck, "missing key (a leader_follower outside the formation names its leader)");
+    if (s.vehicleIndex(v.controller.leader) < 0)
+      ctx.fail(ck, "unknown vehicle '" + v.controller.leader + "'");
+    std::vector<std::string> chain = { v.name };
+    std::size_t cur = i;
+    while (s.vehicles[cur].controller.type == ControllerType::kLeaderFollower)
+    {
+      const std::string& next = s.vehicles[cur].controller.leader;
+      const int ni = s.vehicleIndex(next);
+      if (ni < 0)
+        break;  // named when that vehicle is checked
+      chain.push_back(next);
+      if (std::find(chain.begin(), chain.end() - 1, next) != chain.end() - 1)
+        ctx.fail(ck, "leader cycle " + join(chain, " -> "));
+      cur = static_cast<std::size_t>(ni);
+    }
+  }
+}
+
+/// v2v: the radio.
+void readV2v(const Context& ctx, MapReader& top, Scenario& s)
+{
+  {
+    const YAML::Node v2v = top.get("v2v");
+    if (present(v2v))
+    {
+      MapReader r(ctx, v2v, "v2v");
+      s.v2v.range = readDouble(ctx, r, "range", 300.0, 1e-3, 1e6, "m");
+      s.v2v.latency = readDouble(ctx, r, "latency", 0.0, 0.0, 3600.0, "s");
+      s.v2v.loss_probability = readDouble(ctx, r, "loss_probability", 0.0, 0.0, 1.0);
+      s.v2v.antenna_height = readDouble(ctx, r, "antenna_height", 1.5, 0.0, 1000.0, "m");
+      s.v2v.los_step = readDouble(ctx, r, "los_step", 1.0, 0.01, 100.0, "m");
+      const YAML::Node los = r.get("line_of_sight");
+      if (present(los))
+        s.v2v.line_of_sight = toBool(ctx, los, "v2v.line_of_sight");
+      r.finish();
+    }
+  }
+}
+
+/// machines: the hosts partitions may run on.
+void readMachines(const Context& ctx, MapReader& top, Scenario& s)
+{
+  const YAML::Node machines = top.get("machines");
+  if (present(machines))
+  {
+    MapReader mr(ctx, machines, "machines");
+    for (const auto& kv : machines)
+    {
+      MachineSpec m;
+      m.name = kv.first.Scalar();
+      const std::string mk = mr.key(m.name);
+      if (!isRosName(m.name))
+        ctx.fail(mk, "'" + m.name + "' is not a valid name (a letter, then letters, digits, _)");
+      MapReader e(ctx, mr.get(m.name), mk);
+      m.address = toString(ctx, e.required("address"), e.key("address"));
+      m.env_loader = toString(ctx, e.required("env_loader"), e.key("env_loader"));
+      const YAML::Node user = e.get("user");
+      if (present(user))
+        m.user = toString(ctx, user, e.key("user"));
+      e.finish();
+      s.machines.push_back(m);
+    }
+    mr.finish();
+  }
+}
+
+/// partitions: a count (balanced by running-gear cost) or a list naming vehicles and machines.
+void readPartitions(const Context& ctx, MapReader& top, const LoadOptions& options, Scenario& s)
+{
+  const YAML::Node partitions = top.get("partitions");
+  if (present(partitions))
+  {
+    if (partitions.IsScalar())
+    {
+      const std::size_t n =
+          static_cast<std::size_t>(toInt(ctx, partitions, "partitions", 1, static_cast<long long>(s.vehicles.size())));
+      std::vector<std::string> names;
+      std::vector<double> costs;
+      for (const VehicleSpec& v : s.vehicles)
+      {
+        names.push_back(v.name);
+        double cost = 1.0;
+        try
+        {
+          const dynamics::VehicleModel m = dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+          cost += static_cast<double>(m.wheels.size());
+          for (const dynamics::TrackSpec& t : m.tracks)
+            cost += static_cast<double>(t.road_wheels.size());
+        }
+        catch (const std::exception& e)
+        {
+          ctx.fail("partitions", "model '" + v.model + "' of '" + v.name + "': " + e.what());
+        }
+        costs.push_back(cost);
+      }
+      if (n > 1)
+        s.partitions = balancedPartitions(names, costs, n);
+    }
+    else
+    {
+      if (!partitions.IsSequence() || partitions.size() == 0)
+        ctx.fail("partitions", "must be a number of partitions or a list of {name, vehicles, machine}");
+      std::map<std::string, std::string> placed;  // vehicle -> partition
+      std::set<std::string> partition_names;
+      for (std::size_t k = 0; k < partitions.size(); ++k)
+      {
+        const std::string pk = indexKey("partitions", k);
+        MapReader pr(ctx, partitions[k], pk);
+        PartitionSpec p;
+        p.name = toString(ctx, pr.required("name"), pr.key("name"));
+        if (!isRosName(p.name))
+          ctx.fail(pr.key("name"), "'" + p.name + "' is not a valid name (a letter, then letters, digits, _)");
+        if (p.name == "sensors")
+          ctx.fail(pr.key("name"), "'sensors' is sensors_node's name in the lockstep");
+        if (!partition_names.insert(p.name).second)
+          ctx.fail(pr.key("name"), "duplicate partition '" + p.name + "'");
+        const YAML::Node pv = pr.required("vehicles");
+        if (!pv.IsSequence() || pv.size() == 0)
+          ctx.fail(pr.key("vehicles"), "must be a non-empty list of vehicle names");
+        std::set<std::string> mine;
+        for (std::size_t j = 0; j < pv.size(); ++j)
+        {
+          const std::string vk = indexKey(pr.key("vehicles"), j);
+          const std::string name = toString(ctx, pv[j], vk);
+          if (s.vehicleIndex(name) < 0)
+            ctx.fail(vk, "unknown vehicle '" + name + "'");
+          if (placed.count(name))
+            ctx.fail(vk, "'" + name + "' is already in partition '" + placed[name] + "'");
+          placed[name] = p.name;
+          mine.insert(name);
+        }
+        for (const VehicleSpec& v : s.vehicles)  // scenario order
+          if (mine.count(v.name))
+            p.vehicles.push_back(v.name);
+        const YAML::Node machine = pr.get("machine");
+        if (present(machine))
+        {
+          p.machine = toString(ctx, machine, pr.key("machine"));
+          if (std::none_of(s.machines.begin(), s.machines.end(),
+                           [&](const MachineSpec& m) { return m.name == p.machine; }))
+            ctx.fail(pr.key("machine"), "unknown machine '" + p.machine + "' (not in machines)");
+        }
+        pr.finish();
+        s.partitions.push_back(p);
+      }
+      for (const VehicleSpec& v : s.vehicles)
+        if (!placed.count(v.name))
+          ctx.fail("partitions", "vehicle '" + v.name + "' is in no partition");
+      if (s.partitions.size() == 1 && !s.partitions[0].machine.empty())
+        ctx.fail("partitions", "a single partition cannot run on a machine (use two or more)");
+      if (s.partitions.size() == 1)
+        s.partitions.clear();  // one partition: the plain single dynamics_node
+    }
+  }
+  else if (!s.machines.empty())
+    ctx.fail("machines", "given but no partitions use them");
+}
+
+/// Start poses, paths and agents against the terrain (options.check_terrain).
+void checkAgainstTerrain(const Context& ctx, const LoadOptions& options, const Scenario& s,
+                         const std::vector<terrain::AgentSpec>& agent_specs)
+{
+  if (!options.check_terrain)
+    return;
+  std::shared_ptr<const TerrainFootprint> t;
+  try
+  {
+    t = options.terrain_loader ? options.terrain_loader(s.terrain) : loadTerrainFootprint(s.terrain);
+  }
+  catch (const std::exception& e)
+  {
+    ctx.fail("terrain", e.what());
+  }
+  if (!t)
+    ctx.fail("terrain", "could not be loaded");
+  const double c = options.start_clearance;
+  for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+  {
+    const VehicleSpec& v = s.vehicles[i];
+    const std::string key = indexKey("vehicles", i) + ".start";
+    checkOnTerrain(ctx, *t, v.x, v.y, 5.0, key);
+    for (std::uint32_t id : t->objects.query(v.x - c, v.y - c, v.x + c, v.y + c))
+    {
+      const terrain::TerrainObject& o = t->objects.get(id);
+      if (o.type == terrain::ObjectType::kGrass)
+        continue;
+      const double d = distanceToFootprint(o, v.x, v.y);
+      if (d < c)
+        ctx.fail(key, "'" + v.name + "' starts " +
+                          (d <= 0.0 ? std::string("inside") : "within " + shortNumber(c) + " m of") + " " +
+                          terrain::toString(o.type) + " " + std::to_string(id) + " at (" + shortNumber(o.x) + ", " +
+                          shortNumber(o.y) + ")");
+    }
+  }
+  for (const auto& kv : s.paths)
+    for (std::size_t k = 0; k < kv.second.size(); ++k)
+      checkOnTerrain(ctx, *t, kv.second[k].x, kv.second[k].y, 0.0, indexKey("paths." + kv.first, k));
+  // Each agent as agents_node, dynamics_node and sensors_node build it: the spline through
+  // its points (which can swing outside them) must stay on the ground, within the sample budget.
+  if (t->ground)
+    for (std::size_t i = 0; i < agent_specs.size(); ++i)
+    {
+      try
+      {
+        terrain::Agent(agent_specs[i], t->ground->base(), indexKey("agents", i));
+      }
+      catch (const std::invalid_argument& e)
+      {
+        throw ScenarioError(ctx.file() + ": " + e.what());
+      }
+    }
+}
+}  // namespace
+
 Scenario loadScenario(const std::string& path, const LoadOptions& options)
 {
   // A regular file of bounded size: a device never ends, and a huge file (1.4 M waypoints
@@ -777,27 +1192,7 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
 
     s.terrain = readTerrain(ctx, top.required("terrain"), options);
 
-    {
-      MapReader g(ctx, top.required("geodetic_reference"), "geodetic_reference");
-      s.latitude = requiredDouble(ctx, g, "latitude", -90.0, 90.0, "deg");
-      s.longitude = requiredDouble(ctx, g, "longitude", -180.0, 360.0, "deg east");
-      s.altitude = readDouble(ctx, g, "altitude", 0.0, -500.0, 9000.0, "m");
-      g.finish();
-    }
-    {
-      MapReader t(ctx, top.required("time"), "time");
-      s.start_utc = toString(ctx, t.required("start_utc"), "time.start_utc");
-      try
-      {
-        environment::parseRunStartUtc(s.start_utc);  // environment_node's rule
-      }
-      catch (const std::exception& e)
-      {
-        ctx.fail("time.start_utc", e.what());
-      }
-      s.time_acceleration = readDouble(ctx, t, "acceleration", 1.0, 1e-6, 1e6, "world s per sim s");
-      t.finish();
-    }
+    readPlaceAndTime(ctx, top, s);
     const YAML::Node weather = top.get("weather");
     if (present(weather))
       s.weather = readWeather(ctx, weather);
@@ -806,371 +1201,28 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
     if (present(sensors))
       s.sensors = readSensors(ctx, sensors, "sensors");
 
-    const YAML::Node paths = top.get("paths");
-    if (present(paths))
-    {
-      MapReader p(ctx, paths, "paths");
-      for (const auto& kv : paths)
-      {
-        const std::string name = kv.first.Scalar();
-        s.paths[name] = readPath(ctx, p.get(name), p.key(name));
-      }
-      p.finish();
-    }
-
-    // Vehicles.
-    const YAML::Node vehicles = top.required("vehicles");
-    if (!vehicles.IsSequence() || vehicles.size() == 0)
-      ctx.fail("vehicles", "must be a non-empty list of vehicles");
-    std::set<std::string> names;
-    struct ModelLimits
-    {
-      double max_speed = 0.0, rest_height = 0.0, wheel_radius = 0.0;
-    };
-    std::map<std::string, ModelLimits> loaded_models;
-    const std::vector<std::string> models = knownModels(options.vehicles_dir);
-    for (std::size_t i = 0; i < vehicles.size(); ++i)
-    {
-      const std::string key = indexKey("vehicles", i);
-      MapReader m(ctx, vehicles[i], key);
-      VehicleSpec v;
-      v.name = toString(ctx, m.required("name"), m.key("name"));
-      if (!isRosName(v.name))
-        ctx.fail(m.key("name"), "'" + v.name + "' is not a valid name (a letter, then letters, digits, _)");
-      if (!names.insert(v.name).second)
-        ctx.fail(m.key("name"), "duplicate name '" + v.name + "'");
-      v.model = toString(ctx, m.required("model"), m.key("model"));
-      if (std::find(models.begin(), models.end(), v.model) == models.end())
-        ctx.fail(m.key("model"), "unknown model '" + v.model + "' (no " + options.vehicles_dir + "/" + v.model +
-                                     ".yaml; known: " + join(models) + ")");
-      // The vehicle's files as dynamics_node will read them (YAML, URDF, their consistency),
-      // whatever the layout: a bad file fails here, not at run time.
-      if (!loaded_models.count(v.model))
-      {
-        try
-        {
-          const dynamics::VehicleModel model =
-              dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
-          // The lowest running-gear point sets the rest height of base_link (suspension at 0).
-          ModelLimits limits;
-          limits.max_speed = model.drivetrain.max_speed;
-          double lowest = kInf;
-          auto consider = [&](const Eigen::Vector3d& centre, double radius) {
-            if (centre.z() - radius < lowest)
-            {
-              lowest = centre.z() - radius;
-              limits.wheel_radius = radius;
-            }
-          };
-          for (const dynamics::WheelSpec& w : model.wheels)
-            consider(w.rest_position, w.radius);
-          for (const dynamics::TrackSpec& t : model.tracks)
-            for (const dynamics::RoadWheelSpec& r : t.road_wheels)
-              consider(r.rest_position, r.radius);
-          limits.rest_height = -lowest;
-          loaded_models[v.model] = limits;
-        }
-        catch (const std::exception& e)
-        {
-          ctx.fail(m.key("model"), "'" + v.model + "': " + e.what());
-        }
-      }
-      v.max_speed = loaded_models[v.model].max_speed;
-      v.rest_height = loaded_models[v.model].rest_height;
-      v.wheel_radius = loaded_models[v.model].wheel_radius;
-      {
-        MapReader st(ctx, m.required("start"), m.key("start"));
-        v.x = requiredDouble(ctx, st, "x", -1e7, 1e7, "m");
-        v.y = requiredDouble(ctx, st, "y", -1e7, 1e7, "m");
-        v.yaw = readDouble(ctx, st, "yaw", 0.0, -100.0, 100.0, "rad");
-        st.finish();
-      }
-      const YAML::Node vs = m.get("sensors");
-      if (present(vs))
-        v.sensors = readSensors(ctx, vs, m.key("sensors"));
-      v.controller = readController(ctx, m.required("controller"), m.key("controller"));
-      if (v.controller.type == ControllerType::kWaypoints && !s.paths.count(v.controller.path))
-      {
-        std::vector<std::string> known;
-        for (const auto& kv : s.paths)
-          known.push_back(kv.first);
-        ctx.fail(m.key("controller.path"),
-                 "unknown path '" + v.controller.path + "' (paths: " + (known.empty() ? "none" : join(known)) + ")");
-      }
-      m.finish();
-      s.vehicles.push_back(v);
-    }
-
-    // Formation: leader, gap and offset of every member but the first.
-    const YAML::Node formation = top.get("formation");
-    if (present(formation))
-    {
-      MapReader f(ctx, formation, "formation");
-      FormationSpec& fs_ = s.formation;
-      fs_.present = true;
-      fs_.type_name = toString(ctx, f.required("type"), "formation.type");
-      try
-      {
-        fs_.type = control::formationFromString(fs_.type_name);
-      }
-      catch (const std::exception&)
-      {
-        ctx.fail("formation.type", "unknown '" + fs_.type_name + "' (column, line, diamond)");
-      }
-      fs_.spacing = readDouble(ctx, f, "spacing", 15.0, 0.1, 10000.0, "m");
-      fs_.width = readDouble(ctx, f, "width", 5.0, 0.1, 1000.0, "m");
-      const YAML::Node members = f.required("vehicles");
-      if (!members.IsSequence() || members.size() < 2)
-        ctx.fail("formation.vehicles", "must be a list of at least 2 vehicle names (the first leads)");
-      std::set<std::string> seen;
-      for (std::size_t k = 0; k < members.size(); ++k)
-      {
-        const std::string mk = indexKey("formation.vehicles", k);
-        const std::string name = toString(ctx, members[k], mk);
-        if (s.vehicleIndex(name) < 0)
-          ctx.fail(mk, "unknown vehicle '" + name + "'");
-        if (!seen.insert(name).second)
-          ctx.fail(mk, "'" + name + "' is listed twice");
-        fs_.vehicles.push_back(name);
-      }
-      f.finish();
-      const std::vector<control::FormationSlot> slots =
-          control::formationSlots(fs_.type, fs_.vehicles.size(), fs_.spacing, fs_.width);
-      for (std::size_t k = 1; k < fs_.vehicles.size(); ++k)
-      {
-        const int vi = s.vehicleIndex(fs_.vehicles[k]);
-        VehicleSpec& v = s.vehicles[static_cast<std::size_t>(vi)];
-        const std::string ck = indexKey("vehicles", static_cast<std::size_t>(vi)) + ".controller";
-        if (v.controller.type != ControllerType::kLeaderFollower)
-          ctx.fail(ck + ".type", "'" + v.name + "' is in the formation: its controller must be leader_follower");
-        const YAML::Node vc = vehicles[static_cast<std::size_t>(vi)]["controller"];
-        for (const char* k2 : { "leader", "gap", "offset" })
-          if (present(vc[k2]))
-            ctx.fail(ck + "." + k2, "set by the formation ('" + v.name + "' is in formation.vehicles)");
-        v.controller.leader = fs_.vehicles[static_cast<std::size_t>(slots[k].leader)];
-        v.controller.gap = slots[k].gap;
-        v.controller.offset = slots[k].offset;
-        v.controller.from_formation = true;
-      }
-    }
-
-    // Leaders: known, not itself, no cycles.
-    for (std::size_t i = 0; i < s.vehicles.size(); ++i)
-    {
-      const VehicleSpec& v = s.vehicles[i];
-      if (v.controller.type != ControllerType::kLeaderFollower)
-        continue;
-      const std::string ck = indexKey("vehicles", i) + ".controller.leader";
-      if (v.controller.leader.empty())
-        ctx.fail(ck, "missing key (a leader_follower outside the formation names its leader)");
-      if (s.vehicleIndex(v.controller.leader) < 0)
-        ctx.fail(ck, "unknown vehicle '" + v.controller.leader + "'");
-      std::vector<std::string> chain = { v.name };
-      std::size_t cur = i;
-      while (s.vehicles[cur].controller.type == ControllerType::kLeaderFollower)
-      {
-        const std::string& next = s.vehicles[cur].controller.leader;
-        const int ni = s.vehicleIndex(next);
-        if (ni < 0)
-          break;  // named when that vehicle is checked
-        chain.push_back(next);
-        if (std::find(chain.begin(), chain.end() - 1, next) != chain.end() - 1)
-          ctx.fail(ck, "leader cycle " + join(chain, " -> "));
-        cur = static_cast<std::size_t>(ni);
-      }
-    }
-
-    {
-      const YAML::Node v2v = top.get("v2v");
-      if (present(v2v))
-      {
-        MapReader r(ctx, v2v, "v2v");
-        s.v2v.range = readDouble(ctx, r, "range", 300.0, 1e-3, 1e6, "m");
-        s.v2v.latency = readDouble(ctx, r, "latency", 0.0, 0.0, 3600.0, "s");
-        s.v2v.loss_probability = readDouble(ctx, r, "loss_probability", 0.0, 0.0, 1.0);
-        s.v2v.antenna_height = readDouble(ctx, r, "antenna_height", 1.5, 0.0, 1000.0, "m");
-        s.v2v.los_step = readDouble(ctx, r, "los_step", 1.0, 0.01, 100.0, "m");
-        const YAML::Node los = r.get("line_of_sight");
-        if (present(los))
-          s.v2v.line_of_sight = toBool(ctx, los, "v2v.line_of_sight");
-        r.finish();
-      }
-    }
-
+    readPaths(ctx, top, s);
+    const YAML::Node vehicles = readVehicles(ctx, top, options, s);
+    readFormation(ctx, top, vehicles, s);
+    checkLeaders(ctx, s);
+    readV2v(ctx, top, s);
     const YAML::Node agents = top.get("agents");
     std::vector<terrain::AgentSpec> agent_specs;  // the agents as parsed, for the terrain check below
     if (present(agents))
     {
-      std::set<std::string> agent_names = names;  // an agent may not share a vehicle's name
+      std::set<std::string> agent_names;  // an agent may not share a vehicle's name
+      for (const VehicleSpec& v : s.vehicles)
+        agent_names.insert(v.name);
       s.agents = readAgents(ctx, agents, agent_names, agent_specs);
     }
 
-    // Machines, then partitions naming them.
-    const YAML::Node machines = top.get("machines");
-    if (present(machines))
-    {
-      MapReader mr(ctx, machines, "machines");
-      for (const auto& kv : machines)
-      {
-        MachineSpec m;
-        m.name = kv.first.Scalar();
-        const std::string mk = mr.key(m.name);
-        if (!isRosName(m.name))
-          ctx.fail(mk, "'" + m.name + "' is not a valid name (a letter, then letters, digits, _)");
-        MapReader e(ctx, mr.get(m.name), mk);
-        m.address = toString(ctx, e.required("address"), e.key("address"));
-        m.env_loader = toString(ctx, e.required("env_loader"), e.key("env_loader"));
-        const YAML::Node user = e.get("user");
-        if (present(user))
-          m.user = toString(ctx, user, e.key("user"));
-        e.finish();
-        s.machines.push_back(m);
-      }
-      mr.finish();
-    }
-    const YAML::Node partitions = top.get("partitions");
-    if (present(partitions))
-    {
-      if (partitions.IsScalar())
-      {
-        const std::size_t n = static_cast<std::size_t>(
-            toInt(ctx, partitions, "partitions", 1, static_cast<long long>(s.vehicles.size())));
-        std::vector<std::string> names;
-        std::vector<double> costs;
-        for (const VehicleSpec& v : s.vehicles)
-        {
-          names.push_back(v.name);
-          double cost = 1.0;
-          try
-          {
-            const dynamics::VehicleModel m = dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
-            cost += static_cast<double>(m.wheels.size());
-            for (const dynamics::TrackSpec& t : m.tracks)
-              cost += static_cast<double>(t.road_wheels.size());
-          }
-          catch (const std::exception& e)
-          {
-            ctx.fail("partitions", "model '" + v.model + "' of '" + v.name + "': " + e.what());
-          }
-          costs.push_back(cost);
-        }
-        if (n > 1)
-          s.partitions = balancedPartitions(names, costs, n);
-      }
-      else
-      {
-        if (!partitions.IsSequence() || partitions.size() == 0)
-          ctx.fail("partitions", "must be a number of partitions or a list of {name, vehicles, machine}");
-        std::map<std::string, std::string> placed;  // vehicle -> partition
-        std::set<std::string> partition_names;
-        for (std::size_t k = 0; k < partitions.size(); ++k)
-        {
-          const std::string pk = indexKey("partitions", k);
-          MapReader pr(ctx, partitions[k], pk);
-          PartitionSpec p;
-          p.name = toString(ctx, pr.required("name"), pr.key("name"));
-          if (!isRosName(p.name))
-            ctx.fail(pr.key("name"), "'" + p.name + "' is not a valid name (a letter, then letters, digits, _)");
-          if (p.name == "sensors")
-            ctx.fail(pr.key("name"), "'sensors' is sensors_node's name in the lockstep");
-          if (!partition_names.insert(p.name).second)
-            ctx.fail(pr.key("name"), "duplicate partition '" + p.name + "'");
-          const YAML::Node pv = pr.required("vehicles");
-          if (!pv.IsSequence() || pv.size() == 0)
-            ctx.fail(pr.key("vehicles"), "must be a non-empty list of vehicle names");
-          std::set<std::string> mine;
-          for (std::size_t j = 0; j < pv.size(); ++j)
-          {
-            const std::string vk = indexKey(pr.key("vehicles"), j);
-            const std::string name = toString(ctx, pv[j], vk);
-            if (s.vehicleIndex(name) < 0)
-              ctx.fail(vk, "unknown vehicle '" + name + "'");
-            if (placed.count(name))
-              ctx.fail(vk, "'" + name + "' is already in partition '" + placed[name] + "'");
-            placed[name] = p.name;
-            mine.insert(name);
-          }
-          for (const VehicleSpec& v : s.vehicles)  // scenario order
-            if (mine.count(v.name))
-              p.vehicles.push_back(v.name);
-          const YAML::Node machine = pr.get("machine");
-          if (present(machine))
-          {
-            p.machine = toString(ctx, machine, pr.key("machine"));
-            if (std::none_of(s.machines.begin(), s.machines.end(),
-                             [&](const MachineSpec& m) { return m.name == p.machine; }))
-              ctx.fail(pr.key("machine"), "unknown machine '" + p.machine + "' (not in machines)");
-          }
-          pr.finish();
-          s.partitions.push_back(p);
-        }
-        for (const VehicleSpec& v : s.vehicles)
-          if (!placed.count(v.name))
-            ctx.fail("partitions", "vehicle '" + v.name + "' is in no partition");
-        if (s.partitions.size() == 1 && !s.partitions[0].machine.empty())
-          ctx.fail("partitions", "a single partition cannot run on a machine (use two or more)");
-        if (s.partitions.size() == 1)
-          s.partitions.clear();  // one partition: the plain single dynamics_node
-      }
-    }
-    else if (!s.machines.empty())
-      ctx.fail("machines", "given but no partitions use them");
-
+    readMachines(ctx, top, s);
+    readPartitions(ctx, top, options, s);
     s.seed = static_cast<std::uint64_t>(toInt(ctx, top.required("seed"), "seed", 0, 2147483647));
     s.duration = requiredDouble(ctx, top, "duration", 1e-3, 1e7, "s");
     top.finish();
 
-    // Start poses and paths against the terrain.
-    if (options.check_terrain)
-    {
-      std::shared_ptr<const TerrainFootprint> t;
-      try
-      {
-        t = options.terrain_loader ? options.terrain_loader(s.terrain) : loadTerrainFootprint(s.terrain);
-      }
-      catch (const std::exception& e)
-      {
-        ctx.fail("terrain", e.what());
-      }
-      if (!t)
-        ctx.fail("terrain", "could not be loaded");
-      const double c = options.start_clearance;
-      for (std::size_t i = 0; i < s.vehicles.size(); ++i)
-      {
-        const VehicleSpec& v = s.vehicles[i];
-        const std::string key = indexKey("vehicles", i) + ".start";
-        checkOnTerrain(ctx, *t, v.x, v.y, 5.0, key);
-        for (std::uint32_t id : t->objects.query(v.x - c, v.y - c, v.x + c, v.y + c))
-        {
-          const terrain::TerrainObject& o = t->objects.get(id);
-          if (o.type == terrain::ObjectType::kGrass)
-            continue;
-          const double d = distanceToFootprint(o, v.x, v.y);
-          if (d < c)
-            ctx.fail(key, "'" + v.name + "' starts " +
-                              (d <= 0.0 ? std::string("inside") : "within " + shortNumber(c) + " m of") + " " +
-                              terrain::toString(o.type) + " " + std::to_string(id) + " at (" + shortNumber(o.x) + ", " +
-                              shortNumber(o.y) + ")");
-        }
-      }
-      for (const auto& kv : s.paths)
-        for (std::size_t k = 0; k < kv.second.size(); ++k)
-          checkOnTerrain(ctx, *t, kv.second[k].x, kv.second[k].y, 0.0, indexKey("paths." + kv.first, k));
-      // Each agent as agents_node, dynamics_node and sensors_node build it: the spline through
-      // its points (which can swing outside them) must stay on the ground, within the sample budget.
-      if (t->ground)
-        for (std::size_t i = 0; i < agent_specs.size(); ++i)
-        {
-          try
-          {
-            terrain::Agent(agent_specs[i], t->ground->base(), indexKey("agents", i));
-          }
-          catch (const std::invalid_argument& e)
-          {
-            throw ScenarioError(ctx.file() + ": " + e.what());
-          }
-        }
-    }
+    checkAgainstTerrain(ctx, options, s, agent_specs);
     return s;
   }
   catch (const YAML::Exception& e)
