@@ -393,15 +393,40 @@ StateSynchronizer::StateSynchronizer(std::size_t vehicles, double timeout)
   : timeout_(timeout),
     queues_(vehicles),
     latest_(vehicles),
-    last_pushed_(vehicles, -std::numeric_limits<double>::infinity())
+    last_pushed_(vehicles, -std::numeric_limits<double>::infinity()),
+    first_(vehicles, -std::numeric_limits<double>::infinity()),
+    last_(vehicles, std::numeric_limits<double>::infinity())
 {
   if (!(timeout >= 0.0))
     throw std::invalid_argument("StateSynchronizer: timeout must be >= 0");
 }
 
+std::size_t StateSynchronizer::addVehicle(double first_time)
+{
+  if (!(first_time > released_))
+    throw std::invalid_argument("StateSynchronizer::addVehicle: first time " + std::to_string(first_time) +
+                                " s is not after the last released time " + std::to_string(released_) + " s");
+  queues_.emplace_back();
+  latest_.emplace_back();
+  last_pushed_.push_back(-std::numeric_limits<double>::infinity());
+  first_.push_back(first_time);
+  last_.push_back(std::numeric_limits<double>::infinity());
+  return queues_.size() - 1;
+}
+
+void StateSynchronizer::removeVehicle(std::size_t vehicle, double last_time)
+{
+  if (vehicle >= queues_.size())
+    throw std::out_of_range("StateSynchronizer::removeVehicle: no vehicle " + std::to_string(vehicle));
+  last_[vehicle] = std::min(last_[vehicle], last_time);
+  std::deque<VehicleState>& q = queues_[vehicle];
+  while (!q.empty() && q.back().time > last_[vehicle])
+    q.pop_back();
+}
+
 StateSynchronizer::Push StateSynchronizer::push(std::size_t vehicle, const VehicleState& state)
 {
-  if (!(state.time > last_pushed_.at(vehicle)))
+  if (!(state.time > last_pushed_.at(vehicle)) || state.time > last_[vehicle])
     return Push::kNotAfterLast;
   if (state.time < released_)
     return Push::kLate;
@@ -421,7 +446,7 @@ std::optional<StateSynchronizer::Batch> StateSynchronizer::next()
   if (!std::isfinite(t))
     return std::nullopt;
   for (std::size_t k = 0; k < queues_.size(); ++k)
-    if (queues_[k].empty())
+    if (queues_[k].empty() && t >= first_[k] && t <= last_[k])
     {
       if (!(newest_ > t + timeout_))
         return std::nullopt;  // it may still deliver a state at or before t
@@ -438,6 +463,9 @@ std::optional<StateSynchronizer::Batch> StateSynchronizer::next()
       queues_[k].pop_front();
     }
   released_ = t;
+  for (std::size_t k = 0; k < queues_.size(); ++k)
+    if (t > last_[k])
+      latest_[k].reset();  // removed: no longer in the scene
   return b;
 }
 

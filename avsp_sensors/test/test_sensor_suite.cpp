@@ -501,6 +501,60 @@ TEST(StateSynchronizer, SilentVehicleIsWaitedOutOnceTheOthersRunAheadAndLateOrRe
   EXPECT_EQ(batches, 100);
 }
 
+// A vehicle spawned into a run with a long timeout (the lockstep's: the others never run far
+// ahead): the times pending before its first state are released without it, from then on each
+// waits for it; a removed vehicle's states up to its last are still released, later times go
+// on without it (no wait), its later states are refused and its latest state is dropped.
+TEST(StateSynchronizer, SpawnedVehicleIsWaitedForFromItsFirstStateAndARemovedOneUpToItsLast)
+{
+  StateSynchronizer sync(1, 1e9);
+  for (int k = 1; k <= 3; ++k)
+    ASSERT_EQ(sync.push(0, at(0.01 * k, 0, 0, 0)), StateSynchronizer::Push::kQueued);
+  auto b = sync.next();
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->time, 0.01);
+  EXPECT_THROW(sync.addVehicle(0.01), std::invalid_argument);  // already released
+  const std::size_t spawned = sync.addVehicle(0.03);
+  EXPECT_EQ(spawned, 1u);
+  b = sync.next();  // 0.02: before the spawned vehicle's first state, not waited for
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->time, 0.02);
+  EXPECT_EQ(b->vehicles, std::vector<std::size_t>{ 0 });
+  EXPECT_FALSE(sync.next()) << "0.03 must wait for the spawned vehicle";
+  ASSERT_EQ(sync.push(spawned, at(0.03, 9, 0, 0)), StateSynchronizer::Push::kQueued);
+  b = sync.next();
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->time, 0.03);
+  EXPECT_EQ(b->vehicles, (std::vector<std::size_t>{ 0, 1 }));
+  ASSERT_TRUE(sync.latest(spawned));
+
+  // Removed after its state at 0.05 (queued already, as its 0.06 was).
+  for (int k = 4; k <= 6; ++k)
+  {
+    ASSERT_EQ(sync.push(0, at(0.01 * k, 0, 0, 0)), StateSynchronizer::Push::kQueued);
+    ASSERT_EQ(sync.push(spawned, at(0.01 * k, 9, 0, 0)), StateSynchronizer::Push::kQueued);
+  }
+  sync.removeVehicle(spawned, 0.05);
+  EXPECT_THROW(sync.removeVehicle(7, 0.05), std::out_of_range);
+  EXPECT_EQ(sync.push(spawned, at(0.07, 9, 0, 0)), StateSynchronizer::Push::kNotAfterLast);
+  for (double t : { 0.04, 0.05 })
+  {
+    b = sync.next();
+    ASSERT_TRUE(b);
+    EXPECT_EQ(b->time, t);
+    EXPECT_EQ(b->vehicles, (std::vector<std::size_t>{ 0, 1 })) << t;
+    EXPECT_FALSE(sync.gone(spawned));
+  }
+  b = sync.next();  // 0.06: its queued 0.06 was dropped by the removal; not waited for
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->time, 0.06);
+  EXPECT_EQ(b->vehicles, std::vector<std::size_t>{ 0 });
+  EXPECT_TRUE(sync.waitedOut().empty());
+  EXPECT_FALSE(sync.latest(spawned)) << "a removed vehicle stays in the scene";
+  EXPECT_TRUE(sync.gone(spawned));
+  EXPECT_EQ(sync.addVehicle(0.07), 2u) << "indices are not reused";
+}
+
 TEST(TerrainPatch, AppliedPatchMatchesARebuildAndIsClippedToTheGrid)
 {
   HeightField field = flat(10.0);

@@ -26,18 +26,25 @@
 #include <thread>
 #include <vector>
 
+#include <avsp_msgs/AddSensedVehicle.h>
 #include <avsp_msgs/ClassTable.h>
+#include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/LidarClusterArray.h>
 #include <avsp_msgs/RadarTargetArray.h>
+#include <avsp_msgs/RemoveSensedVehicle.h>
+#include <avsp_msgs/RemoveVehicle.h>
 #include <avsp_msgs/SaveMap.h>
+#include <avsp_msgs/SpawnVehicle.h>
+#include <avsp_msgs/StepPhysics.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -1427,6 +1434,139 @@ TEST(LockstepFollow, ClockSensorsAndWeatherUnderLoad)
       "[ follow ] %.1f s of sim time in %.1f s wall with %d busy thread(s); /clock at most %.3f s ahead of the "
       "IMU, %.3f s of a sweep's stamp; sweeps: clear >= %zu points, foggy (from %.2f s) <= %zu\n",
       until, (ros::WallTime::now() - start).toSec(), hog_threads, w.lead, sweep_lead, clear_min, boundary, foggy_max);
+}
+
+// A vehicle spawned into a run with sensors (spawn_sensed.test): dynamics_node ~spawn_vehicle
+// gives it to sensors_node (~sensor_nodes), which senses it with the run's defaults (~sensors:
+// a registered VLP-16) and puts its body in the ego's scene; ~remove_vehicle takes both away.
+// The ego stands braked at the origin; the mrzr "visitor" is spawned 10 m ahead at t = 0.5 s
+// and removed at t = 2 s; paused, stepped, so every sweep is sensed (the lockstep).
+TEST(SpawnSensed, TheSpawnedVehicleSensesAndIsSeenUntilRemoved)
+{
+  ros::NodeHandle nh;
+  Topic<sensor_msgs::PointCloud2> ego_cloud, visitor_cloud;
+  ego_cloud.subscribe(nh, "/ego/avt_341/points");
+  visitor_cloud.subscribe(nh, "/visitor/avt_341/points");
+  double clock = -1.0;
+  ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
+      "/clock", 1000, [&](const rosgraph_msgs::Clock::ConstPtr& c) { clock = c->clock.toSec(); });
+  ros::ServiceClient pause = nh.serviceClient<std_srvs::Trigger>("/dynamics/pause");
+  ros::ServiceClient step = nh.serviceClient<avsp_msgs::StepPhysics>("/dynamics/step");
+  ros::ServiceClient spawn = nh.serviceClient<avsp_msgs::SpawnVehicle>("/dynamics/spawn_vehicle");
+  ros::ServiceClient remove = nh.serviceClient<avsp_msgs::RemoveVehicle>("/dynamics/remove_vehicle");
+  ros::ServiceClient sensed_add = nh.serviceClient<avsp_msgs::AddSensedVehicle>("/sensors/add_vehicle");
+  ros::ServiceClient sensed_remove = nh.serviceClient<avsp_msgs::RemoveSensedVehicle>("/sensors/remove_vehicle");
+  for (ros::ServiceClient* c : { &pause, &step, &spawn, &remove, &sensed_add, &sensed_remove })
+    ASSERT_TRUE(c->waitForExistence(ros::Duration(60.0))) << c->getService();
+  std_srvs::Trigger trig;
+  ASSERT_TRUE(pause.call(trig));
+  ros::Publisher cmd = nh.advertise<avsp_msgs::DriveCommand>("/ego/cmd_drive", 1, true);
+  avsp_msgs::DriveCommand braked;
+  braked.brake = 1.0;
+  cmd.publish(braked);
+  // Steps `n` and waits until the ego's sweeps up to the clock are in (10 Hz).
+  const auto stepBy = [&](std::uint32_t n) {
+    avsp_msgs::StepPhysics sp;
+    sp.request.steps = n;
+    if (!step.call(sp) || !sp.response.success)
+      return false;
+    const double until = sp.response.until;
+    return spinUntil(
+        [&] {
+          return clock >= until - 1e-9 && !ego_cloud.messages.empty() &&
+                 ego_cloud.messages.back().header.stamp.toSec() >= until - 0.1 - 1e-6;
+        },
+        120.0);
+  };
+  ASSERT_TRUE(stepBy(500)) << "clock at " << clock;
+
+  // sensors_node refuses what it cannot take, naming it.
+  avsp_msgs::AddSensedVehicle twice;
+  twice.request.name = "ego";
+  twice.request.model = "fed_alpha";
+  twice.request.first_time = 10.0;
+  ASSERT_TRUE(sensed_add.call(twice));
+  EXPECT_FALSE(twice.response.success);
+  EXPECT_NE(twice.response.message.find("already a vehicle 'ego'"), std::string::npos) << twice.response.message;
+  avsp_msgs::AddSensedVehicle unknown_model = twice;
+  unknown_model.request.name = "other";
+  unknown_model.request.model = "rover7";
+  ASSERT_TRUE(sensed_add.call(unknown_model));
+  EXPECT_FALSE(unknown_model.response.success);
+  EXPECT_NE(unknown_model.response.message.find("rover7"), std::string::npos) << unknown_model.response.message;
+  avsp_msgs::RemoveSensedVehicle nobody;
+  nobody.request.name = "nobody";
+  nobody.request.last_time = 1.0;
+  ASSERT_TRUE(sensed_remove.call(nobody));
+  EXPECT_FALSE(nobody.response.success);
+
+  avsp_msgs::SpawnVehicle visitor;
+  visitor.request.name = "visitor";
+  visitor.request.model = "mrzr";
+  visitor.request.x = 10.0;
+  ASSERT_TRUE(spawn.call(visitor));
+  ASSERT_TRUE(visitor.response.success) << visitor.response.message;
+  ASSERT_TRUE(stepBy(1500)) << "clock at " << clock;  // to 2 s
+  avsp_msgs::RemoveVehicle leave;
+  leave.request.name = "visitor";
+  ASSERT_TRUE(remove.call(leave));
+  ASSERT_TRUE(leave.response.success) << leave.response.message;
+  ASSERT_TRUE(stepBy(1000)) << "clock at " << clock;  // to 3 s
+  ros::master::V_TopicInfo topics;
+  ros::master::getTopics(topics);
+  for (const ros::master::TopicInfo& t : topics)
+    EXPECT_NE(t.name, "/visitor/avt_341/points") << "the removed vehicle's lidar is still advertised";
+
+  // The ego's sweeps (registered: map = odom, z up): points on the visitor's body (its box round
+  // (10, 0), 0.3 m above the ground) from the first sweep after 0.5 s to the last before 2 s,
+  // none before or after.
+  const auto on_visitor = [](const sensor_msgs::PointCloud2& c) {
+    std::size_t n = 0;
+    for (const Point& p : points(c))
+      n += std::abs(p.x - 10.0) < 2.0 && std::abs(p.y) < 1.2 && p.z > 0.3 ? 1 : 0;
+    return n;
+  };
+  std::size_t before = 0, during = 0, after = 0, sweeps_during = 0, sweeps_seeing = 0;
+  for (const auto& c : ego_cloud.messages)
+  {
+    const double t = c.header.stamp.toSec();  // the sweep's start
+    const std::size_t n = on_visitor(c);
+    if (t < 0.5 - 1e-6)
+      before += n;
+    else if (t >= 0.6 - 1e-6 && t < 1.9 - 1e-6)
+    {
+      ++sweeps_during;
+      during += n;
+      sweeps_seeing += n > 0 ? 1 : 0;
+    }
+    else if (t >= 2.1 - 1e-6)
+      after += n;
+  }
+  // The visitor's own lidar: sweeps from after its spawn to its removal, none outside.
+  std::size_t visitor_sweeps = 0, visitor_outside = 0;
+  for (const auto& c : visitor_cloud.messages)
+  {
+    const double t = c.header.stamp.toSec();
+    visitor_outside += (t < 0.5 || t > 2.0) ? 1 : 0;
+    visitor_sweeps += 1;
+  }
+  std::printf(
+      "[spawn sensed] ego sweeps: %zu points on the visitor before its spawn, %zu in %zu sweeps while it "
+      "stood (%zu sweeps saw it), %zu after its removal; visitor's own sweeps: %zu\n",
+      before, during, sweeps_during, sweeps_seeing, after, visitor_sweeps);
+  EXPECT_EQ(before, 0u);
+  EXPECT_EQ(sweeps_during, 13u);
+  EXPECT_EQ(sweeps_seeing, sweeps_during) << "a sweep while the visitor stood did not see it";
+  EXPECT_GT(during, 100u * sweeps_during);
+  EXPECT_EQ(after, 0u) << "the removed visitor is still in the ego's scene";
+  EXPECT_GE(visitor_sweeps, 13u);
+  EXPECT_EQ(visitor_outside, 0u);
+  ASSERT_FALSE(visitor_cloud.messages.empty());
+  // Its own lidar sees the ego (10 m behind it: points round the origin above the ground).
+  std::size_t on_ego = 0;
+  for (const Point& p : points(visitor_cloud.messages.back()))
+    on_ego += std::abs(p.x) < 3.0 && std::abs(p.y) < 1.5 && p.z > 0.3 ? 1 : 0;
+  EXPECT_GT(on_ego, 50u);
 }
 
 int main(int argc, char** argv)

@@ -54,8 +54,10 @@
 #include <string>
 #include <vector>
 
+#include <avsp_msgs/AddSensedVehicle.h>
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/RemoveSensedVehicle.h>
 #include <avsp_msgs/RemoveVehicle.h>
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/SetVehiclePose.h>
@@ -324,6 +326,8 @@ public:
           ros::WallDuration(0.001).sleep();  // paused (~pause): the services and nothing else
           continue;
         }
+        if (!awaiting_.empty() && !waitForSensorSubscriptions())
+          return false;
         // One clock period of physics per loop, commands taken at its start; paused, one step
         // of ~step per loop, each with its clock. Clock publications stay on the same steps
         // as without a pause, so the barriers below fall where they always do.
@@ -365,6 +369,8 @@ public:
           ros::WallDuration(0.0005).sleep();
           continue;
         }
+        if (!awaiting_.empty() && !waitForSensorSubscriptions())
+          return false;
         while (world_->time() + 0.5 * world_->options().step < target && ros::ok())
           step();
       }
@@ -570,6 +576,10 @@ private:
     clock_every_ = std::max<std::uint64_t>(1, std::llround(1.0 / (clock_rate * options.step)));
     ruts_every_ = ruts_rate > 0.0 ? std::max<std::uint64_t>(1, std::llround(1.0 / (ruts_rate * options.step))) : 0;
     lockstep_names = lockstepVehicles(specs, options.step, odom_rate);
+    // The sensors_nodes told of a spawned or removed vehicle (~spawn_vehicle, ~remove_vehicle).
+    for (const std::string& n :
+         avsp::node::plainNamesParam(pnh_, "sensor_nodes", "sensors_node names (in this node's namespace)"))
+      sensor_nodes_.push_back(nh_.resolveName(n));
     return options;
   }
 
@@ -656,7 +666,11 @@ private:
     // machine, real-time factor 0) stops reading its socket, and roscpp then drops the oldest
     // queued messages for it. With 50 (0.5 s of sim, a few ms of wall at full speed)
     // run_recorder lost 13 of 1000 odometry samples under load; 2000 is 20 s of sim at 100 Hz.
-    v->odom_pub = vnh.advertise<nav_msgs::Odometry>("avt_341/odometry", kStateQueue);
+    // Subscribers are seen connecting: a spawned vehicle's first step waits for its sensors.
+    const std::string name = s.name;
+    v->odom_pub = vnh.advertise<nav_msgs::Odometry>(
+        "avt_341/odometry", kStateQueue,
+        [this, name](const ros::SingleSubscriberPublisher& p) { onOdometrySubscriber(name, p.getSubscriberName()); });
     v->telemetry_pub = vnh.advertise<avsp_msgs::VehicleTelemetry>("telemetry", kStateQueue);
     v->joint_pub = vnh.advertise<sensor_msgs::JointState>("joint_states", 50);
     v->truth_pub = vnh.advertise<nav_msgs::Odometry>("ground_truth/odometry", kStateQueue);
@@ -1098,6 +1112,14 @@ private:
         else
         {
           addVehicle(VehicleSpec{ req.name, req.model, req.x, req.y, req.yaw }, false);
+          const std::string refused = tellSensorsOfSpawn(req.name, req.model);
+          if (!refused.empty())
+          {
+            awaiting_.erase(req.name);
+            world_->removeVehicle(vehicles_.back()->id);
+            vehicles_.pop_back();
+            throw std::runtime_error(refused);
+          }
           transforms_.resize(vehicles_.size());
           publishOdomFrames();
           VehicleIo* raw = vehicles_.back().get();
@@ -1138,6 +1160,8 @@ private:
       VehicleIo& v = **it;
       if (v.ran && ruts_every_ > 0 && ruts_pub_.getNumSubscribers() > 0)
         publishRuts();  // its ruts so far, before its rut area goes
+      tellSensorsOfRemoval(v.name);
+      awaiting_.erase(v.name);
       const std::size_t id = v.id;
       diagnostics_->removeByName(v.name);
       world_->removeVehicle(id);
@@ -1154,6 +1178,91 @@ private:
     else
       ROS_WARN("dynamics_node: ~remove_vehicle: %s (nothing changed)", res.message.c_str());
     return true;
+  }
+
+  /// Each of ~sensor_nodes takes the spawned vehicle (`<node>/add_vehicle`), sensed from half a
+  /// step after now (before its first odometry, after every state sent); its first step then
+  /// waits until each has subscribed its odometry. "" when all took it, else why not (those
+  /// that took it are told of its removal again).
+  std::string tellSensorsOfSpawn(const std::string& name, const std::string& model)
+  {
+    const double first_time = world_->time() + 0.5 * world_->options().step;
+    std::vector<std::string> told;
+    for (const std::string& node : sensor_nodes_)
+    {
+      avsp_msgs::AddSensedVehicle call;
+      call.request.name = name;
+      call.request.model = model;
+      call.request.first_time = first_time;
+      std::string why;
+      if (!ros::service::call(node + "/add_vehicle", call))
+        why = node + "/add_vehicle did not answer (~sensor_nodes)";
+      else if (!call.response.success)
+        why = node + ": " + call.response.message;
+      if (!why.empty())
+      {
+        for (const std::string& t : told)
+        {
+          avsp_msgs::RemoveSensedVehicle undo;
+          undo.request.name = name;
+          undo.request.last_time = world_->time();  // before its first state: never sensed
+          ros::service::call(t + "/remove_vehicle", undo);
+        }
+        return why;
+      }
+      told.push_back(node);
+      awaiting_[name].insert(node);
+    }
+    return "";
+  }
+
+  /// Each of ~sensor_nodes senses the vehicle up to now (its last odometry), then drops it.
+  void tellSensorsOfRemoval(const std::string& name)
+  {
+    for (const std::string& node : sensor_nodes_)
+    {
+      avsp_msgs::RemoveSensedVehicle call;
+      call.request.name = name;
+      call.request.last_time = world_->time() + 0.5 * world_->options().step;
+      if (!ros::service::call(node + "/remove_vehicle", call) || !call.response.success)
+        ROS_WARN("dynamics_node: ~remove_vehicle: %s/remove_vehicle: %s", node.c_str(),
+                 call.response.message.empty() ? "no answer" : call.response.message.c_str());
+    }
+  }
+
+  /// A subscriber of a vehicle's odometry connected: a sensors_node awaited by its first step.
+  void onOdometrySubscriber(const std::string& vehicle, const std::string& subscriber)
+  {
+    const auto it = awaiting_.find(vehicle);
+    if (it == awaiting_.end())
+      return;
+    it->second.erase(subscriber);
+    if (it->second.empty())
+      awaiting_.erase(it);
+  }
+
+  /// Holds the next step until every spawned vehicle's odometry has its sensors_nodes'
+  /// subscriptions (a state published before one connected would never reach it), within
+  /// ~lockstep_timeout (wall); past it the run stops naming them.
+  bool waitForSensorSubscriptions()
+  {
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(lockstep_timeout_);
+    ros::CallbackQueue* queue = ros::getGlobalCallbackQueue();
+    while (ros::ok() && !awaiting_.empty())
+    {
+      queue->callAvailable(ros::WallDuration(0.001));
+      if (ros::WallTime::now() > deadline && !awaiting_.empty())
+      {
+        std::string missing;
+        for (const auto& [vehicle, nodes] : awaiting_)
+          for (const std::string& n : nodes)
+            missing += (missing.empty() ? "" : ", ") + n + " on " + vehicle + "/avt_341/odometry";
+        fatal("spawned vehicle: no subscription of " + missing + " within ~lockstep_timeout " +
+              shortNumber(lockstep_timeout_) + " s (wall)");
+        return false;
+      }
+    }
+    return ros::ok();
   }
 
   /// The model names ~config_dir offers (<name>.yaml), sorted.
@@ -1776,7 +1885,9 @@ private:
   bool failed_ = false;  ///< a fatal error stopped the run (exit 1; a plain shutdown exits 0)
   std::string config_dir_;
   double lockstep_timeout_ = 30.0;         ///< s, wall
-  std::optional<ros::Time> follow_start_;  ///< external clock when following began
+  std::vector<std::string> sensor_nodes_;  ///< ~sensor_nodes, resolved: told of spawned and removed vehicles
+  std::map<std::string, std::set<std::string>> awaiting_;  ///< spawned vehicle -> sensors_nodes not yet subscribed
+  std::optional<ros::Time> follow_start_;                  ///< external clock when following began
   std::uint64_t odom_every_ = 10, clock_every_ = 2, ruts_every_ = 500;
   ros::Publisher toppled_pub_, ruts_pub_, clock_pub_;
   tf2_ros::TransformBroadcaster tf_;

@@ -304,6 +304,23 @@ public:
   /// The next complete time, if any (see the class).
   std::optional<Batch> next();
 
+  /**
+   * @brief A vehicle that joins the run (spawned): waited for at times >= `first_time` (its
+   *        first state's), not before, so the times already pending are released without it.
+   * @return its index (the next one; indices are never reused)
+   * @throw std::invalid_argument when `first_time` is not after the last released time
+   */
+  std::size_t addVehicle(double first_time);
+  /**
+   * @brief A vehicle that leaves the run (removed) after its state at `last_time`: its states up
+   *        to then are still released; later times are released without it, its later states
+   *        refused (kNotAfterLast), and from the first later time it has no latest() state.
+   * @throw std::out_of_range for an unknown index
+   */
+  void removeVehicle(std::size_t vehicle, double last_time);
+  /// Whether a vehicle was removed and every time up to its last state is released.
+  bool gone(std::size_t vehicle) const { return released_ > last_.at(vehicle); }
+
   /// The latest released state of a vehicle (none before its first).
   const std::optional<VehicleState>& latest(std::size_t vehicle) const { return latest_.at(vehicle); }
   /// Vehicles skipped by the timeout at the last next() (ascending), for warnings.
@@ -315,6 +332,7 @@ private:
   std::vector<std::deque<VehicleState>> queues_;
   std::vector<std::optional<VehicleState>> latest_;
   std::vector<double> last_pushed_;
+  std::vector<double> first_, last_;  ///< s, the times a vehicle is waited for (addVehicle, removeVehicle)
   double newest_ = -std::numeric_limits<double>::infinity();  ///< latest time any vehicle pushed
   double released_ = -std::numeric_limits<double>::infinity();
   std::vector<std::size_t> waited_out_;

@@ -32,9 +32,11 @@
 #include <string>
 #include <vector>
 
+#include <avsp_msgs/AddSensedVehicle.h>
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/LidarClusterArray.h>
 #include <avsp_msgs/ObjectToppled.h>
+#include <avsp_msgs/RemoveSensedVehicle.h>
 #include <avsp_msgs/SaveMap.h>
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/TerrainPatch.h>
@@ -144,6 +146,8 @@ struct VehicleIo
   std::uint64_t odometry_ignored = 0;  ///< bad, repeated-back or late odometry messages
   std::uint64_t ignored_reported = 0;  ///< `odometry_ignored` at the last diagnostics publication
   std::uint64_t waited_out = 0;        ///< times the others went on without it (~odometry_timeout)
+  bool removing = false;               ///< ~remove_vehicle came: sensed up to its last state, then closed
+  bool removed = false;                ///< closed: no subscriber, no publisher
   std::string lidar_frame, radar_frame, gps_frame, imu_frame, mag_frame;
   std::vector<std::string> range_frames;
   ros::Subscriber odom_sub;
@@ -207,7 +211,8 @@ public:
     const float body_reflectivity = static_cast<float>(boundedParam(pnh_, "body_reflectivity", 0.5, 0.0, 1.0));
     body_reflectivity_ = body_reflectivity;
     const std::optional<as::EnuFrame> origin = readOrigin(asn::needsOrigin(specs));
-    const std::string magnetic = asn::placeMagnetometers(specs, origin, avsp::node::stringParam(pnh_, "date", ""));
+    date_ = avsp::node::stringParam(pnh_, "date", "");
+    const std::string magnetic = asn::placeMagnetometers(specs, origin, date_);
     if (!magnetic.empty())
       ROS_INFO("sensors_node: magnetometer field: %s", magnetic.c_str());
 
@@ -216,6 +221,9 @@ public:
     const std::string soils_file =
         avsp::node::stringParam(pnh_, "soils_file", ros::package::getPath("avsp") + "/config/soils.yaml");
 
+    origin_ = origin;
+    config_dir_ = config_dir;
+    seed_ = static_cast<std::uint64_t>(seed);
     // Vehicles: their descriptions give the mounts and the bodies others see.
     for (std::size_t k = 0; k < entries.size(); ++k)
       vehicles_.push_back(makeVehicle(entries[k], specs[k], k, config_dir, origin, static_cast<std::uint64_t>(seed)));
@@ -224,6 +232,8 @@ public:
     sync_ = std::make_unique<as::StateSynchronizer>(vehicles_.size(), timeout);
     advertise();
     setUpDiagnostics();
+    add_service_ = pnh_.advertiseService("add_vehicle", &Impl::onAddVehicle, this);
+    remove_service_ = pnh_.advertiseService("remove_vehicle", &Impl::onRemoveVehicle, this);
     ruts_sub_ = nh_.subscribe("/terrain/ruts", 100, &Impl::onPatch, this);
     toppled_sub_ = nh_.subscribe("/terrain/toppled", 100, &Impl::onToppled, this);
     // Every message is kept (a weather change must not be dropped by a full queue).
@@ -285,6 +295,8 @@ private:
   {
     XmlRpc::XmlRpcValue common, per_vehicle;
     const bool has_common = avsp::node::structuredParam(pnh_, "sensors", common);
+    if (has_common)
+      common_sensors_ = common;  // a spawned vehicle's (~add_vehicle)
     const bool has_per_vehicle = avsp::node::structuredParam(pnh_, "vehicle_sensors", per_vehicle);
     if (has_per_vehicle)
     {
@@ -508,79 +520,191 @@ private:
 
   void advertise()
   {
-    for (auto& vp : vehicles_)
-    {
-      VehicleIo& v = *vp;
-      ros::NodeHandle vnh(nh_, v.name);
-      const as::SuiteConfig& c = v.sensors->config();
-      v.odom_topic = vnh.resolveName("avt_341/odometry");
-      VehicleIo* raw = &v;
-      // A deep queue: a burst of odometry (a fast clock) must not lose states (they fix the
-      // sampling times); the callback only queues them.
-      v.odom_sub = vnh.subscribe<nav_msgs::Odometry>(
-          "avt_341/odometry", 2000, [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
-      if (c.lidar)
-        v.points_pub = vnh.advertise<sensor_msgs::PointCloud2>("avt_341/points", 5);
-      advertiseClusters(v, vnh);
-      if (c.radar)
-      {
-        v.targets_pub = vnh.advertise<avsp_msgs::RadarTargetArray>("radar/targets", 10);
-        v.radar_points_pub = vnh.advertise<sensor_msgs::PointCloud2>("radar/points", 10);
-        v.radar_markers_pub = vnh.advertise<visualization_msgs::MarkerArray>("radar/markers", 10);
-      }
-      if (c.gps)
-        v.gps_pub = vnh.advertise<sensor_msgs::NavSatFix>("gps/fix", 20);
-      if (c.imu)
-        v.imu_pub = vnh.advertise<sensor_msgs::Imu>("imu/data", 200);
-      if (c.magnetometer)
-        v.mag_pub = vnh.advertise<sensor_msgs::MagneticField>("mag", 50);
-      for (const as::UltrasonicSetup& u : c.ultrasonics)
-        v.range_pubs.push_back(vnh.advertise<sensor_msgs::Range>("ultrasonic/" + u.name, 20));
-      if (c.occupancy)
-      {
-        v.cells_pub = vnh.advertise<visualization_msgs::MarkerArray>("octomap/occupied_cells", 2);
-        v.grid_pub = vnh.advertise<nav_msgs::OccupancyGrid>("occupancy/grid", 2);
-        v.save_service = pnh_.advertiseService<avsp_msgs::SaveMap::Request, avsp_msgs::SaveMap::Response>(
-            v.name + "/save_map", [this, raw](avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res) {
-              return onSaveMap(*raw, req, res);
-            });
-      }
-    }
-    advertiseCameras();
+    // Seasons flip south of the equator; without ~latitude the north's are used.
+    camera_latitude_ = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
+    for (auto& v : vehicles_)
+      advertiseVehicle(*v);
     if (!static_frames_.empty())
       static_broadcaster_.sendTransform(static_frames_);
+  }
+
+  /// A vehicle's odometry subscriber and the publishers and services of its sensors.
+  void advertiseVehicle(VehicleIo& v)
+  {
+    ros::NodeHandle vnh(nh_, v.name);
+    const as::SuiteConfig& c = v.sensors->config();
+    v.odom_topic = vnh.resolveName("avt_341/odometry");
+    VehicleIo* raw = &v;
+    // A deep queue: a burst of odometry (a fast clock) must not lose states (they fix the
+    // sampling times); the callback only queues them.
+    v.odom_sub = vnh.subscribe<nav_msgs::Odometry>(
+        "avt_341/odometry", 2000, [this, raw](const nav_msgs::Odometry::ConstPtr& m) { onOdometry(*raw, *m); });
+    if (c.lidar)
+      v.points_pub = vnh.advertise<sensor_msgs::PointCloud2>("avt_341/points", 5);
+    advertiseClusters(v, vnh);
+    if (c.radar)
+    {
+      v.targets_pub = vnh.advertise<avsp_msgs::RadarTargetArray>("radar/targets", 10);
+      v.radar_points_pub = vnh.advertise<sensor_msgs::PointCloud2>("radar/points", 10);
+      v.radar_markers_pub = vnh.advertise<visualization_msgs::MarkerArray>("radar/markers", 10);
+    }
+    if (c.gps)
+      v.gps_pub = vnh.advertise<sensor_msgs::NavSatFix>("gps/fix", 20);
+    if (c.imu)
+      v.imu_pub = vnh.advertise<sensor_msgs::Imu>("imu/data", 200);
+    if (c.magnetometer)
+      v.mag_pub = vnh.advertise<sensor_msgs::MagneticField>("mag", 50);
+    for (const as::UltrasonicSetup& u : c.ultrasonics)
+      v.range_pubs.push_back(vnh.advertise<sensor_msgs::Range>("ultrasonic/" + u.name, 20));
+    if (c.occupancy)
+    {
+      v.cells_pub = vnh.advertise<visualization_msgs::MarkerArray>("octomap/occupied_cells", 2);
+      v.grid_pub = vnh.advertise<nav_msgs::OccupancyGrid>("occupancy/grid", 2);
+      v.save_service = pnh_.advertiseService<avsp_msgs::SaveMap::Request, avsp_msgs::SaveMap::Response>(
+          v.name + "/save_map", [this, raw](avsp_msgs::SaveMap::Request& req, avsp_msgs::SaveMap::Response& res) {
+            return onSaveMap(*raw, req, res);
+          });
+    }
+    advertiseCameras(v);
   }
 
   /// Per camera: <camera>/image_raw (rgb8), depth/image_raw (32FC1), semantic/image_raw and
   /// thermal/image_raw (mono8) through image_transport, camera_info; per vehicle the latched
   /// class table semantic_classes.
-  void advertiseCameras()
+  void advertiseCameras(VehicleIo& v)
   {
-    // Seasons flip south of the equator; without ~latitude the north's are used.
-    camera_latitude_ = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
+    if (!v.camera_rig)
+      return;
+    ros::NodeHandle vnh(nh_, v.name);
+    v.image_transport = std::make_unique<image_transport::ImageTransport>(vnh);
+    for (std::size_t k = 0; k < v.camera_io.size(); ++k)
+    {
+      const as::CameraConfig& c = v.camera_rig->cameras()[k].config();
+      VehicleIo::CameraIo& io = v.camera_io[k];
+      if (c.rgb)
+        io.rgb = v.image_transport->advertise(c.name + "/image_raw", 2);
+      if (c.depth)
+        io.depth = v.image_transport->advertise(c.name + "/depth/image_raw", 2);
+      if (c.semantic)
+        io.semantic = v.image_transport->advertise(c.name + "/semantic/image_raw", 2);
+      if (c.thermal)
+        io.thermal = v.image_transport->advertise(c.name + "/thermal/image_raw", 2);
+      io.info = vnh.advertise<sensor_msgs::CameraInfo>(c.name + "/camera_info", 10);
+    }
+    v.classes_pub = vnh.advertise<avsp_msgs::ClassTable>("semantic_classes", 1, true);
+    v.classes_pub.publish(asn::toClassTable(camera_materials_.classTable(), std_msgs::Header()));
+  }
+
+  // ---- vehicles joining and leaving (dynamics_node ~spawn_vehicle / ~remove_vehicle) -----
+  // dynamics_node calls these between its steps, before the vehicle's first odometry and after
+  // its last: the synchronizer waits for it exactly from its first state to its last, so the
+  // sensed times and the scene do not depend on when the calls' messages arrived.
+
+  bool onAddVehicle(avsp_msgs::AddSensedVehicle::Request& req, avsp_msgs::AddSensedVehicle::Response& res)
+  {
+    res.success = false;
+    std::string why;
+    const bool used = std::any_of(vehicles_.begin(), vehicles_.end(),
+                                  [&](const auto& v) { return !v->removed && v->name == req.name; });
+    if (req.name.empty() || req.name.find('/') != std::string::npos || !ros::names::validate(req.name, why))
+      res.message = "refused: name '" + req.name + "' must be a valid ROS name without '/'";
+    else if (used)
+      res.message = "refused: there is already a vehicle '" + req.name + "'";
+    else if (req.model.empty() || req.model.find('/') != std::string::npos)
+      res.message = "refused: model '" + req.model + "' must be a model name (config_dir/<model>.yaml)";
+    else if (!std::isfinite(req.first_time))
+      res.message = "refused: first_time must be finite";
+    else
+    {
+      const std::size_t frames_before = static_frames_.size();
+      try
+      {
+        std::vector<asn::SensorsSpec> specs{ asn::parseSensors(
+            nullptr, "~vehicle_sensors/" + req.name, common_sensors_ ? &*common_sensors_ : nullptr, "~sensors") };
+        if (asn::needsOrigin(specs) && !origin_)
+          throw std::invalid_argument(
+              "its sensors (~sensors) need ~latitude and ~longitude, which this node was not given");
+        asn::placeMagnetometers(specs, origin_, date_);
+        std::unique_ptr<VehicleIo> v = makeVehicle(asn::VehicleEntry{ req.name, req.model }, specs[0], vehicles_.size(),
+                                                   config_dir_, origin_, seed_);
+        if (sync_->addVehicle(req.first_time) != v->index)
+          throw std::logic_error("the synchronizer's index differs from the vehicle's");
+        advertiseVehicle(*v);
+        static_broadcaster_.sendTransform(static_frames_);
+        VehicleIo* raw = v.get();
+        diagnostics_->add(v->name,
+                          [this, raw](diagnostic_updater::DiagnosticStatusWrapper& st) { vehicleStatus(*raw, st); });
+        const as::SuiteConfig& c = v->sensors->config();
+        res.message = "'" + req.name + "' (" + req.model + ") sensed from " + std::to_string(req.first_time) +
+                      " s:" + (c.lidar ? " lidar" : "") + (c.radar ? " radar" : "") + (c.gps ? " gps" : "") +
+                      (c.imu ? " imu" : "") + (c.magnetometer ? " magnetometer" : "") +
+                      (v->camera_rig ? " cameras" : "") + (c.occupancy ? " octomap" : "");
+        vehicles_.push_back(std::move(v));
+        res.success = true;
+      }
+      catch (const std::exception& e)
+      {
+        static_frames_.resize(frames_before);
+        res.message = std::string("refused: ") + e.what();
+      }
+    }
+    if (res.success)
+      ROS_INFO("sensors_node: ~add_vehicle: %s", res.message.c_str());
+    else
+      ROS_WARN("sensors_node: ~add_vehicle: %s (nothing changed)", res.message.c_str());
+    return true;
+  }
+
+  bool onRemoveVehicle(avsp_msgs::RemoveSensedVehicle::Request& req, avsp_msgs::RemoveSensedVehicle::Response& res)
+  {
+    res.success = false;
+    const auto it = std::find_if(vehicles_.begin(), vehicles_.end(),
+                                 [&](const auto& v) { return !v->removing && v->name == req.name; });
+    if (it == vehicles_.end())
+      res.message = "refused: no vehicle '" + req.name + "'";
+    else if (!std::isfinite(req.last_time))
+      res.message = "refused: last_time must be finite";
+    else
+    {
+      VehicleIo& v = **it;
+      sync_->removeVehicle(v.index, req.last_time);
+      v.removing = true;
+      diagnostics_->removeByName(v.name);
+      closeRemoved();
+      res.success = true;
+      res.message = "'" + req.name + "' sensed up to " + std::to_string(req.last_time) + " s";
+    }
+    if (res.success)
+      ROS_INFO("sensors_node: ~remove_vehicle: %s", res.message.c_str());
+    else
+      ROS_WARN("sensors_node: ~remove_vehicle: %s (nothing changed)", res.message.c_str());
+    return true;
+  }
+
+  /// Closes every removed vehicle whose last state is sensed: its subscriber, publishers and
+  /// services go (until then its queued states still need them).
+  void closeRemoved()
+  {
     for (auto& vp : vehicles_)
     {
       VehicleIo& v = *vp;
-      if (!v.camera_rig)
+      if (!v.removing || v.removed || !sync_->gone(v.index))
         continue;
-      ros::NodeHandle vnh(nh_, v.name);
-      v.image_transport = std::make_unique<image_transport::ImageTransport>(vnh);
-      for (std::size_t k = 0; k < v.camera_io.size(); ++k)
+      v.odom_sub.shutdown();
+      for (ros::Publisher* p :
+           { &v.points_pub, &v.targets_pub, &v.radar_points_pub, &v.radar_markers_pub, &v.gps_pub, &v.imu_pub,
+             &v.mag_pub, &v.cells_pub, &v.grid_pub, &v.clusters_pub, &v.cluster_markers_pub, &v.classes_pub })
+        p->shutdown();
+      for (ros::Publisher& p : v.range_pubs)
+        p.shutdown();
+      for (VehicleIo::CameraIo& c : v.camera_io)
       {
-        const as::CameraConfig& c = v.camera_rig->cameras()[k].config();
-        VehicleIo::CameraIo& io = v.camera_io[k];
-        if (c.rgb)
-          io.rgb = v.image_transport->advertise(c.name + "/image_raw", 2);
-        if (c.depth)
-          io.depth = v.image_transport->advertise(c.name + "/depth/image_raw", 2);
-        if (c.semantic)
-          io.semantic = v.image_transport->advertise(c.name + "/semantic/image_raw", 2);
-        if (c.thermal)
-          io.thermal = v.image_transport->advertise(c.name + "/thermal/image_raw", 2);
-        io.info = vnh.advertise<sensor_msgs::CameraInfo>(c.name + "/camera_info", 10);
+        for (image_transport::Publisher* p : { &c.rgb, &c.depth, &c.semantic, &c.thermal })
+          p->shutdown();
+        c.info.shutdown();
       }
-      v.classes_pub = vnh.advertise<avsp_msgs::ClassTable>("semantic_classes", 1, true);
-      v.classes_pub.publish(asn::toClassTable(camera_materials_.classTable(), std_msgs::Header()));
+      v.save_service.shutdown();
+      v.removed = true;
     }
   }
 
@@ -836,6 +960,7 @@ public:
         v.sensed = batch->states[k].time;
         ++v.states_sensed;
       }
+      closeRemoved();
       diagnostics_->update();
       if (!lockstep_partition_.empty())
       {
@@ -1052,6 +1177,12 @@ private:
   double camera_latitude_ = 0.0;  ///< deg, ~latitude (seasons)
   std::vector<std::unique_ptr<VehicleIo>> vehicles_;
   std::unique_ptr<as::StateSynchronizer> sync_;
+  // What ~add_vehicle gives a spawned vehicle: the defaults (~sensors) on its model.
+  std::optional<XmlRpc::XmlRpcValue> common_sensors_;
+  std::optional<as::EnuFrame> origin_;
+  std::string config_dir_, date_;
+  std::uint64_t seed_ = 0;
+  ros::ServiceServer add_service_, remove_service_;
   std::multimap<double, std::function<void()>> events_;  ///< world changes by stamp, in arrival order per stamp
   std::vector<geometry_msgs::TransformStamped> static_frames_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
