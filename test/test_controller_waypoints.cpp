@@ -21,7 +21,7 @@
 #include <std_msgs/Bool.h>
 #include <avsp_terrain/ros/spin_until.hpp>
 
-#include "command_output.hpp"
+#include <avsp_terrain/ros/run_command.hpp>
 
 #include "avsp/control/path.hpp"
 
@@ -63,7 +63,7 @@ std::vector<Waypoint> waypointsOf(const std::string& param)
 /// Runs controller_node as `name` with the private parameters already set; exit code and output.
 std::pair<int, std::string> runNode(const std::string& name)
 {
-  return avsp::test::runCommand(std::string(CONTROLLER_NODE_PATH) + " __name:=" + name);
+  return avsp::node::runCommand(std::string(CONTROLLER_NODE_PATH) + " __name:=" + name);
 }
 }  // namespace
 

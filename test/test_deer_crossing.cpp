@@ -25,7 +25,7 @@
 #include <avsp_terrain/agents.hpp>
 #include <avsp_terrain/ros/spin_until.hpp>
 
-#include "command_output.hpp"
+#include <avsp_terrain/ros/run_command.hpp>
 
 namespace at = avsp::terrain;
 
@@ -75,7 +75,7 @@ bool insideAgent(const at::Agent& a, const at::AgentState& s, const Eigen::Vecto
 /// Runs agents_node as `name` with its private parameters already set; exit code and output.
 std::pair<int, std::string> runNode(const std::string& name)
 {
-  return avsp::test::runCommand(std::string(AGENTS_NODE_PATH) + " __name:=" + name);
+  return avsp::node::runCommand(std::string(AGENTS_NODE_PATH) + " __name:=" + name);
 }
 }  // namespace
 

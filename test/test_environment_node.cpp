@@ -19,7 +19,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 
-#include "command_output.hpp"
+#include <avsp_terrain/ros/run_command.hpp>
 
 #include "avsp/environment/environment_model.hpp"
 
@@ -233,7 +233,7 @@ std::pair<int, std::string> runBadNode(const std::function<void(const std::strin
   nh.setParam("/" + name + "/longitude", 7.0);
   nh.setParam("/" + name + "/start_utc", std::string("2025-06-21T10:00:00Z"));
   set_params("/" + name + "/");
-  return avsp::test::runCommand(std::string(ENVIRONMENT_NODE_PATH) + " __name:=" + name);
+  return avsp::node::runCommand(std::string(ENVIRONMENT_NODE_PATH) + " __name:=" + name);
 }
 
 TEST(EnvironmentNodeStartup, BadParametersExitNamingTheKey)

@@ -36,7 +36,7 @@
 #include <ros/ros.h>
 #include <yaml-cpp/yaml.h>
 
-#include "command_output.hpp"
+#include <avsp_terrain/ros/run_command.hpp>
 
 namespace
 {
@@ -111,7 +111,7 @@ std::string show(const YAML::Node& n)
 /// Runs run_recorder named `name` to completion; {exit code, its output}.
 std::pair<int, std::string> runRecorder(const std::string& name)
 {
-  return avsp::test::runCommand(std::string(RUN_RECORDER_PATH) + " __name:=" + name);
+  return avsp::node::runCommand(std::string(RUN_RECORDER_PATH) + " __name:=" + name);
 }
 }  // namespace
 

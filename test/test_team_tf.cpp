@@ -13,7 +13,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
-#include "command_output.hpp"
+#include <avsp_terrain/ros/run_command.hpp>
 
 namespace
 {
@@ -86,7 +86,7 @@ TEST(TeamTf, UnprefixedFramesDoNotExist)
   EXPECT_FALSE(g_buffer->_frameExists("base_link"));
 }
 
-using avsp::test::runCommand;
+using avsp::node::runCommand;
 
 // The bring-up tools refuse a parameter of the wrong type naming the key (NodeHandle::param
 // would have used the default silently).

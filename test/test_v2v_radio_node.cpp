@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <avsp_msgs/VehicleState.h>
+#include <avsp_terrain/ros/run_command.hpp>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
@@ -309,14 +310,7 @@ std::pair<int, std::string> runBadNode(const std::function<void(const std::strin
   vehicles[1] = std::string("b");
   nh.setParam("/" + name + "/vehicles", vehicles);
   set_params("/" + name + "/");
-  const std::string log = "/tmp/avsp_bad_v2v_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(V2V_RADIO_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+  return avsp::node::runCommand(std::string(V2V_RADIO_NODE_PATH) + " __name:=" + name);
 }
 
 TEST(V2vRadioNodeStartup, BadParametersExitNamingTheKey)

@@ -37,6 +37,7 @@
 #include <std_srvs/Trigger.h>
 
 #include <Eigen/Core>
+#include <avsp_terrain/ros/run_command.hpp>
 #include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp_dynamics/vehicle_model.hpp"
@@ -476,14 +477,7 @@ std::pair<int, std::string> runBadNode(const std::string& vehicles_yaml_model, c
                                        const std::string& args = "",
                                        const std::function<void(ros::NodeHandle&, const std::string&)>& more = {})
 {
-  const std::string log = "/tmp/avsp_bad_dynamics_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = nodeCommand(vehicles_yaml_model, vehicle_name, args, more) + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+  return avsp::node::runCommand(nodeCommand(vehicles_yaml_model, vehicle_name, args, more));
 }
 
 // The tracked carrier in the same world: robot_state_publisher gets every URDF joint of its

@@ -61,6 +61,7 @@
 #include <avsp_dynamics/vehicle_model.hpp>
 #include <avsp_terrain/default_course.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
+#include <avsp_terrain/ros/run_command.hpp>
 #include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp_sensors/geodetic.hpp"
@@ -1068,14 +1069,7 @@ std::pair<int, std::string> runBadNode(const XmlRpc::XmlRpcValue& sensors, const
     per["ego"] = *own;
     nh.setParam(ns + "vehicle_sensors", per);
   }
-  const std::string log = "/tmp/avsp_bad_sensors_node_" + std::to_string(getpid()) + ".log";
-  const std::string cmd = std::string(SENSORS_NODE_PATH) + " __name:=" + name + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+  return avsp::node::runCommand(std::string(SENSORS_NODE_PATH) + " __name:=" + name);
 }
 
 XmlRpc::XmlRpcValue section(const std::string& sensor, const std::string& key, const XmlRpc::XmlRpcValue& value)

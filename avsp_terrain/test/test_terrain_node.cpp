@@ -28,6 +28,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <visualization_msgs/MarkerArray.h>
+#include <avsp_terrain/ros/run_command.hpp>
 #include <avsp_terrain/ros/spin_until.hpp>
 
 #include "avsp_terrain/default_course.hpp"
@@ -550,17 +551,10 @@ TEST_F(Fixture, DiagnosticsCountTheMessagesIgnoredPerTopic)
 /// Runs terrain_node with bad parameters: it must exit 1 and say which parameter or file.
 std::pair<int, std::string> runBadNode(const std::string& args)
 {
-  const std::string log = "/tmp/avsp_bad_terrain_node_" + std::to_string(getpid()) + ".log";
   // A fresh node name per run: private parameters stay on the master after a node exits.
   static int run = 0;
-  const std::string cmd = std::string(TERRAIN_NODE_PATH) + " __name:=bad_terrain_" + std::to_string(getpid()) + "_" +
-                          std::to_string(run++) + " " + args + " > " + log + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::remove(log.c_str());
-  return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
+  return avsp::node::runCommand(std::string(TERRAIN_NODE_PATH) + " __name:=bad_terrain_" + std::to_string(getpid()) +
+                                "_" + std::to_string(run++) + " " + args);
 }
 
 TEST(TerrainNodeStartup, RefusesBadParametersByName)

@@ -1,7 +1,10 @@
-// Test helper for the package's rostests: runs a command (a node binary with its arguments) to
-// completion with its output captured, as the bad-parameter tests need.
 #pragma once
-
+/**
+ * @file run_command.hpp
+ * @brief The rostests' way to run a node that must refuse to start: run a command to completion
+ *        with its output captured. One definition for every package's rostests (with
+ *        spin_until.hpp).
+ */
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,10 +17,12 @@
 
 namespace avsp
 {
-namespace test
+namespace node
 {
-/// Runs `command` through the shell and waits for it: {exit code (-1 if it did not exit
-/// normally), its stdout and stderr}.
+/**
+ * @brief Runs `command` through the shell and waits for it.
+ * @return {exit code (-1 if it did not exit normally), its stdout and stderr}
+ */
 inline std::pair<int, std::string> runCommand(const std::string& command)
 {
   static int run = 0;
@@ -29,5 +34,6 @@ inline std::pair<int, std::string> runCommand(const std::string& command)
   std::remove(log.c_str());
   return { WIFEXITED(status) ? WEXITSTATUS(status) : -1, text.str() };
 }
-}  // namespace test
+
+}  // namespace node
 }  // namespace avsp
