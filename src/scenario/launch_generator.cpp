@@ -312,9 +312,9 @@ void writeDynamics(std::ostream& o, const LaunchInputs& in)
       w.param("ruts_rate", 1.0 / kRutsPeriod);
       // The sensors hold the clock: it never runs more than kSensorLag ahead of them.
       w.rosparam("clock_followers", "[" + quoted(kSensorsPartition) + "]");
-    // A vehicle spawned at run time gets the run's default sensors from sensors_node (its
-    // node name is the lockstep name).
-    w.rosparam("sensor_nodes", "[" + quoted(kSensorsPartition) + "]");
+      // A vehicle spawned at run time gets the run's default sensors from sensors_node (its
+      // node name is the lockstep name).
+      w.rosparam("sensor_nodes", "[" + quoted(kSensorsPartition) + "]");
       w.param("follower_lag", kSensorLag);
       w.param("lockstep_timeout", kPartitionTimeout);
     }
