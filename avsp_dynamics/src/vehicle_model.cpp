@@ -656,6 +656,112 @@ double VehicleModel::trackWidth() const
   return wheelSpread(wheels, 1);
 }
 
+namespace
+{
+/// drive_type, and the top-level keys that drive type allows.
+void readDriveType(const Section& root, VehicleModel& m)
+{
+  const std::string drive = root.string("drive_type");
+  if (drive == "ackermann")
+  {
+    m.drive_type = DriveType::kAckermann;
+    root.allowOnly(
+        { "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes", "firm_ground" });
+  }
+  else if (drive == "skid_steer")
+  {
+    m.drive_type = DriveType::kSkidSteer;
+    root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "drivetrain", "brakes", "firm_ground" });
+  }
+  else if (drive == "tracked")
+  {
+    m.drive_type = DriveType::kTracked;
+    root.allowOnly(
+        { "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes", "firm_ground" });
+  }
+  else
+  {
+    root.fail("drive_type", "must be ackermann, skid_steer or tracked, got '" + drive + "'");
+  }
+}
+
+/// A tracked vehicle's tracks and torsion-bar suspension.
+void readTrackedRunningGear(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
+{
+  readTracks(root, urdf, m);
+  const Section s = root.map("suspension");
+  s.allowOnly({ "torsion_stiffness", "torsion_damping", "preload_angle" });
+  m.torsion.torsion_stiffness =
+      plausible(s, "torsion_stiffness", s.positive("torsion_stiffness"), kTorsionStiffness, "per road arm");
+  m.torsion.torsion_damping =
+      plausible(s, "torsion_damping", s.nonNegative("torsion_damping"), kTorsionDamping, "per road arm");
+  m.torsion.preload_angle = plausible(s, "preload_angle", s.nonNegative("preload_angle"), kPreloadAngle);
+}
+
+/// A wheeled vehicle's wheels, suspension and (Ackermann) steering, checked against the URDF.
+void readWheeledRunningGear(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
+{
+  readWheels(root, urdf, m);
+  const Section s = root.map("suspension");
+  s.allowOnly({ "stiffness", "damping", "preload_deflection" });
+  m.suspension.stiffness = plausible(s, "stiffness", s.positive("stiffness"), kSuspensionStiffness, "per wheel");
+  m.suspension.damping = plausible(s, "damping", s.nonNegative("damping"), kSuspensionDamping, "per wheel");
+  // At most the travel (below): the URDF's suspension limits bound it.
+  m.suspension.preload_deflection = s.nonNegative("preload_deflection");
+  for (const WheelSpec& w : m.wheels)
+  {
+    if (m.suspension.preload_deflection > w.suspension_upper - w.suspension_lower)
+      s.fail("preload_deflection", "exceeds the suspension travel of joint '" + w.suspension_joint + "'");
+  }
+  bool any_steered = false, any_driven = false;
+  for (const WheelSpec& w : m.wheels)
+  {
+    any_steered = any_steered || !w.steering_joint.empty();
+    any_driven = any_driven || w.driven;
+  }
+  if (!any_driven)
+    root.fail("wheels", "no wheel is driven");
+  if (m.drive_type == DriveType::kAckermann)
+  {
+    if (!any_steered)
+      root.fail("wheels", "an ackermann vehicle needs at least one steering_joint");
+    const Section st = root.map("steering");
+    st.allowOnly({ "max_angle", "max_rate" });
+    m.steering.max_angle =
+        plausible(st, "max_angle", st.positive("max_angle"), kSteeringAngle, "the road wheel's angle at full lock");
+    m.steering.max_rate = plausible(st, "max_rate", st.positive("max_rate"), kSteeringRate);
+    for (const WheelSpec& w : m.wheels)
+    {
+      if (w.steering_joint.empty())
+        continue;
+      const auto j = urdf.model().getJoint(w.steering_joint);
+      if (!j->limits || m.steering.max_angle > std::min(-j->limits->lower, j->limits->upper) + 1e-9)
+        st.fail("max_angle", "exceeds the limits of joint '" + w.steering_joint + "' in " + m.urdf_path);
+    }
+  }
+  else if (any_steered)
+  {
+    root.fail("wheels", "a skid_steer vehicle steers by wheel speed; remove steering_joint");
+  }
+}
+
+/// The chassis collision boxes: every <collision> that is not a wheel's or a track's cylinder.
+std::vector<CollisionBox> chassisCollisionBoxes(const UrdfChecker& urdf, const VehicleModel& m)
+{
+  std::set<std::string> running_gear;
+  for (const WheelSpec& w : m.wheels)
+    running_gear.insert(w.link);
+  for (const TrackSpec& t : m.tracks)
+  {
+    running_gear.insert(urdf.model().getJoint(t.sprocket_joint)->child_link_name);
+    running_gear.insert(urdf.model().getJoint(t.idler_joint)->child_link_name);
+    for (const RoadWheelSpec& r : t.road_wheels)
+      running_gear.insert(r.link);
+  }
+  return urdf.collisionBoxes(running_gear);
+}
+}  // namespace
+
 VehicleModel loadVehicleModel(const std::string& yaml_path)
 {
   const Section root = loadVehicleYaml(yaml_path);
@@ -671,28 +777,7 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     if (m.model != stem)
       root.fail("model", "'" + m.model + "' contradicts the file's name '" + stem +
                              "' (config/vehicles/<model>.yaml: the key must be the file's name without .yaml)");
-    const std::string drive = root.string("drive_type");
-    if (drive == "ackermann")
-    {
-      m.drive_type = DriveType::kAckermann;
-      root.allowOnly(
-          { "model", "urdf", "drive_type", "wheels", "suspension", "steering", "drivetrain", "brakes", "firm_ground" });
-    }
-    else if (drive == "skid_steer")
-    {
-      m.drive_type = DriveType::kSkidSteer;
-      root.allowOnly({ "model", "urdf", "drive_type", "wheels", "suspension", "drivetrain", "brakes", "firm_ground" });
-    }
-    else if (drive == "tracked")
-    {
-      m.drive_type = DriveType::kTracked;
-      root.allowOnly(
-          { "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes", "firm_ground" });
-    }
-    else
-    {
-      root.fail("drive_type", "must be ackermann, skid_steer or tracked, got '" + drive + "'");
-    }
+    readDriveType(root, m);
 
     const std::string urdf_rel = root.string("urdf");
     m.urdf_path = (!urdf_rel.empty() && urdf_rel[0] == '/') ? urdf_rel : directoryOf(yaml_path) + "/" + urdf_rel;
@@ -714,74 +799,11 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
     m.sensor_mounts = urdf.sensorMounts();
 
     if (m.drive_type == DriveType::kTracked)
-    {
-      readTracks(root, urdf, m);
-      const Section s = root.map("suspension");
-      s.allowOnly({ "torsion_stiffness", "torsion_damping", "preload_angle" });
-      m.torsion.torsion_stiffness =
-          plausible(s, "torsion_stiffness", s.positive("torsion_stiffness"), kTorsionStiffness, "per road arm");
-      m.torsion.torsion_damping =
-          plausible(s, "torsion_damping", s.nonNegative("torsion_damping"), kTorsionDamping, "per road arm");
-      m.torsion.preload_angle = plausible(s, "preload_angle", s.nonNegative("preload_angle"), kPreloadAngle);
-    }
+      readTrackedRunningGear(root, urdf, m);
     else
-    {
-      readWheels(root, urdf, m);
-      const Section s = root.map("suspension");
-      s.allowOnly({ "stiffness", "damping", "preload_deflection" });
-      m.suspension.stiffness = plausible(s, "stiffness", s.positive("stiffness"), kSuspensionStiffness, "per wheel");
-      m.suspension.damping = plausible(s, "damping", s.nonNegative("damping"), kSuspensionDamping, "per wheel");
-      // At most the travel (below): the URDF's suspension limits bound it.
-      m.suspension.preload_deflection = s.nonNegative("preload_deflection");
-      for (const WheelSpec& w : m.wheels)
-      {
-        if (m.suspension.preload_deflection > w.suspension_upper - w.suspension_lower)
-          s.fail("preload_deflection", "exceeds the suspension travel of joint '" + w.suspension_joint + "'");
-      }
-      bool any_steered = false, any_driven = false;
-      for (const WheelSpec& w : m.wheels)
-      {
-        any_steered = any_steered || !w.steering_joint.empty();
-        any_driven = any_driven || w.driven;
-      }
-      if (!any_driven)
-        root.fail("wheels", "no wheel is driven");
-      if (m.drive_type == DriveType::kAckermann)
-      {
-        if (!any_steered)
-          root.fail("wheels", "an ackermann vehicle needs at least one steering_joint");
-        const Section st = root.map("steering");
-        st.allowOnly({ "max_angle", "max_rate" });
-        m.steering.max_angle =
-            plausible(st, "max_angle", st.positive("max_angle"), kSteeringAngle, "the road wheel's angle at full lock");
-        m.steering.max_rate = plausible(st, "max_rate", st.positive("max_rate"), kSteeringRate);
-        for (const WheelSpec& w : m.wheels)
-        {
-          if (w.steering_joint.empty())
-            continue;
-          const auto j = urdf.model().getJoint(w.steering_joint);
-          if (!j->limits || m.steering.max_angle > std::min(-j->limits->lower, j->limits->upper) + 1e-9)
-            st.fail("max_angle", "exceeds the limits of joint '" + w.steering_joint + "' in " + m.urdf_path);
-        }
-      }
-      else if (any_steered)
-      {
-        root.fail("wheels", "a skid_steer vehicle steers by wheel speed; remove steering_joint");
-      }
-    }
+      readWheeledRunningGear(root, urdf, m);
 
-    // Chassis collision boxes: every <collision> that is not a wheel's or track's cylinder.
-    std::set<std::string> running_gear;
-    for (const WheelSpec& w : m.wheels)
-      running_gear.insert(w.link);
-    for (const TrackSpec& t : m.tracks)
-    {
-      running_gear.insert(urdf.model().getJoint(t.sprocket_joint)->child_link_name);
-      running_gear.insert(urdf.model().getJoint(t.idler_joint)->child_link_name);
-      for (const RoadWheelSpec& r : t.road_wheels)
-        running_gear.insert(r.link);
-    }
-    m.collision_boxes = urdf.collisionBoxes(running_gear);
+    m.collision_boxes = chassisCollisionBoxes(urdf, m);
 
     readDrivetrain(root, m);
     readFirmGround(root, m);

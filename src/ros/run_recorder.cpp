@@ -14,6 +14,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <csignal>
 #include <cmath>
@@ -616,115 +617,12 @@ private:
     try
     {
       const std::string dir = output_dir_ + "/";
-      // Trajectories and their hillshade: the box they cover, 10 m or 10 % wider on every side.
-      double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
-      for (const auto& v : vehicles_)
-        if (const auto b = v->record.bounds())
-        {
-          x0 = std::min(x0, (*b)[0]);
-          y0 = std::min(y0, (*b)[1]);
-          x1 = std::max(x1, (*b)[2]);
-          y1 = std::max(y1, (*b)[3]);
-        }
-      const at::ElevationGrid& base = terrain_->base();
-      if (!(x1 >= x0))
-      {
-        x0 = base.originX();
-        y0 = base.originY();
-        x1 = x0 + base.dx() * static_cast<double>(base.columns() - 1);
-        y1 = y0 + base.dy() * static_cast<double>(base.rows() - 1);
-      }
-      const double margin = std::max(10.0, 0.1 * std::max(x1 - x0, y1 - y0));
-      x0 -= margin;
-      y0 -= margin;
-      x1 += margin;
-      y1 += margin;
-      const ar::Grid heights = ar::sampleHeights(base, x0, y0, x1, y1, kMaxGridCells);
-      ar::writeNpy(dir + "terrain_heights.npy", heights);
-      ar::Json grids = ar::Json::object();
-      grids.set("terrain", ar::gridJson("terrain_heights.npy", heights));
-      const std::optional<ar::Grid> ruts = ruts_->depthGrid(kRutMinDepth, 2.0, kMaxGridCells);
-      if (ruts)
-      {
-        ar::writeNpy(dir + "rut_depth.npy", *ruts);
-        grids.set("ruts", ar::gridJson("rut_depth.npy", *ruts));
-      }
-      else
-        grids.set("ruts", ar::Json());
-      ar::writeText(dir + "grids.json", grids.dump());
-
+      const std::array<double, 4> box = resultsBox();
+      writeGrids(dir, box);
       trajectories_->write(dir + "trajectories.csv");
       gaps_->write(dir + "gaps.csv");
-      writeObjects(dir + "objects.csv", x0, y0, x1, y1);
-
-      ar::Json summary = ar::Json::object();
-      summary.set("scenario", scenario_);
-      summary.set("duration", duration_);
-      summary.set("sim_time_start", sim_start_);
-      summary.set("sim_time_end", sim_end_);
-      summary.set("wall_time", wall_time);
-      summary.set("real_time_factor", run_rtf);
-      summary.set("terrain", terrain_description_);
-      ar::Json vehicles = ar::Json::array();
-      for (const auto& v : vehicles_)
-      {
-        const ar::VehicleRecord& r = v->record;
-        ar::Json j = ar::Json::object();
-        j.set("name", v->spec.name);
-        j.set("leader", v->spec.leader.empty() ? ar::Json() : ar::Json(v->spec.leader));
-        j.set("distance", r.distance());
-        j.set("mean_speed", r.meanSpeed());
-        j.set("max_speed", r.sampleCount() == 0 ? ar::Json() : ar::Json(r.maxSpeed()));
-        j.set("max_slip", r.maxSlip());
-        j.set("time_stuck", r.telemetryCount() > 0 ? ar::Json(r.timeStuck()) : ar::Json());
-        j.set("collisions", r.collisions());
-        const std::optional<ar::GapStats> gap = v->follows ? v->follows->stats() : std::nullopt;
-        j.set("gap_min", gap ? ar::Json(gap->min) : ar::Json());
-        j.set("gap_mean", gap ? ar::Json(gap->mean) : ar::Json());
-        if (v->spec.max_speed > 0.0)
-        {
-          const ar::AnomalyCounts& c = anomalies_.counts(v->spec.name);
-          ar::Json a = ar::Json::object();
-          a.set("overspeed", c.overspeed);
-          a.set("airborne", c.airborne);
-          a.set("non_finite", c.non_finite);
-          j.set("anomalies", a);
-        }
-        else
-          j.set("anomalies", ar::Json());
-        j.set("odometry_samples", r.sampleCount());
-        j.set("telemetry_messages", r.telemetryCount());
-        if (r.sampleCount() > 0)
-        {
-          const ar::OdometrySample a = *r.first(), b = *r.last();
-          j.set("t_first", a.t);
-          j.set("t_last", b.t);
-          j.set("start", ar::Json::array().push(a.x).push(a.y));
-          j.set("end", ar::Json::array().push(b.x).push(b.y));
-        }
-        vehicles.push(j);
-      }
-      summary.set("vehicles", vehicles);
-      ar::Json rut = ar::Json::object();
-      rut.set("max_depth", ruts_->maxDepth());
-      rut.set("area_deeper_than_1cm", ruts_->areaDeeperThan(0.01));
-      rut.set("points", ruts_->pointCount());
-      rut.set("patches", patches_);
-      rut.set("patches_rejected", patches_rejected_);
-      summary.set("ruts", rut);
-      summary.set("anomalies", anomalies_.total());
-      if (aborted_)
-      {
-        ar::Json a = ar::Json::object();
-        a.set("node", aborted_->node);
-        a.set("reason", aborted_->reason);
-        a.set("sim_time", aborted_->sim_time);
-        summary.set("aborted", a);
-      }
-      else
-        summary.set("aborted", ar::Json());
-      summary.set("units", unitsNote());
-      ar::writeText(dir + "summary.json", summary.dump());
+      writeObjects(dir + "objects.csv", box[0], box[1], box[2], box[3]);
+      ar::writeText(dir + "summary.json", summaryJson(wall_time, run_rtf).dump());
     }
     catch (const std::exception& e)
     {
@@ -737,6 +635,141 @@ private:
                  v->spec.name.c_str(), v->follows->dropped(), v->spec.leader.c_str());
     if (!plot())
       return 1;
+    printSummary(run_rtf);
+    if (!silent.empty())
+    {
+      std::string list;
+      for (const std::string& t : silent)
+        list += (list.empty() ? "" : ", ") + t;
+      ROS_ERROR("run_recorder: no odometry received on %s: the results miss those vehicles", list.c_str());
+      return 1;
+    }
+    return 0;
+  }
+
+  /// The box (x0, y0, x1, y1) the results' grids and objects cover: the trajectories' (the
+  /// whole terrain without any), 10 m or 10 % wider on every side.
+  std::array<double, 4> resultsBox() const
+  {
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+    for (const auto& v : vehicles_)
+      if (const auto b = v->record.bounds())
+      {
+        x0 = std::min(x0, (*b)[0]);
+        y0 = std::min(y0, (*b)[1]);
+        x1 = std::max(x1, (*b)[2]);
+        y1 = std::max(y1, (*b)[3]);
+      }
+    const at::ElevationGrid& base = terrain_->base();
+    if (!(x1 >= x0))
+    {
+      x0 = base.originX();
+      y0 = base.originY();
+      x1 = x0 + base.dx() * static_cast<double>(base.columns() - 1);
+      y1 = y0 + base.dy() * static_cast<double>(base.rows() - 1);
+    }
+    const double margin = std::max(10.0, 0.1 * std::max(x1 - x0, y1 - y0));
+    return { x0 - margin, y0 - margin, x1 + margin, y1 + margin };
+  }
+
+  /// terrain_heights.npy, rut_depth.npy (when there are ruts) and grids.json over `box`.
+  void writeGrids(const std::string& dir, const std::array<double, 4>& box) const
+  {
+    const ar::Grid heights = ar::sampleHeights(terrain_->base(), box[0], box[1], box[2], box[3], kMaxGridCells);
+    ar::writeNpy(dir + "terrain_heights.npy", heights);
+    ar::Json grids = ar::Json::object();
+    grids.set("terrain", ar::gridJson("terrain_heights.npy", heights));
+    const std::optional<ar::Grid> ruts = ruts_->depthGrid(kRutMinDepth, 2.0, kMaxGridCells);
+    if (ruts)
+    {
+      ar::writeNpy(dir + "rut_depth.npy", *ruts);
+      grids.set("ruts", ar::gridJson("rut_depth.npy", *ruts));
+    }
+    else
+      grids.set("ruts", ar::Json());
+    ar::writeText(dir + "grids.json", grids.dump());
+  }
+
+  /// summary.json: the run, each vehicle (vehicleJson), the ruts, the anomalies, how it ended.
+  ar::Json summaryJson(double wall_time, double run_rtf) const
+  {
+    ar::Json summary = ar::Json::object();
+    summary.set("scenario", scenario_);
+    summary.set("duration", duration_);
+    summary.set("sim_time_start", sim_start_);
+    summary.set("sim_time_end", sim_end_);
+    summary.set("wall_time", wall_time);
+    summary.set("real_time_factor", run_rtf);
+    summary.set("terrain", terrain_description_);
+    ar::Json vehicles = ar::Json::array();
+    for (const auto& v : vehicles_)
+      vehicles.push(vehicleJson(*v));
+    summary.set("vehicles", vehicles);
+    ar::Json rut = ar::Json::object();
+    rut.set("max_depth", ruts_->maxDepth());
+    rut.set("area_deeper_than_1cm", ruts_->areaDeeperThan(0.01));
+    rut.set("points", ruts_->pointCount());
+    rut.set("patches", patches_);
+    rut.set("patches_rejected", patches_rejected_);
+    summary.set("ruts", rut);
+    summary.set("anomalies", anomalies_.total());
+    if (aborted_)
+    {
+      ar::Json a = ar::Json::object();
+      a.set("node", aborted_->node);
+      a.set("reason", aborted_->reason);
+      a.set("sim_time", aborted_->sim_time);
+      summary.set("aborted", a);
+    }
+    else
+      summary.set("aborted", ar::Json());
+    summary.set("units", unitsNote());
+    return summary;
+  }
+
+  /// One vehicle's entry of summary.json.
+  ar::Json vehicleJson(const Vehicle& v) const
+  {
+    const ar::VehicleRecord& r = v.record;
+    ar::Json j = ar::Json::object();
+    j.set("name", v.spec.name);
+    j.set("leader", v.spec.leader.empty() ? ar::Json() : ar::Json(v.spec.leader));
+    j.set("distance", r.distance());
+    j.set("mean_speed", r.meanSpeed());
+    j.set("max_speed", r.sampleCount() == 0 ? ar::Json() : ar::Json(r.maxSpeed()));
+    j.set("max_slip", r.maxSlip());
+    j.set("time_stuck", r.telemetryCount() > 0 ? ar::Json(r.timeStuck()) : ar::Json());
+    j.set("collisions", r.collisions());
+    const std::optional<ar::GapStats> gap = v.follows ? v.follows->stats() : std::nullopt;
+    j.set("gap_min", gap ? ar::Json(gap->min) : ar::Json());
+    j.set("gap_mean", gap ? ar::Json(gap->mean) : ar::Json());
+    if (v.spec.max_speed > 0.0)
+    {
+      const ar::AnomalyCounts& c = anomalies_.counts(v.spec.name);
+      ar::Json a = ar::Json::object();
+      a.set("overspeed", c.overspeed);
+      a.set("airborne", c.airborne);
+      a.set("non_finite", c.non_finite);
+      j.set("anomalies", a);
+    }
+    else
+      j.set("anomalies", ar::Json());
+    j.set("odometry_samples", r.sampleCount());
+    j.set("telemetry_messages", r.telemetryCount());
+    if (r.sampleCount() > 0)
+    {
+      const ar::OdometrySample a = *r.first(), b = *r.last();
+      j.set("t_first", a.t);
+      j.set("t_last", b.t);
+      j.set("start", ar::Json::array().push(a.x).push(a.y));
+      j.set("end", ar::Json::array().push(b.x).push(b.y));
+    }
+    return j;
+  }
+
+  /// A line per vehicle and one for the run on stdout.
+  void printSummary(double run_rtf) const
+  {
     for (const auto& v : vehicles_)
     {
       const ar::VehicleRecord& r = v->record;
@@ -748,15 +781,6 @@ private:
     std::printf("[run_recorder] %.1f s of sim time in %.1f s wall (real-time factor %.2f); results in %s\n",
                 sim_end_ - sim_start_, (wall_end_ - wall_start_).toSec(), run_rtf, output_dir_.c_str());
     std::fflush(stdout);
-    if (!silent.empty())
-    {
-      std::string list;
-      for (const std::string& t : silent)
-        list += (list.empty() ? "" : ", ") + t;
-      ROS_ERROR("run_recorder: no odometry received on %s: the results miss those vehicles", list.c_str());
-      return 1;
-    }
-    return 0;
   }
 
   static ar::Json unitsNote()

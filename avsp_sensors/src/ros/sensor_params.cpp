@@ -491,6 +491,132 @@ void parseUltrasonics(const Section& parent, const std::string& name, SensorsSpe
 }
 
 /// The `cameras` list: one CameraConfig per entry (two for a stereo pair).
+/// cameras[k].outputs: which images the camera makes (all when absent).
+void parseCameraOutputs(const Section& s, CameraConfig& c)
+{
+  if (!s.has("outputs"))
+    return;
+  XmlRpcValue outputs = s.get("outputs");
+  if (outputs.getType() != XmlRpcValue::TypeArray || outputs.size() == 0)
+    throw StartupError("parameter " + s.key("outputs") + " must be a non-empty list of rgb, depth, semantic, thermal");
+  c.rgb = c.depth = c.semantic = c.thermal = false;
+  for (int o = 0; o < outputs.size(); ++o)
+  {
+    const std::string out = outputs[o].getType() == XmlRpcValue::TypeString ? static_cast<std::string>(outputs[o]) : "";
+    if (out == "rgb")
+      c.rgb = true;
+    else if (out == "depth")
+      c.depth = true;
+    else if (out == "semantic")
+      c.semantic = true;
+    else if (out == "thermal")
+      c.thermal = true;
+    else
+      throw StartupError("parameter " + s.key("outputs") + "[" + std::to_string(o) +
+                         "] must be one of rgb, depth, "
+                         "semantic, thermal");
+  }
+}
+
+/// cameras[k].distortion: plumb_bob k1, k2, p1, p2, k3 (none when absent).
+void parseCameraDistortion(const Section& s, CameraConfig& c)
+{
+  if (!s.has("distortion"))
+    return;
+  XmlRpcValue d = s.get("distortion");
+  if (d.getType() != XmlRpcValue::TypeArray || d.size() != 5)
+    throw StartupError("parameter " + s.key("distortion") +
+                       " must be a list of 5 numbers (plumb_bob k1, k2, p1, "
+                       "p2, k3)");
+  for (int i = 0; i < 5; ++i)
+  {
+    if (d[i].getType() == XmlRpcValue::TypeInt)
+      c.distortion[i] = static_cast<int>(d[i]);
+    else if (d[i].getType() == XmlRpcValue::TypeDouble)
+      c.distortion[i] = static_cast<double>(d[i]);
+    else
+      throw StartupError("parameter " + s.key("distortion") + "[" + std::to_string(i) + "] must be a number");
+  }
+}
+
+/// cameras[k].x, y, z, roll, pitch, yaw: the mount on the vehicle (URDF's rpy).
+Eigen::Isometry3d parseCameraMount(const Section& s)
+{
+  const Eigen::Vector3d xyz(s.number("x", 0.0), s.number("y", 0.0), s.number("z", 0.0));
+  const double roll = s.number("roll", 0.0), pitch = s.number("pitch", 0.0), yaw = s.number("yaw", 0.0);
+  for (double value : { xyz.x(), xyz.y(), xyz.z(), roll, pitch, yaw })
+    if (!std::isfinite(value))
+      throw StartupError("parameter " + s.path() + ": x, y, z, roll, pitch, yaw must be finite");
+  // URDF's rpy: fixed-axis roll about x, then pitch about y, then yaw about z.
+  Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+  mount.translation() = xyz;
+  mount.linear() =
+      (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  return mount;
+}
+
+/// One entry of a cameras list (a stereo pair still as one camera).
+CameraConfig parseCamera(const Section& s)
+{
+  s.allowOnly({ "name",
+                "projection",
+                "width",
+                "height",
+                "hfov_deg",
+                "rate",
+                "x",
+                "y",
+                "z",
+                "roll",
+                "pitch",
+                "yaw",
+                "outputs",
+                "distortion",
+                "stereo_baseline",
+                "max_range",
+                "shadows",
+                "shadow_range",
+                "min_exposure_lux",
+                "sky_gain",
+                "fog_contrast_threshold",
+                "thermal_min",
+                "thermal_max",
+                "precipitation" });
+  if (!s.has("name"))
+    throw StartupError("parameter " + s.key("name") +
+                       " is required (topics <vehicle>/<name>/..., frame "
+                       "<vehicle>/<name>_optical)");
+  CameraConfig c;
+  c.name = s.link("name", "");
+  const std::string projection = s.text("projection", "pinhole");
+  if (projection == "pinhole")
+    c.projection = CameraProjection::kPinhole;
+  else if (projection == "fisheye")
+    c.projection = CameraProjection::kFisheye;
+  else
+    throw StartupError("parameter " + s.key("projection") + " = '" + projection +
+                       "' must be 'pinhole' or 'fisheye' (equidistant)");
+  c.width = static_cast<int>(s.count("width", static_cast<std::size_t>(c.width), 1, 8192));
+  c.height = static_cast<int>(s.count("height", static_cast<std::size_t>(c.height), 1, 8192));
+  c.hfov = s.number("hfov_deg", c.hfov * 180.0 / M_PI) * M_PI / 180.0;
+  c.rate = s.number("rate", c.rate);
+  c.max_range = s.number("max_range", c.max_range);
+  c.shadows = s.flag("shadows", c.shadows);
+  c.shadow_range = s.number("shadow_range", c.shadow_range);
+  c.min_exposure_lux = s.number("min_exposure_lux", c.min_exposure_lux);
+  c.sky_gain = s.number("sky_gain", c.sky_gain);
+  c.fog_contrast_threshold = s.number("fog_contrast_threshold", c.fog_contrast_threshold);
+  c.thermal_min = s.number("thermal_min", c.thermal_min);
+  c.thermal_max = s.number("thermal_max", c.thermal_max);
+  c.precipitation = s.flag("precipitation", c.precipitation);
+  parseCameraOutputs(s, c);
+  parseCameraDistortion(s, c);
+  c.mount = parseCameraMount(s);
+  return c;
+}
+
 void parseCameras(const Section& parent, const std::string& name, SensorsSpec& spec)
 {
   if (!parent.has(name))
@@ -503,111 +629,7 @@ void parseCameras(const Section& parent, const std::string& name, SensorsSpec& s
   for (int k = 0; k < list.size(); ++k)
   {
     const Section s(&list[k], path + "[" + std::to_string(k) + "]");
-    s.allowOnly({ "name",
-                  "projection",
-                  "width",
-                  "height",
-                  "hfov_deg",
-                  "rate",
-                  "x",
-                  "y",
-                  "z",
-                  "roll",
-                  "pitch",
-                  "yaw",
-                  "outputs",
-                  "distortion",
-                  "stereo_baseline",
-                  "max_range",
-                  "shadows",
-                  "shadow_range",
-                  "min_exposure_lux",
-                  "sky_gain",
-                  "fog_contrast_threshold",
-                  "thermal_min",
-                  "thermal_max",
-                  "precipitation" });
-    if (!s.has("name"))
-      throw StartupError("parameter " + s.key("name") +
-                         " is required (topics <vehicle>/<name>/..., frame "
-                         "<vehicle>/<name>_optical)");
-    CameraConfig c;
-    c.name = s.link("name", "");
-    const std::string projection = s.text("projection", "pinhole");
-    if (projection == "pinhole")
-      c.projection = CameraProjection::kPinhole;
-    else if (projection == "fisheye")
-      c.projection = CameraProjection::kFisheye;
-    else
-      throw StartupError("parameter " + s.key("projection") + " = '" + projection +
-                         "' must be 'pinhole' or 'fisheye' (equidistant)");
-    c.width = static_cast<int>(s.count("width", static_cast<std::size_t>(c.width), 1, 8192));
-    c.height = static_cast<int>(s.count("height", static_cast<std::size_t>(c.height), 1, 8192));
-    c.hfov = s.number("hfov_deg", c.hfov * 180.0 / M_PI) * M_PI / 180.0;
-    c.rate = s.number("rate", c.rate);
-    c.max_range = s.number("max_range", c.max_range);
-    c.shadows = s.flag("shadows", c.shadows);
-    c.shadow_range = s.number("shadow_range", c.shadow_range);
-    c.min_exposure_lux = s.number("min_exposure_lux", c.min_exposure_lux);
-    c.sky_gain = s.number("sky_gain", c.sky_gain);
-    c.fog_contrast_threshold = s.number("fog_contrast_threshold", c.fog_contrast_threshold);
-    c.thermal_min = s.number("thermal_min", c.thermal_min);
-    c.thermal_max = s.number("thermal_max", c.thermal_max);
-    c.precipitation = s.flag("precipitation", c.precipitation);
-    if (s.has("outputs"))
-    {
-      XmlRpcValue outputs = s.get("outputs");
-      if (outputs.getType() != XmlRpcValue::TypeArray || outputs.size() == 0)
-        throw StartupError("parameter " + s.key("outputs") +
-                           " must be a non-empty list of rgb, depth, semantic, thermal");
-      c.rgb = c.depth = c.semantic = c.thermal = false;
-      for (int o = 0; o < outputs.size(); ++o)
-      {
-        const std::string out =
-            outputs[o].getType() == XmlRpcValue::TypeString ? static_cast<std::string>(outputs[o]) : "";
-        if (out == "rgb")
-          c.rgb = true;
-        else if (out == "depth")
-          c.depth = true;
-        else if (out == "semantic")
-          c.semantic = true;
-        else if (out == "thermal")
-          c.thermal = true;
-        else
-          throw StartupError("parameter " + s.key("outputs") + "[" + std::to_string(o) +
-                             "] must be one of rgb, depth, "
-                             "semantic, thermal");
-      }
-    }
-    if (s.has("distortion"))
-    {
-      XmlRpcValue d = s.get("distortion");
-      if (d.getType() != XmlRpcValue::TypeArray || d.size() != 5)
-        throw StartupError("parameter " + s.key("distortion") +
-                           " must be a list of 5 numbers (plumb_bob k1, k2, p1, "
-                           "p2, k3)");
-      for (int i = 0; i < 5; ++i)
-      {
-        if (d[i].getType() == XmlRpcValue::TypeInt)
-          c.distortion[i] = static_cast<int>(d[i]);
-        else if (d[i].getType() == XmlRpcValue::TypeDouble)
-          c.distortion[i] = static_cast<double>(d[i]);
-        else
-          throw StartupError("parameter " + s.key("distortion") + "[" + std::to_string(i) + "] must be a number");
-      }
-    }
-    const Eigen::Vector3d xyz(s.number("x", 0.0), s.number("y", 0.0), s.number("z", 0.0));
-    const double roll = s.number("roll", 0.0), pitch = s.number("pitch", 0.0), yaw = s.number("yaw", 0.0);
-    for (double value : { xyz.x(), xyz.y(), xyz.z(), roll, pitch, yaw })
-      if (!std::isfinite(value))
-        throw StartupError("parameter " + s.path() + ": x, y, z, roll, pitch, yaw must be finite");
-    // URDF's rpy: fixed-axis roll about x, then pitch about y, then yaw about z.
-    c.mount = Eigen::Isometry3d::Identity();
-    c.mount.translation() = xyz;
-    c.mount.linear() =
-        (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-         Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-            .toRotationMatrix();
+    CameraConfig c = parseCamera(s);
     const double baseline = s.number("stereo_baseline", 0.0);
     if (!(baseline >= 0.0 && std::isfinite(baseline)))
       throw StartupError("parameter " + s.key("stereo_baseline") + " must be finite and >= 0 m (0: monocular)");
