@@ -13,56 +13,24 @@
 #include <string>
 #include <vector>
 
+#include <avsp_terrain/ros/ros_graph.hpp>
 #include <gtest/gtest.h>
 #include <ros/master.h>
 #include <ros/ros.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 
-namespace
-{
-using Graph = std::map<std::string, std::set<std::string>>;  // topic -> nodes
-
-/// The master's publishers and subscribers (getSystemState).
-bool systemState(Graph& publishers, Graph& subscribers)
-{
-  XmlRpc::XmlRpcValue args, result, payload;
-  args[0] = ros::this_node::getName();
-  if (!ros::master::execute("getSystemState", args, result, payload, true))
-    return false;
-  publishers.clear();
-  subscribers.clear();
-  for (int kind = 0; kind < 2; ++kind)
-  {
-    Graph& out = kind == 0 ? publishers : subscribers;
-    for (int t = 0; t < payload[kind].size(); ++t)
-    {
-      std::set<std::string>& nodes = out[static_cast<std::string>(payload[kind][t][0])];
-      for (int n = 0; n < payload[kind][t][1].size(); ++n)
-        nodes.insert(static_cast<std::string>(payload[kind][t][1][n]));
-    }
-  }
-  return true;
-}
-
-bool has(const Graph& g, const std::string& topic)
-{
-  const auto it = g.find(topic);
-  return it != g.end() && !it->second.empty();
-}
-}  // namespace
-
 TEST(Avt341Contract, AvspLeavesTheStacksTopicsToTheStack)
 {
   const std::string ns = "/ego/avt_341/";
-  Graph publishers, subscribers;
+  avsp::node::RosGraph graph;
   // Ready once the dynamics (odometry, cmd_vel) and the sensors (points, AVSP's grid) are up.
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(150.0);
   bool ready = false;
   while (ros::ok() && ros::WallTime::now() < deadline)
   {
-    ASSERT_TRUE(systemState(publishers, subscribers));
-    ready = has(publishers, ns + "odometry") && has(publishers, ns + "points") && has(subscribers, ns + "cmd_vel") &&
-            has(publishers, "/ego/occupancy/grid");
+    ASSERT_TRUE(avsp::node::readRosGraph(graph));
+    ready = graph.published(ns + "odometry") && graph.published(ns + "points") && graph.subscribed(ns + "cmd_vel") &&
+            graph.published("/ego/occupancy/grid");
     if (ready)
       break;
     ros::WallDuration(0.2).sleep();
@@ -71,18 +39,18 @@ TEST(Avt341Contract, AvspLeavesTheStacksTopicsToTheStack)
 
   const std::set<std::string> avsp_publishes = { ns + "odometry", ns + "points" };
   const std::set<std::string> avsp_subscribes = { ns + "cmd_vel", ns + "odometry", ns + "points" };
-  for (const auto& [topic, nodes] : publishers)
+  for (const auto& [topic, nodes] : graph.publishers)
     if (topic.rfind(ns, 0) == 0 && !nodes.empty())
       EXPECT_TRUE(avsp_publishes.count(topic)) << topic << " is published by " << *nodes.begin()
                                                << ": under avt_341/ AVSP publishes only odometry and points";
-  for (const auto& [topic, nodes] : subscribers)
+  for (const auto& [topic, nodes] : graph.subscribers)
     if (topic.rfind(ns, 0) == 0 && !nodes.empty())
       EXPECT_TRUE(avsp_subscribes.count(topic))
           << topic << " is read by " << *nodes.begin()
           << ": under avt_341/ AVSP reads only cmd_vel (and its own odometry and points)";
   // The stack's own outputs, by name (the check above covers them; this says which).
   for (const char* stack : { "occupancy_grid", "global_path", "waypoints", "local_path", "cmd_vel" })
-    EXPECT_FALSE(has(publishers, ns + stack)) << ns + stack << " belongs to the AVT-341 stack";
+    EXPECT_FALSE(graph.published(ns + stack)) << ns + stack << " belongs to the AVT-341 stack";
 }
 
 int main(int argc, char** argv)

@@ -36,6 +36,7 @@
 #include <ros/ros.h>
 #include <yaml-cpp/yaml.h>
 
+#include <avsp_terrain/ros/ros_graph.hpp>
 #include <avsp_terrain/ros/run_command.hpp>
 
 namespace
@@ -159,29 +160,27 @@ TEST(RunRecorder, WritesTheResultsOfARunAtItsDuration)
     std::tie(code, output) = runRecorder("recorder");
     done = true;
   });
-  // Up when the master lists it among the odometry's subscribers (it loaded the terrain first).
+  // Up when the master lists it among the telemetry's subscribers (it loaded the terrain first).
+  const std::string self = ros::this_node::getName();
   auto subscribed = [] {
-    XmlRpc::XmlRpcValue request, response, payload;
-    request[0] = ros::this_node::getName();
-    if (!ros::master::execute("getSystemState", request, response, payload, false))
-      return false;
-    for (int k = 0; k < payload[1].size(); ++k)
-      if (static_cast<std::string>(payload[1][k][0]) == "/follow/telemetry")
-        for (int n = 0; n < payload[1][k][1].size(); ++n)
-          if (static_cast<std::string>(payload[1][k][1][n]) == "/recorder")
-            return true;
-    return false;
+    avsp::node::RosGraph graph;
+    return avsp::node::readRosGraph(graph) && graph.subscribes("/recorder", "/follow/telemetry");
   };
   const ros::WallTime start = ros::WallTime::now();
   while (!done && !subscribed() && (ros::WallTime::now() - start).toSec() < 30.0)
     ros::WallDuration(0.05).sleep();
   ASSERT_FALSE(done) << "run_recorder exited at start-up";
   ASSERT_TRUE(subscribed()) << "run_recorder did not subscribe within 30 s";
-  // The publishers connect to it (the test's own subscriber and run_recorder's on the bad topic).
-  while (bad_odom.getNumSubscribers() < 2 && (ros::WallTime::now() - start).toSec() < 30.0)
+  // Nothing moves before the commands (wait_for_command): once run_recorder and this test are
+  // connected to every publisher of what they read (the clock, odometry, telemetry; the bad
+  // topic's two publishers), no message of the run can be lost.
+  auto connected = [&] {
+    return avsp::node::subscriptionsConnected("/recorder") && avsp::node::subscriptionsConnected(self) &&
+           bad_odom.getNumSubscribers() >= 2;
+  };
+  while (!done && !connected() && (ros::WallTime::now() - start).toSec() < 30.0)
     ros::WallDuration(0.01).sleep();
-  ASSERT_GE(bad_odom.getNumSubscribers(), 2u);
-  ros::WallDuration(0.5).sleep();
+  ASSERT_TRUE(connected()) << "run_recorder or the test not connected to its publishers within 30 s";
 
   geometry_msgs::Twist go_lead, go_follow, brake;
   go_lead.linear.x = 0.35;

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -133,7 +134,7 @@ bool waitFor(const std::function<bool()>& done, double timeout = 10.0)
 
 TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
 {
-  Fleet fleet("", { "alpha", "bravo", "charlie", "delta" });
+  Fleet fleet("", { "alpha", "bravo", "charlie", "delta", "flush" });
   std::vector<visualization_msgs::MarkerArray> markers;
   ros::Subscriber marker_sub = fleet.nh.subscribe<visualization_msgs::MarkerArray>(
       "/v2v/fleet_markers", 10, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { markers.push_back(*m); });
@@ -153,10 +154,20 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
     fleet.broadcast(2, 0.0, charlie_y);
     fleet.broadcast(3, delta_x, 0.0);
   };
-  // Warm-up: one round so that every vehicle's position is known before counting.
+  // Warm-up: one round (stamped 0.01 s: a zero stamp would mean "stamp on reception") so that
+  // every vehicle's position is known before counting. The radio has taken both ends of a link
+  // once either end hears the other (whichever it took second reaches the first): alpha-bravo
+  // and bravo-delta. charlie, in range of nobody, is heard by nobody either way. The clock goes
+  // 50 ms (the latency) ahead to release them; the 10 Hz rounds still fall on 0.1 s, 0.2 s ...
+  sim->step(10);
   broadcastAll();
-  ros::WallDuration(0.5).sleep();
-  ros::spinOnce();
+  sim->step(50);
+  auto heard = [&](const std::string& receiver, const std::string& sender) {
+    return fleet.count(receiver, [&](const Received& r) { return r.sender == sender && r.seq == 0; }) > 0;
+  };
+  ASSERT_TRUE(waitFor([&] {
+    return (heard("bravo", "alpha") || heard("alpha", "bravo")) && (heard("delta", "bravo") || heard("bravo", "delta"));
+  })) << "the warm-up round did not reach the radio";
 
   const double latency = 0.05;
   const long end_ms = 25000;
@@ -187,16 +198,29 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
     };
     ASSERT_TRUE(waitFor(owedArrived, 5.0)) << "deliveries owed by sim time " << sim->now() << " did not arrive";
   }
-  waitFor([] { return false; }, 1.0);  // grace: anything still in flight lands now
+  // Barrier: 'flush', silent until now (so unknown to the radio and in nobody's range), speaks
+  // once from (200, 200), within 300 m of all four. The radio sends each vehicle's v2v/in in
+  // order of due time over one connection, so once its state (due at 25.05 s) is in every
+  // inbox, everything due before it is too: no grace period to wait out.
+  fleet.broadcast(4, 200.0, 200.0);
+  sim->step(50);
+  ASSERT_TRUE(waitFor([&] {
+    for (const char* v : { "alpha", "bravo", "charlie", "delta" })
+      if (fleet.count(v, [](const Received& r) { return r.sender == "flush"; }) == 0)
+        return false;
+    return true;
+  })) << "the barrier state from 'flush' did not reach every vehicle";
+  auto before_flush = [](const Received& r) { return r.sender != "flush"; };
 
-  // Rate: alpha's states reach bravo at 10 Hz (+-10 %) over [5, 15) s of sim time, and back.
+  // Rate: alpha's states reach bravo at 10 Hz over [5, 15) s of sim time, and back: exactly the
+  // 100 stamped 5.0 .. 14.9 s (arriving 5.05 .. 14.95 s; the test drives the clock).
   for (const auto& [receiver, sender] :
        { std::pair<std::string, std::string>{ "bravo", "alpha" }, { "alpha", "bravo" } })
   {
     const std::size_t n = fleet.count(receiver, [&, s = sender](const Received& r) {
       return r.sender == s && r.arrival >= 5.0 - 1e-9 && r.arrival < 15.0 - 1e-9;
     });
-    EXPECT_NEAR(n / 10.0, 10.0, 1.0) << sender << " -> " << receiver << ": " << n << " in 10 s";
+    EXPECT_EQ(n, 100u) << sender << " -> " << receiver << ": " << n << " in 10 s";
   }
   // Latency: every delivery the lockstep waited for (alpha <-> bravo stamped 0.1-19.9 s,
   // bravo <-> delta 0.1-24.9 s) arrived exactly 50 ms of sim time after its stamp: not a clock
@@ -213,7 +237,7 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   // Out of range: charlie hears nobody and nobody hears charlie; alpha and delta (400 m) never
   // hear each other; after bravo moved to 350 m, nothing between alpha and bravo (the states
   // stamped 20.0 s race bravo's move and may go either way).
-  EXPECT_EQ(fleet.count("charlie", [](const Received&) { return true; }), 0u);
+  EXPECT_EQ(fleet.count("charlie", before_flush), 0u);
   for (const char* v : { "alpha", "bravo", "delta" })
     EXPECT_EQ(fleet.count(v, [](const Received& r) { return r.sender == "charlie"; }), 0u) << v;
   EXPECT_EQ(fleet.count("alpha", [](const Received& r) { return r.sender == "delta"; }), 0u);
@@ -253,10 +277,23 @@ TEST(V2vRadioNode, LossAsConfiguredAndExactlyAsTheCorePredicts)
   Fleet fleet("/lossy/", { "l0", "l1", "l2", "l3", "l4" });
   ASSERT_TRUE(waitFor([&] { return fleet.connected(); })) << "lossy radio did not connect";
   auto position = [](std::size_t k) { return std::pair<double, double>{ 10.0 * k, 5.0 * (k % 2) }; };
-  for (std::size_t k = 0; k < 5; ++k)  // warm-up round (sequence numbers 0)
+  // The radio's fleet view (10 Hz of sim time) draws a dot for every vehicle whose position it
+  // knows: counting starts once it knows all five from the warm-up round (sequence numbers 0).
+  std::size_t dots = 0;
+  ros::Subscriber marker_sub = fleet.nh.subscribe<visualization_msgs::MarkerArray>(
+      "/lossy/v2v/fleet_markers", 10, [&](const visualization_msgs::MarkerArray::ConstPtr& m) {
+        dots = static_cast<std::size_t>(
+            std::count_if(m->markers.begin(), m->markers.end(), [](const auto& x) { return x.ns == "vehicles"; }));
+      });
+  ASSERT_TRUE(waitFor([&] { return marker_sub.getNumPublishers() > 0; })) << "no fleet view";
+  for (std::size_t k = 0; k < 5; ++k)
     fleet.broadcast(k, position(k).first, position(k).second);
-  ros::WallDuration(0.5).sleep();
-  ros::spinOnce();
+  for (int tick = 0; tick < 50 && dots < 5; ++tick)
+  {
+    sim->step(100);
+    waitFor([&] { return dots == 5; }, 1.0);
+  }
+  ASSERT_EQ(dots, 5u) << "the radio does not know every position after the warm-up round";
 
   // 100 rounds at 10 Hz: 5 x 4 x 100 = 2000 (message, receiver) pairs, each lost with p = 0.2.
   std::set<std::tuple<std::string, std::string, std::uint32_t>> expected;
@@ -286,12 +323,40 @@ TEST(V2vRadioNode, LossAsConfiguredAndExactlyAsTheCorePredicts)
         5.0))
         << "round " << round;
   }
-  waitFor([] { return false; }, 1.0);  // grace for anything unexpected
+  // Barrier: more rounds until every vehicle has had one of their states (the seeded draws say
+  // which arrive). The radio sends each v2v/in in order of due time over one connection, so
+  // then anything unexpected from the counted rounds would be in the inboxes already.
+  const std::uint32_t counted = fleet.seq[fleet.names[0]];  // sequence numbers 1 .. counted - 1
+  std::set<std::string> barred;
+  for (int round = 0; round < 10 && barred.size() < 5; ++round)
+  {
+    sim->step(100);
+    std::set<std::tuple<std::string, std::string, std::uint32_t>> due;
+    for (std::size_t k = 0; k < 5; ++k)
+    {
+      const std::uint32_t seq = fleet.seq[fleet.names[k]];
+      fleet.broadcast(k, position(k).first, position(k).second);
+      for (std::size_t r = 0; r < 5; ++r)
+        if (r != k && avsp::v2v::Radio::lossDraw(7, fleet.names[k], fleet.names[r], seq) >= 0.2)
+          due.insert({ fleet.names[k], fleet.names[r], seq });
+    }
+    ASSERT_TRUE(waitFor([&] {
+      for (const auto& [sender, receiver, seq] : due)
+        if (fleet.count(receiver,
+                        [&, s = sender, q = seq](const Received& x) { return x.sender == s && x.seq == q; }) == 0)
+          return false;
+      return true;
+    })) << "barrier round "
+        << round;
+    for (const auto& d : due)
+      barred.insert(std::get<1>(d));
+  }
+  ASSERT_EQ(barred.size(), 5u);
 
   std::set<std::tuple<std::string, std::string, std::uint32_t>> got;
   for (const auto& [receiver, list] : fleet.inbox)
     for (const Received& r : list)
-      if (r.seq >= 1)
+      if (r.seq >= 1 && r.seq < counted)
         got.insert({ r.sender, receiver, r.seq });
   EXPECT_EQ(got, expected) << "deliveries differ from the seeded loss draws";
   const double loss = 1.0 - static_cast<double>(got.size()) / attempts;
