@@ -329,17 +329,16 @@ std::size_t HeightRaster::noDataCount() const
   return static_cast<std::size_t>(std::count_if(heights.begin(), heights.end(), [](float h) { return std::isnan(h); }));
 }
 
-HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
+namespace
 {
-  const char* const fn = "readAsciiGrid";
-  const std::uint64_t file_bytes = checkInputFile(fn, path);
-  FilePtr file = openForRead(fn, path);
-  TokenReader reader(file.get());
+/// Reads the header's key/value pairs; leaves `token`/`status` at the first data token.
+AsciiHeader readAsciiHeader(const char* fn, const std::string& path, TokenReader& reader, std::string& token,
+                            TokenReader::Next& status)
+{
   using Next = TokenReader::Next;
-
   AsciiHeader hdr;
-  std::string token, value;
-  Next status = reader.next(token);
+  std::string value;
+  status = reader.next(token);
   // The header ends at the first token that is not a header key; a data value never starts
   // with a letter except nan/inf, which are rejected below.
   while (status == Next::kToken && startsWithLetter(token))
@@ -400,7 +399,12 @@ HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
   }
   if (status == Next::kReadError || status == Next::kTooLong)
     fail(fn, path, describe(status));
+  return hdr;
+}
 
+/// Refuses a header with a key missing, given twice over (corner and centre) or out of range.
+void checkAsciiHeader(const char* fn, const std::string& path, const AsciiHeader& hdr)
+{
   if (!hdr.ncols)
     fail(fn, path, "missing header key 'ncols'");
   if (!hdr.nrows)
@@ -420,28 +424,14 @@ HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
          "ncols and nrows must be > 0 (got " + std::to_string(*hdr.ncols) + " x " + std::to_string(*hdr.nrows) + ")");
   if (!(*hdr.cellsize > 0.0))
     fail(fn, path, "cellsize must be > 0 (got " + std::to_string(*hdr.cellsize) + ")");
+}
 
-  const auto columns = static_cast<std::uint64_t>(*hdr.ncols);
-  const auto rows = static_cast<std::uint64_t>(*hdr.nrows);
-  checkDimensions(fn, path, columns, rows, limits.max_points);
-  const std::uint64_t count = columns * rows;
-  // Each value takes at least one character and one separator; checking this before the
-  // allocation keeps a corrupt header in a small file from reserving gigabytes.
-  if (2 * count - 1 > file_bytes)
-    fail(fn, path,
-         "truncated: header declares " + std::to_string(count) + " values but the file has only " +
-             std::to_string(file_bytes) + " bytes");
-
-  HeightRaster raster;
-  raster.columns = static_cast<std::size_t>(columns);
-  raster.rows = static_cast<std::size_t>(rows);
-  raster.cell_size = *hdr.cellsize;
-  // A corner names the outer edge of the south-west cell; grid points are cell centres.
-  raster.origin_x = hdr.xllcorner ? *hdr.xllcorner + 0.5 * raster.cell_size : *hdr.xllcenter;
-  raster.origin_y = hdr.yllcorner ? *hdr.yllcorner + 0.5 * raster.cell_size : *hdr.yllcenter;
-  checkPlausibleGeometry(fn, path, raster.origin_x, raster.origin_y, raster.cell_size);
-  raster.heights.assign(static_cast<std::size_t>(count), kNoData);
-
+/// Reads the values into `raster` (sized by the header), from `token` on; rows north first.
+void readAsciiValues(const char* fn, const std::string& path, const AsciiHeader& hdr, TokenReader& reader,
+                     std::string& token, TokenReader::Next status, HeightRaster& raster)
+{
+  using Next = TokenReader::Next;
+  const std::uint64_t columns = raster.columns, rows = raster.rows, count = columns * rows;
   std::uint64_t n = 0;
   for (; status == Next::kToken; status = reader.next(token))
   {
@@ -467,6 +457,43 @@ HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
     fail(fn, path, describe(status));
   if (n < count)
     fail(fn, path, "truncated: found " + std::to_string(n) + " of " + std::to_string(count) + " values");
+}
+}  // namespace
+
+HeightRaster readAsciiGrid(const std::string& path, const DemLimits& limits)
+{
+  const char* const fn = "readAsciiGrid";
+  const std::uint64_t file_bytes = checkInputFile(fn, path);
+  FilePtr file = openForRead(fn, path);
+  TokenReader reader(file.get());
+
+  std::string token;
+  TokenReader::Next status = TokenReader::Next::kEnd;
+  const AsciiHeader hdr = readAsciiHeader(fn, path, reader, token, status);
+  checkAsciiHeader(fn, path, hdr);
+
+  const auto columns = static_cast<std::uint64_t>(*hdr.ncols);
+  const auto rows = static_cast<std::uint64_t>(*hdr.nrows);
+  checkDimensions(fn, path, columns, rows, limits.max_points);
+  const std::uint64_t count = columns * rows;
+  // Each value takes at least one character and one separator; checking this before the
+  // allocation keeps a corrupt header in a small file from reserving gigabytes.
+  if (2 * count - 1 > file_bytes)
+    fail(fn, path,
+         "truncated: header declares " + std::to_string(count) + " values but the file has only " +
+             std::to_string(file_bytes) + " bytes");
+
+  HeightRaster raster;
+  raster.columns = static_cast<std::size_t>(columns);
+  raster.rows = static_cast<std::size_t>(rows);
+  raster.cell_size = *hdr.cellsize;
+  // A corner names the outer edge of the south-west cell; grid points are cell centres.
+  raster.origin_x = hdr.xllcorner ? *hdr.xllcorner + 0.5 * raster.cell_size : *hdr.xllcenter;
+  raster.origin_y = hdr.yllcorner ? *hdr.yllcorner + 0.5 * raster.cell_size : *hdr.yllcenter;
+  checkPlausibleGeometry(fn, path, raster.origin_x, raster.origin_y, raster.cell_size);
+  raster.heights.assign(static_cast<std::size_t>(count), kNoData);
+
+  readAsciiValues(fn, path, hdr, reader, token, status, raster);
   rejectAllNoData(fn, path, raster);
   checkPlausibleHeights(fn, path, raster);
   return raster;
@@ -863,6 +890,116 @@ bool isMetreName(const std::string& unit)
 }
 }  // namespace
 
+namespace
+{
+/// Reads the geotransform into `gt`; refuses one that is missing, rotated, not north-up or
+/// not square, a CRS in degrees or feet, and heights not in metres.
+void readNorthUpMetres(const char* fn, const std::string& path, GDALDatasetH ds, GDALRasterBandH band, double gt[6])
+{
+  // Without a geotransform GDAL returns a made-up identity one; never use it.
+  if (GDALGetGeoTransform(ds, gt) != CE_None)
+    fail(fn, path, "no geotransform (file is not georeferenced)");
+  for (int k = 0; k < 6; ++k)
+    if (!std::isfinite(gt[k]))
+      fail(fn, path, "geotransform is not finite");
+  if (gt[2] != 0.0 || gt[4] != 0.0)
+    fail(fn, path, "rotated or sheared geotransform not supported (north-up only)");
+  if (!(gt[1] > 0.0) || !(gt[5] < 0.0))
+    fail(fn, path,
+         "not north-up: pixel size (" + std::to_string(gt[1]) + ", " + std::to_string(gt[5]) +
+             ") must have x > 0 and y < 0");
+  if (std::abs(gt[1] + gt[5]) > 1e-9 * gt[1])
+    fail(fn, path, "non-square pixels (" + std::to_string(gt[1]) + " x " + std::to_string(-gt[5]) + ")");
+
+  // Cell sizes in degrees or feet would silently scale the terrain.
+  if (OGRSpatialReferenceH srs = GDALGetSpatialRef(ds))
+  {
+    if (OSRIsGeographic(srs))
+      fail(fn, path, "geographic CRS (pixel size in degrees); reproject to a projected CRS in metres");
+    char* unit_name = nullptr;
+    const double metres_per_unit = OSRGetLinearUnits(srs, &unit_name);
+    if (std::abs(metres_per_unit - 1.0) > 1e-12)
+      fail(fn, path, std::string("horizontal CRS unit '") + (unit_name ? unit_name : "?") + "' is not metres");
+  }
+  const char* unit = GDALGetRasterUnitType(band);
+  if (unit != nullptr && *unit != '\0' && !isMetreName(unit))
+    fail(fn, path, std::string("height unit '") + unit + "' is not metres");
+}
+
+/// How a band's raw values become heights.
+struct BandCoding
+{
+  int has_nodata = 0;
+  double nodata = 0.0;
+  double scale = 1.0;
+  double offset = 0.0;
+};
+
+BandCoding readBandCoding(const char* fn, const std::string& path, GDALRasterBandH band)
+{
+  BandCoding coding;
+  coding.nodata = GDALGetRasterNoDataValue(band, &coding.has_nodata);
+  int has_scale = 0, has_offset = 0;
+  const double scale_raw = GDALGetRasterScale(band, &has_scale);
+  const double offset_raw = GDALGetRasterOffset(band, &has_offset);
+  // Absent scale/offset means raw values are heights (identity), not a guessed default.
+  coding.scale = has_scale ? scale_raw : 1.0;
+  coding.offset = has_offset ? offset_raw : 0.0;
+  if (!std::isfinite(coding.scale) || !std::isfinite(coding.offset) || coding.scale == 0.0)
+    fail(fn, path, "band scale/offset is not usable");
+  return coding;
+}
+
+/// Reads the band's heights into `raster` (sized and placed), row 0 south.
+void readBandRows(const char* fn, const std::string& path, GDALRasterBandH band, GDALDataType type,
+                  const BandCoding& coding, HeightRaster& raster)
+{
+  const int width = static_cast<int>(raster.columns);
+  const int height = static_cast<int>(raster.rows);
+  // Memory: the heights are read row by row straight into the raster (flipped to row 0
+  // south), so the file's data is held once. GDAL keeps every block it reads in its block
+  // cache (by default 5 % of RAM, more than a site-size raster on a large machine), which
+  // would hold the whole file a second time; the cache is therefore dropped after each row
+  // of blocks. Float32, Int16 and UInt16 pixels are exact as float, so they are read as
+  // Float32 in place; Float64 goes through a one-row double buffer so that its nodata
+  // comparison and float-range check see the exact file value.
+  int block_x = 0, block_y = 0;
+  GDALGetBlockSize(band, &block_x, &block_y);
+  if (block_y < 1)
+    block_y = 1;
+  const bool read_double = type == GDT_Float64;
+  std::vector<double> line(read_double ? raster.columns : 0);
+  for (int r = 0; r < height; ++r)
+  {
+    float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
+    void* buffer = read_double ? static_cast<void*>(line.data()) : static_cast<void*>(dst);
+    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, buffer, width, 1, read_double ? GDT_Float64 : GDT_Float32, 0, 0) !=
+        CE_None)
+      fail(fn, path,
+           "cannot read pixel row " + std::to_string(r) + ", truncated or corrupt file (" +
+               GdalQuietErrors::lastMessage() + ")");
+    if ((r + 1) % block_y == 0 || r + 1 == height)
+      GDALFlushRasterCache(band);  // read-only: releases the cached blocks, writes nothing
+    for (std::size_t c = 0; c < raster.columns; ++c)
+    {
+      const double raw = read_double ? line[c] : static_cast<double>(dst[c]);
+      if (std::isnan(raw) || (coding.has_nodata && raw == coding.nodata))
+      {
+        dst[c] = kNoData;
+        continue;
+      }
+      // Without scale/offset the raw value is the height; applying 0 + 1 * raw would turn
+      // -0 into +0 and break the bit-exact round trip.
+      const double z = (coding.scale == 1.0 && coding.offset == 0.0) ? raw : coding.offset + coding.scale * raw;
+      if (!(std::abs(z) <= static_cast<double>(FLT_MAX)))
+        fail(fn, path,
+             "value at pixel (" + std::to_string(c) + ", " + std::to_string(r) + ") is infinite or beyond float range");
+      dst[c] = static_cast<float>(z);
+    }
+  }
+}
+}  // namespace
+
 HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
 {
   const char* const fn = "readGeoTiff";
@@ -895,45 +1032,8 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
              " not supported (need Float32, Float64, Int16 or UInt16)");
 
   double gt[6] = {};
-  // Without a geotransform GDAL returns a made-up identity one; never use it.
-  if (GDALGetGeoTransform(ds.get(), gt) != CE_None)
-    fail(fn, path, "no geotransform (file is not georeferenced)");
-  for (double v : gt)
-    if (!std::isfinite(v))
-      fail(fn, path, "geotransform is not finite");
-  if (gt[2] != 0.0 || gt[4] != 0.0)
-    fail(fn, path, "rotated or sheared geotransform not supported (north-up only)");
-  if (!(gt[1] > 0.0) || !(gt[5] < 0.0))
-    fail(fn, path,
-         "not north-up: pixel size (" + std::to_string(gt[1]) + ", " + std::to_string(gt[5]) +
-             ") must have x > 0 and y < 0");
-  if (std::abs(gt[1] + gt[5]) > 1e-9 * gt[1])
-    fail(fn, path, "non-square pixels (" + std::to_string(gt[1]) + " x " + std::to_string(-gt[5]) + ")");
-
-  // Cell sizes in degrees or feet would silently scale the terrain.
-  if (OGRSpatialReferenceH srs = GDALGetSpatialRef(ds.get()))
-  {
-    if (OSRIsGeographic(srs))
-      fail(fn, path, "geographic CRS (pixel size in degrees); reproject to a projected CRS in metres");
-    char* unit_name = nullptr;
-    const double metres_per_unit = OSRGetLinearUnits(srs, &unit_name);
-    if (std::abs(metres_per_unit - 1.0) > 1e-12)
-      fail(fn, path, std::string("horizontal CRS unit '") + (unit_name ? unit_name : "?") + "' is not metres");
-  }
-  const char* unit = GDALGetRasterUnitType(band);
-  if (unit != nullptr && *unit != '\0' && !isMetreName(unit))
-    fail(fn, path, std::string("height unit '") + unit + "' is not metres");
-
-  int has_nodata = 0;
-  const double nodata = GDALGetRasterNoDataValue(band, &has_nodata);
-  int has_scale = 0, has_offset = 0;
-  const double scale_raw = GDALGetRasterScale(band, &has_scale);
-  const double offset_raw = GDALGetRasterOffset(band, &has_offset);
-  // Absent scale/offset means raw values are heights (identity), not a guessed default.
-  const double scale = has_scale ? scale_raw : 1.0;
-  const double offset = has_offset ? offset_raw : 0.0;
-  if (!std::isfinite(scale) || !std::isfinite(offset) || scale == 0.0)
-    fail(fn, path, "band scale/offset is not usable");
+  readNorthUpMetres(fn, path, ds.get(), band, gt);
+  const BandCoding coding = readBandCoding(fn, path, band);
 
   HeightRaster raster;
   raster.columns = static_cast<std::size_t>(width);
@@ -945,48 +1045,7 @@ HeightRaster readGeoTiff(const std::string& path, const DemLimits& limits)
   raster.origin_y = gt[3] + (height - 0.5) * gt[5];
   checkPlausibleGeometry(fn, path, raster.origin_x, raster.origin_y, raster.cell_size);
   raster.heights.resize(raster.columns * raster.rows);
-
-  // Memory: the heights are read row by row straight into the raster (flipped to row 0
-  // south), so the file's data is held once. GDAL keeps every block it reads in its block
-  // cache (by default 5 % of RAM, more than a site-size raster on a large machine), which
-  // would hold the whole file a second time; the cache is therefore dropped after each row
-  // of blocks. Float32, Int16 and UInt16 pixels are exact as float, so they are read as
-  // Float32 in place; Float64 goes through a one-row double buffer so that its nodata
-  // comparison and float-range check see the exact file value.
-  int block_x = 0, block_y = 0;
-  GDALGetBlockSize(band, &block_x, &block_y);
-  if (block_y < 1)
-    block_y = 1;
-  const bool read_double = type == GDT_Float64;
-  std::vector<double> line(read_double ? raster.columns : 0);
-  for (int r = 0; r < height; ++r)
-  {
-    float* dst = &raster.heights[(raster.rows - 1 - static_cast<std::size_t>(r)) * raster.columns];
-    void* buffer = read_double ? static_cast<void*>(line.data()) : static_cast<void*>(dst);
-    if (GDALRasterIO(band, GF_Read, 0, r, width, 1, buffer, width, 1, read_double ? GDT_Float64 : GDT_Float32, 0, 0) !=
-        CE_None)
-      fail(fn, path,
-           "cannot read pixel row " + std::to_string(r) + ", truncated or corrupt file (" +
-               GdalQuietErrors::lastMessage() + ")");
-    if ((r + 1) % block_y == 0 || r + 1 == height)
-      GDALFlushRasterCache(band);  // read-only: releases the cached blocks, writes nothing
-    for (std::size_t c = 0; c < raster.columns; ++c)
-    {
-      const double raw = read_double ? line[c] : static_cast<double>(dst[c]);
-      if (std::isnan(raw) || (has_nodata && raw == nodata))
-      {
-        dst[c] = kNoData;
-        continue;
-      }
-      // Without scale/offset the raw value is the height; applying 0 + 1 * raw would turn
-      // -0 into +0 and break the bit-exact round trip.
-      const double z = (scale == 1.0 && offset == 0.0) ? raw : offset + scale * raw;
-      if (!(std::abs(z) <= static_cast<double>(FLT_MAX)))
-        fail(fn, path,
-             "value at pixel (" + std::to_string(c) + ", " + std::to_string(r) + ") is infinite or beyond float range");
-      dst[c] = static_cast<float>(z);
-    }
-  }
+  readBandRows(fn, path, band, type, coding, raster);
   rejectAllNoData(fn, path, raster);
   checkPlausibleHeights(fn, path, raster);
   return raster;
