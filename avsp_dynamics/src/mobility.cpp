@@ -946,240 +946,269 @@ std::string criterion(const Case& c)
   return o.str();
 }
 
-Result run(const Case& c, const Setup& setup)
+namespace
 {
-  const auto start = std::chrono::steady_clock::now();
-  const terrain::SoilLibrary library = terrain::SoilLibrary::load(setup.soils_yaml);
-  Run r{ setup, loadVehicleModel(setup.vehicle_dir + "/" + c.vehicle + ".yaml"), library.get(c.soil), c.step };
-  const VehicleModel& m = r.model;
-  const SoilParameters& soil = r.soil;
-  const double theta = c.slope_deg * kDeg;
-  Result out;
-  std::ostringstream detail;
+/// What one manoeuvre measured, and the closed form(s) it is judged against.
+struct Measurement
+{
+  double value = std::numeric_limits<double>::quiet_NaN();
   double closed = std::numeric_limits<double>::quiet_NaN();
   double closed_low = std::numeric_limits<double>::quiet_NaN();  // a closed form's lower bound, if it has one
-  const std::string& k = c.manoeuvre;
+  std::ostringstream detail;
+};
 
-  if (k == "side_slope_hold")
-  {
-    const auto [drift, roll] = sideSlope(r, theta, 2.0, c.duration > 0.0 ? c.duration : 5.0);
-    out.value = drift;
-    detail << "roll " << roll / kDeg << " deg";
-  }
-  else if (k == "side_slope_limit")
-  {
-    // The closed forms: sliding at tan(theta) = (c A + W cos(theta) tan(phi)) / (W cos(theta))
-    // (pavement: the tyres' peak adhesion), tipping at the static stability factor t / (2 h).
-    auto flat = plane(soil, 8.0, 6.0, 0.1, 0.0, 0.0);
-    World w(*flat, options(r.step));
-    const std::size_t id = w.addVehicle(m, placeOn(*flat, m, 0.0, 0.0, 0.0, 0.0, 0.0, 0.005));
-    w.advance(2.0);
-    const double h = w.state(id).centre_of_mass.z() - *flat->height(0.0, 0.0);
-    const double tip = std::atan(trackWidth(m) / (2.0 * h));
-    const double slide = solveAngle([&](double a) { return weight(m) * std::sin(a) - staticShear(m, soil, a); });
-    const Tilt tilt = tiltTable(r, std::min(slide, tip), std::min(1.4 * std::min(slide, tip), 55.0 * kDeg));
-    // A sprung vehicle tips below the rigid t / (2h): its body rolls on the springs and its wheels
-    // camber with it, moving the centre of mass downhill and the contact line uphill. When it
-    // tips, the reference is then the statics of the geometry it has at lift-off.
-    const double tip_reference = tilt.tipped && std::isfinite(tilt.statics) ? tilt.statics : tip;
-    closed = std::min(slide, tip_reference) / kDeg;
-    out.value = tilt.angle / kDeg;
-    detail << (tilt.held     ? "held to the table's end"
+void sideSlopeLimit(Run& r, Measurement& x)
+{
+  const VehicleModel& m = r.model;
+  const SoilParameters& soil = r.soil;
+  // The closed forms: sliding at tan(theta) = (c A + W cos(theta) tan(phi)) / (W cos(theta))
+  // (pavement: the tyres' peak adhesion), tipping at the static stability factor t / (2 h).
+  auto flat = plane(soil, 8.0, 6.0, 0.1, 0.0, 0.0);
+  World w(*flat, options(r.step));
+  const std::size_t id = w.addVehicle(m, placeOn(*flat, m, 0.0, 0.0, 0.0, 0.0, 0.0, 0.005));
+  w.advance(2.0);
+  const double h = w.state(id).centre_of_mass.z() - *flat->height(0.0, 0.0);
+  const double tip = std::atan(trackWidth(m) / (2.0 * h));
+  const double slide = solveAngle([&](double a) { return weight(m) * std::sin(a) - staticShear(m, soil, a); });
+  const Tilt tilt = tiltTable(r, std::min(slide, tip), std::min(1.4 * std::min(slide, tip), 55.0 * kDeg));
+  // A sprung vehicle tips below the rigid t / (2h): its body rolls on the springs and its wheels
+  // camber with it, moving the centre of mass downhill and the contact line uphill. When it
+  // tips, the reference is then the statics of the geometry it has at lift-off.
+  const double tip_reference = tilt.tipped && std::isfinite(tilt.statics) ? tilt.statics : tip;
+  x.closed = std::min(slide, tip_reference) / kDeg;
+  x.value = tilt.angle / kDeg;
+  x.detail << (tilt.held     ? "held to the table's end"
                : tilt.tipped ? "tipped (two-wheel lift)"
                              : "slid")
            << ", body roll " << tilt.body_roll / kDeg << " deg";
-    if (tilt.tipped && std::isfinite(tilt.statics))
-      detail << ", statics at lift-off " << tilt.statics / kDeg << " deg";
-    detail << "; slide limit " << slide / kDeg << " deg, rigid tip limit " << tip / kDeg << " deg (t/2h, h " << h
+  if (tilt.tipped && std::isfinite(tilt.statics))
+    x.detail << ", statics at lift-off " << tilt.statics / kDeg << " deg";
+  x.detail << "; slide limit " << slide / kDeg << " deg, rigid tip limit " << tip / kDeg << " deg (t/2h, h " << h
            << " m)";
-  }
-  else if (k == "grade_limit")
+}
+
+void gradeLimit(const Case& c, Run& r, Measurement& x)
+{
+  const VehicleModel& m = r.model;
+  const SoilParameters& soil = r.soil;
+  // Engine: the drive's force at a crawl = W sin(theta) + R(theta); soil: the ground's shear
+  // at full slip less R = W sin(theta) (pavement: peak adhesion). R: resistance() closed forms.
+  // Multi-axle vehicles on soil: between every wheel compacting fresh soil (single pass) and
+  // the rear wheels only compacting below the front ruts (multi-pass); slip sinkage and the
+  // ruts' rebound put the vehicle between.
+  const double f_low = driveForce(m, 0.3);
+  double engine = 0.0, ground = 0.0, limit[2];
+  for (const bool multipass : { false, true })
   {
-    // Engine: the drive's force at a crawl = W sin(theta) + R(theta); soil: the ground's shear
-    // at full slip less R = W sin(theta) (pavement: peak adhesion). R: resistance() closed forms.
-    // Multi-axle vehicles on soil: between every wheel compacting fresh soil (single pass) and
-    // the rear wheels only compacting below the front ruts (multi-pass); slip sinkage and the
-    // ruts' rebound put the vehicle between.
-    const double f_low = driveForce(m, 0.3);
-    double engine = 0.0, ground = 0.0, limit[2];
-    for (const bool multipass : { false, true })
-    {
-      engine = solveAngle(
-          [&](double a) { return weight(m) * std::sin(a) + resistance(m, soil, a, 0.3, multipass) - f_low; });
-      ground = solveAngle([&](double a) {
-        return weight(m) * std::sin(a) + resistance(m, soil, a, 0.3, multipass) - shearCapacity(m, soil, a);
-      });
-      limit[multipass] = std::min(engine, ground);
-      detail << (multipass ? "; multi-pass" : "single pass") << ": engine limit " << engine / kDeg
+    engine =
+        solveAngle([&](double a) { return weight(m) * std::sin(a) + resistance(m, soil, a, 0.3, multipass) - f_low; });
+    ground = solveAngle([&](double a) {
+      return weight(m) * std::sin(a) + resistance(m, soil, a, 0.3, multipass) - shearCapacity(m, soil, a);
+    });
+    limit[multipass] = std::min(engine, ground);
+    x.detail << (multipass ? "; multi-pass" : "single pass") << ": engine limit " << engine / kDeg
              << " deg, ground limit " << ground / kDeg << " deg";
-    }
-    closed_low = limit[0] / kDeg;
-    closed = limit[1] / kDeg;
-    const double guess = (c.check == Check::kPublic ? c.value : closed) * kDeg;
-    double lo = 0.5 * guess, hi = std::min(1.4 * guess, 55.0 * kDeg);
-    for (int i = 0; i < 6; ++i)
-    {
-      const double mid = 0.5 * (lo + hi);
-      (climb(r, mid) > 0.5 ? lo : hi) = mid;
-    }
-    out.value = 0.5 * (lo + hi) / kDeg;
   }
-  else if (k == "plane_hold_uphill" || k == "plane_hold_downhill")
+  x.closed_low = limit[0] / kDeg;
+  x.closed = limit[1] / kDeg;
+  const double guess = (c.check == Check::kPublic ? c.value : x.closed) * kDeg;
+  double lo = 0.5 * guess, hi = std::min(1.4 * guess, 55.0 * kDeg);
+  for (int i = 0; i < 6; ++i)
   {
-    out.value = planeHold(r, theta, k == "plane_hold_downhill", c.duration > 0.0 ? c.duration : 10.0);
+    const double mid = 0.5 * (lo + hi);
+    (climb(r, mid) > 0.5 ? lo : hi) = mid;
   }
+  x.value = 0.5 * (lo + hi) / kDeg;
+}
+
+void braking(const Case& c, Run& r, Measurement& x)
+{
+  const VehicleModel& m = r.model;
+  const SoilParameters& soil = r.soil;
+  const std::string& k = c.manoeuvre;
+  // Brakes that can lock the running gear (their force beyond the peak adhesion): between
+  // braking at the peak adhesion all the way, v0^2 / (2 (mu_p + f) g) (the gear still rolling,
+  // at the slip of the peak: a tracked vehicle's belt, sprocket and road wheels take a while to
+  // stop), and locking at once, the tyre's (brush) shear displacement u building over the
+  // relaxation length L as it slides, du/ds = 1 - u/L, its friction falling from mu_p to the
+  // sliding mu_s with u/L: g [(mu_s + f) d + (mu_p - mu_s) L (1 - e^(-d/L))] = v0^2 / 2. Weaker
+  // brakes: v0^2 / (2 a), a = their force over the mass plus f g.
+  const double v0 = c.speed;
+  const double brake_force = tracked(m) ? 2.0 * m.brakes.max_torque / m.track.effectiveSprocketRadius()
+                                        : m.wheels.size() * m.brakes.max_torque / m.wheels[0].radius;
+  if (soil.model != terrain::SinkageModel::kRigid)
+    throw std::runtime_error("mobility: braking cases are on rigid surfaces");
+  const bool locks = brake_force > soil.friction_peak * weight(m);
+  const double f = soil.rolling_resistance, mu_p = soil.friction_peak, mu_s = soil.friction_sliding;
+  const double relaxation = m.firm_ground.relaxation_length;
+  double locked = 0.0;
+  {
+    double lo = 0.0, hi = v0 * v0 / (2.0 * (mu_s + f) * kG);
+    for (int i = 0; i < 60; ++i)
+    {
+      const double d = 0.5 * (lo + hi);
+      const double work = kG * ((mu_s + f) * d + (mu_p - mu_s) * relaxation * (1.0 - std::exp(-d / relaxation)));
+      (work < 0.5 * v0 * v0 ? lo : hi) = d;
+    }
+    locked = 0.5 * (lo + hi);
+  }
+  const double a = brake_force / m.total_mass + f * kG;
+  const double distance = brakingDistance(r, v0);
+  if (k == "braking")
+  {
+    x.value = distance;
+    if (locks)
+    {
+      x.closed_low = v0 * v0 / (2.0 * (mu_p + f) * kG);
+      x.closed = locked;
+    }
+    else
+    {
+      x.closed = v0 * v0 / (2.0 * a);
+    }
+    x.detail << (locks ? "brakes can lock the running gear" : "brakes below the adhesion");
+  }
+  else
+  {
+    double spread = 0.0;
+    for (const double step : { 0.0005, 0.002 })
+    {
+      Run other = r;
+      other.step = step;
+      const double d = brakingDistance(other, v0);
+      spread = std::max(spread, std::abs(d / distance - 1.0));
+      x.detail << step * 1e3 << " ms: " << d << " m; ";
+    }
+    x.detail << "1 ms: " << distance << " m";
+    x.value = spread;
+  }
+}
+
+void parkedFigures(const Case& c, Run& r, Measurement& x)
+{
+  const std::string& k = c.manoeuvre;
+  static std::map<std::string, Parked> cache;  // one run serves the four figures
+  const std::string key = c.vehicle + "/" + c.soil + "/" + std::to_string(c.step);
+  if (!cache.count(key))
+    cache[key] = parked(r);
+  const Parked& p = cache[key];
+  if (k == "parked_sinkage")
+  {
+    x.value = p.sinkage;
+    x.closed = p.sinkage_closed;
+  }
+  else
+  {
+    x.value = k == "parked_creep" ? p.creep : k == "parked_jitter" ? p.jitter : p.settle;
+  }
+  x.detail << "sinkage " << p.sinkage << " m, creep " << p.creep << " mm/min, jitter " << p.jitter << " mm, settled at "
+           << p.settle << " s";
+}
+
+void wheelRigFigures(const Case& c, Run& r, Measurement& x)
+{
+  const VehicleModel& m = r.model;
+  const SoilParameters& soil = r.soil;
+  const std::string& k = c.manoeuvre;
+  const WheelSpec& spec = m.wheels.at(0);
+  const double load = weight(m) / m.wheels.size();
+  const Rig rig = wheelRig(r, k == "wheel_drawbar" ? c.slip : 0.0);
+  const double z = terrain::rollingWheelSinkage(soil, spec.radius, spec.width, load);
+  const double rc = terrain::rollingWheelOnBekkerSoil(soil, spec.radius, spec.width, z).compaction_resistance;
+  if (k == "wheel_sinkage")
+  {
+    x.value = rig.sinkage;
+    x.closed = z;
+  }
+  else if (k == "wheel_resistance")
+  {
+    x.value = rig.resistance;
+    x.closed = rc;
+  }
+  else
+  {
+    // Janosi-Hanamoto over the rolling wheel's loaded arc with the rim's pressure there, less
+    // its compaction resistance, both at the closed-form sinkage.
+    x.value = (rig.traction - rig.resistance) / load;
+    x.closed = (terrain::rollingWheelTraction(soil, spec.radius, spec.width, z, c.slip) - rc) / load;
+    x.detail << "traction " << rig.traction << " N (closed form "
+             << terrain::rollingWheelTraction(soil, spec.radius, spec.width, z, c.slip) << "), ";
+  }
+  x.detail << "sinkage " << rig.sinkage << " m (closed form " << z << "), loaded length " << rig.length << " m";
+}
+
+/// Runs the case's manoeuvre.
+void measure(const Case& c, Run& r, Measurement& x)
+{
+  const VehicleModel& m = r.model;
+  const SoilParameters& soil = r.soil;
+  const double theta = c.slope_deg * kDeg;
+  const std::string& k = c.manoeuvre;
+  if (k == "side_slope_hold")
+  {
+    const auto [drift, roll] = sideSlope(r, theta, 2.0, c.duration > 0.0 ? c.duration : 5.0);
+    x.value = drift;
+    x.detail << "roll " << roll / kDeg << " deg";
+  }
+  else if (k == "side_slope_limit")
+    sideSlopeLimit(r, x);
+  else if (k == "grade_limit")
+    gradeLimit(c, r, x);
+  else if (k == "plane_hold_uphill" || k == "plane_hold_downhill")
+    x.value = planeHold(r, theta, k == "plane_hold_downhill", c.duration > 0.0 ? c.duration : 10.0);
   else if (k == "accel_0_10")
   {
     const auto [speeds, reached] = fullThrottle(r, 30.0, false, 10.0);
-    out.value = reached;
+    x.value = reached;
     // On soil: between the rear wheels only compacting below the front ruts (multi-pass, the
     // quicker) and every wheel on fresh soil.
-    closed = closedRun(m, soil, 30.0, r.step, false, 10.0, false).time_to_mark;
-    closed_low = closedRun(m, soil, 30.0, r.step, false, 10.0, true).time_to_mark;
+    x.closed = closedRun(m, soil, 30.0, r.step, false, 10.0, false).time_to_mark;
+    x.closed_low = closedRun(m, soil, 30.0, r.step, false, 10.0, true).time_to_mark;
   }
   else if (k == "top_speed" || k == "reverse_speed")
   {
     const bool reverse = k == "reverse_speed";
     const double duration = c.duration > 0.0 ? c.duration : 40.0;
     const auto [speeds, reached] = fullThrottle(r, duration, reverse, 1e9);
-    out.value = speeds.back();
-    closed = closedRun(m, soil, duration, r.step, reverse, 1e9, true).speed;
-    closed_low = closedRun(m, soil, duration, r.step, reverse, 1e9, false).speed;
-    detail << "2 s before the end " << speeds[speeds.size() - 201] << " m/s";
+    x.value = speeds.back();
+    x.closed = closedRun(m, soil, duration, r.step, reverse, 1e9, true).speed;
+    x.closed_low = closedRun(m, soil, duration, r.step, reverse, 1e9, false).speed;
+    x.detail << "2 s before the end " << speeds[speeds.size() - 201] << " m/s";
   }
   else if (k == "braking" || k == "braking_step_spread")
-  {
-    // Brakes that can lock the running gear (their force beyond the peak adhesion): between
-    // braking at the peak adhesion all the way, v0^2 / (2 (mu_p + f) g) (the gear still rolling,
-    // at the slip of the peak: a tracked vehicle's belt, sprocket and road wheels take a while to
-    // stop), and locking at once, the tyre's (brush) shear displacement u building over the
-    // relaxation length L as it slides, du/ds = 1 - u/L, its friction falling from mu_p to the
-    // sliding mu_s with u/L: g [(mu_s + f) d + (mu_p - mu_s) L (1 - e^(-d/L))] = v0^2 / 2. Weaker
-    // brakes: v0^2 / (2 a), a = their force over the mass plus f g.
-    const double v0 = c.speed;
-    const double brake_force = tracked(m) ? 2.0 * m.brakes.max_torque / m.track.effectiveSprocketRadius()
-                                          : m.wheels.size() * m.brakes.max_torque / m.wheels[0].radius;
-    if (soil.model != terrain::SinkageModel::kRigid)
-      throw std::runtime_error("mobility: braking cases are on rigid surfaces");
-    const bool locks = brake_force > soil.friction_peak * weight(m);
-    const double f = soil.rolling_resistance, mu_p = soil.friction_peak, mu_s = soil.friction_sliding;
-    const double relaxation = m.firm_ground.relaxation_length;
-    double locked = 0.0;
-    {
-      double lo = 0.0, hi = v0 * v0 / (2.0 * (mu_s + f) * kG);
-      for (int i = 0; i < 60; ++i)
-      {
-        const double d = 0.5 * (lo + hi);
-        const double work = kG * ((mu_s + f) * d + (mu_p - mu_s) * relaxation * (1.0 - std::exp(-d / relaxation)));
-        (work < 0.5 * v0 * v0 ? lo : hi) = d;
-      }
-      locked = 0.5 * (lo + hi);
-    }
-    const double a = brake_force / m.total_mass + f * kG;
-    const double distance = brakingDistance(r, v0);
-    if (k == "braking")
-    {
-      out.value = distance;
-      if (locks)
-      {
-        closed_low = v0 * v0 / (2.0 * (mu_p + f) * kG);
-        closed = locked;
-      }
-      else
-      {
-        closed = v0 * v0 / (2.0 * a);
-      }
-      detail << (locks ? "brakes can lock the running gear" : "brakes below the adhesion");
-    }
-    else
-    {
-      double spread = 0.0;
-      for (const double step : { 0.0005, 0.002 })
-      {
-        Run other = r;
-        other.step = step;
-        const double d = brakingDistance(other, v0);
-        spread = std::max(spread, std::abs(d / distance - 1.0));
-        detail << step * 1e3 << " ms: " << d << " m; ";
-      }
-      detail << "1 ms: " << distance << " m";
-      out.value = spread;
-    }
-  }
+    braking(c, r, x);
   else if (k == "turn_radius")
   {
     if (m.drive_type != DriveType::kAckermann)
       throw std::runtime_error("mobility: turn_radius needs an Ackermann vehicle");
     const AckermannGeometry geometry(m);
-    closed = geometry.wheelbase() / std::tan(c.steering * geometry.maxCentreAngle());
-    out.value = turnRadius(r, c.speed, c.steering);
+    x.closed = geometry.wheelbase() / std::tan(c.steering * geometry.maxCentreAngle());
+    x.value = turnRadius(r, c.speed, c.steering);
   }
   else if (k == "parked_sinkage" || k == "parked_creep" || k == "parked_jitter" || k == "parked_settle")
-  {
-    static std::map<std::string, Parked> cache;  // one run serves the four figures
-    const std::string key = c.vehicle + "/" + c.soil + "/" + std::to_string(c.step);
-    if (!cache.count(key))
-      cache[key] = parked(r);
-    const Parked& p = cache[key];
-    if (k == "parked_sinkage")
-    {
-      out.value = p.sinkage;
-      closed = p.sinkage_closed;
-    }
-    else
-    {
-      out.value = k == "parked_creep" ? p.creep : k == "parked_jitter" ? p.jitter : p.settle;
-    }
-    detail << "sinkage " << p.sinkage << " m, creep " << p.creep << " mm/min, jitter " << p.jitter << " mm, settled at "
-           << p.settle << " s";
-  }
+    parkedFigures(c, r, x);
   else if (k == "drop_settle")
-  {
-    out.value = dropSettle(r);
-  }
+    x.value = dropSettle(r);
   else if (k == "wheel_sinkage" || k == "wheel_resistance" || k == "wheel_drawbar")
-  {
-    const WheelSpec& spec = m.wheels.at(0);
-    const double load = weight(m) / m.wheels.size();
-    const Rig rig = wheelRig(r, k == "wheel_drawbar" ? c.slip : 0.0);
-    const double z = terrain::rollingWheelSinkage(soil, spec.radius, spec.width, load);
-    const double rc = terrain::rollingWheelOnBekkerSoil(soil, spec.radius, spec.width, z).compaction_resistance;
-    if (k == "wheel_sinkage")
-    {
-      out.value = rig.sinkage;
-      closed = z;
-    }
-    else if (k == "wheel_resistance")
-    {
-      out.value = rig.resistance;
-      closed = rc;
-    }
-    else
-    {
-      // Janosi-Hanamoto over the rolling wheel's loaded arc with the rim's pressure there, less
-      // its compaction resistance, both at the closed-form sinkage.
-      out.value = (rig.traction - rig.resistance) / load;
-      closed = (terrain::rollingWheelTraction(soil, spec.radius, spec.width, z, c.slip) - rc) / load;
-      detail << "traction " << rig.traction << " N (closed form "
-             << terrain::rollingWheelTraction(soil, spec.radius, spec.width, z, c.slip) << "), ";
-    }
-    detail << "sinkage " << rig.sinkage << " m (closed form " << z << "), loaded length " << rig.length << " m";
-  }
+    wheelRigFigures(c, r, x);
   else if (k == "agent_push")
-  {
-    out.value = agentPush(r);
-  }
+    x.value = agentPush(r);
   else if (k == "high_centring")
   {
     std::string d;
-    out.value = highCentring(r, d);
-    detail << d;
+    x.value = highCentring(r, d);
+    x.detail << d;
   }
   else
-  {
     throw std::runtime_error("mobility: no manoeuvre '" + k + "'");
-  }
+}
 
+/// Judges the measurement by the case's check: value, reference(s), error, pass.
+void judge(const Case& c, Measurement& x, Result& out)
+{
+  double closed = x.closed;
+  const double closed_low = x.closed_low;
+  std::ostringstream& detail = x.detail;
   switch (c.check)
   {
     case Check::kClosedForm:
@@ -1228,7 +1257,20 @@ Result run(const Case& c, const Setup& setup)
       break;
   }
   out.pass = out.pass && std::isfinite(out.value);
-  out.detail = detail.str();
+}
+}  // namespace
+
+Result run(const Case& c, const Setup& setup)
+{
+  const auto start = std::chrono::steady_clock::now();
+  const terrain::SoilLibrary library = terrain::SoilLibrary::load(setup.soils_yaml);
+  Run r{ setup, loadVehicleModel(setup.vehicle_dir + "/" + c.vehicle + ".yaml"), library.get(c.soil), c.step };
+  Measurement x;
+  measure(c, r, x);
+  Result out;
+  out.value = x.value;
+  judge(c, x, out);
+  out.detail = x.detail.str();
   out.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

@@ -161,6 +161,8 @@ private:
   void soilContact(RoadWheel& w, const Side& side, const Hull& hull, terrain::DeformableTerrain& terrain,
                    dJointGroupID contacts, StepTimes* times);
   void readState(double time, bool integrate);
+  void buildSide(std::size_t s, const std::vector<const Body*>& bodies, const Eigen::Isometry3d& pose);
+  void initState(const std::string& name);
 
   VehicleModel model_;
   WorldOptions options_;
@@ -184,36 +186,36 @@ const Body* findBody(const VehicleModel& m, const std::string& link)
   return nullptr;
 }
 
-TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const Eigen::Isometry3d& pose,
-                               const std::string& name, const WorldOptions& options)
-  : model_(model), options_(options), world_(world)
+namespace
 {
-  // Everything that can reject the model is checked before the first ODE object exists, so
-  // a rejected vehicle leaves nothing behind in the world.
+/**
+ * Everything that can reject a tracked model, checked before the first ODE object exists so
+ * that a rejected vehicle leaves nothing behind in the world.
+ * @return per track (left, right), its road wheels' bodies front to rear
+ */
+std::vector<std::vector<const Body*>> checkTrackedModel(const VehicleModel& m)
+{
   auto fail = [&](const std::string& key, const std::string& why) {
-    return ConfigError(model_.yaml_path + ": key '" + key + "': " + why);
+    return ConfigError(m.yaml_path + ": key '" + key + "': " + why);
   };
-  if (model_.drive_type != DriveType::kTracked)
+  if (m.drive_type != DriveType::kTracked)
     throw fail("drive_type", "must be tracked to build a tracked vehicle");
-  if (model_.tracks.size() != 2 || model_.tracks[0].side != "left" || model_.tracks[1].side != "right")
+  if (m.tracks.size() != 2 || m.tracks[0].side != "left" || m.tracks[1].side != "right")
     throw fail("tracks", "needs a left and a right track");
-  if (!(model_.track.pitch > 0.0))
+  if (!(m.track.pitch > 0.0))
     throw fail("track.pitch", "must be > 0");
-  if (model_.track.sprocket_teeth <= 0)
+  if (m.track.sprocket_teeth <= 0)
     throw fail("track.sprocket_teeth", "must be > 0");
-  if (!(model_.track.shoe_width > 0.0))
+  if (!(m.track.shoe_width > 0.0))
     throw fail("track.shoe_width", "must be > 0");
-  if (!(model_.torsion.torsion_stiffness > 0.0))
+  if (!(m.torsion.torsion_stiffness > 0.0))
     throw fail("suspension.torsion_stiffness", "must be > 0");
-  if (!(model_.brakes.max_torque > 0.0))
+  if (!(m.brakes.max_torque > 0.0))
     throw fail("brakes.max_torque", "must be > 0");
-  sprocket_radius_ = model_.track.effectiveSprocketRadius();
-
-  std::vector<const Body*> running;  // the road wheels: ODE bodies of their own
   std::vector<std::vector<const Body*>> wheel_bodies(2);
   for (std::size_t s = 0; s < 2; ++s)
   {
-    const TrackSpec& t = model_.tracks[s];
+    const TrackSpec& t = m.tracks[s];
     const std::string key = "tracks[" + std::to_string(s) + "]";
     const std::string which = "the " + t.side + " track";
     if (t.road_wheels.size() < 2)
@@ -228,20 +230,20 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
                   { t.idler_link, "idler_joint", "idler" },
                   { t.belt_link, "belt_link", "belt" } };
     for (const auto& part : parts)
-      if (!findBody(model_, part.link))
-        throw fail(key + "." + part.key, which + "'s " + part.what + " link '" + part.link +
-                                             "' is not a body with mass in " + model_.urdf_path);
+      if (!findBody(m, part.link))
+        throw fail(key + "." + part.key,
+                   which + "'s " + part.what + " link '" + part.link + "' is not a body with mass in " + m.urdf_path);
     if (!(t.idler_radius > 0.0))
       throw fail(key + ".idler_joint", which + "'s idler radius must be > 0");
     for (std::size_t i = 0; i < t.road_wheels.size(); ++i)
     {
       const RoadWheelSpec& w = t.road_wheels[i];
-      const Body* b = findBody(model_, w.link);
+      const Body* b = findBody(m, w.link);
       if (!b)
         throw fail(key + ".road_wheels",
-                   which + "'s road wheel link '" + w.link + "' is not a body with mass in " + model_.urdf_path);
+                   which + "'s road wheel link '" + w.link + "' is not a body with mass in " + m.urdf_path);
       if ((b->com - w.rest_position).norm() > 1e-3)
-        throw ConfigError(model_.urdf_path + ": link '" + w.link +
+        throw ConfigError(m.urdf_path + ": link '" + w.link +
                           "': the centre of mass must be on the axle (inertial origin at the wheel centre)");
       if (!(w.radius > 0.0) || std::abs(w.radius - t.road_wheels[0].radius) > 1e-9)
         throw fail(key + ".road_wheels", which +
@@ -256,9 +258,22 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
       if (i > 0 && !(w.rest_position.x() < t.road_wheels[i - 1].rest_position.x()))
         throw fail(key + ".road_wheels", which + "'s road wheels must be listed front to rear");
       wheel_bodies[s].push_back(b);
-      running.push_back(b);
     }
   }
+
+  return wheel_bodies;
+}
+}  // namespace
+
+TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const Eigen::Isometry3d& pose,
+                               const std::string& name, const WorldOptions& options)
+  : model_(model), options_(options), world_(world)
+{
+  const std::vector<std::vector<const Body*>> wheel_bodies = checkTrackedModel(model_);
+  sprocket_radius_ = model_.track.effectiveSprocketRadius();
+  std::vector<const Body*> running;  // the road wheels: ODE bodies of their own
+  for (const auto& side : wheel_bodies)
+    running.insert(running.end(), side.begin(), side.end());
 
   // Hull = every body but the road wheels, lumped rigidly at the rest pose. The road arms'
   // centres of mass sit on their pivots (URDF), so they do not move with the swing; the
@@ -275,7 +290,6 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
   chassis_com_ = hull.com;
   hull_ = std::make_unique<HullContact>(model_, chassis_com_);
 
-  const double h = options_.step;
   const Eigen::Matrix3d rot = pose.linear();
   chassis_ = dBodyCreate(world_);
   setMass(chassis_, hull.mass, hull.inertia);
@@ -283,98 +297,110 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
   dBodySetPosition(chassis_, cp.x(), cp.y(), cp.z());
   setRotation(chassis_, rot);
 
-  const Eigen::Vector3d y = rot * Eigen::Vector3d::UnitY();
   sides_.resize(2);
   for (std::size_t s = 0; s < 2; ++s)
+    buildSide(s, wheel_bodies[s], pose);
+  initState(name);
+  readState(0.0, false);
+}
+
+/// The road wheels' bodies, their belt couplings and the sprocket's brake of track `s`.
+void TrackedVehicle::buildSide(std::size_t s, const std::vector<const Body*>& bodies, const Eigen::Isometry3d& pose)
+{
+  const double h = options_.step;
+  const Eigen::Matrix3d rot = pose.linear();
+  const Eigen::Vector3d y = rot * Eigen::Vector3d::UnitY();
+  Side& side = sides_[s];
+  const TrackSpec& t = model_.tracks[s];
+  side.spec = &t;
+  side.radius = t.road_wheels[0].radius;
+  const std::size_t n = t.road_wheels.size();
+  side.contact_length = t.contactLength();
+  side.segment_length = side.contact_length / static_cast<double>(n);
+  side.centre = Eigen::Vector3d::Zero();
+  for (const RoadWheelSpec& w : t.road_wheels)
+    side.centre += w.rest_position / static_cast<double>(n);
+  // The belt couples the sprocket, the idler and the belt itself to the road wheels' spin:
+  // at road-wheel speed omega the belt runs at r omega, the sprocket at r omega / r_s, the
+  // idler at r omega / r_i. Their kinetic energy, as an inertia at road-wheel speed, is
+  // shared by the road wheels (the belt's m v^2 / 2 of circulation on top of its
+  // translation with the hull: the loop's mean velocity relative to the hull is zero).
+  const double r = side.radius;
+  const double reflected = findBody(model_, t.sprocket_link)->inertia(1, 1) * std::pow(r / sprocket_radius_, 2) +
+                           findBody(model_, t.idler_link)->inertia(1, 1) * std::pow(r / t.idler_radius, 2) +
+                           findBody(model_, t.belt_link)->mass * r * r;
+  side.wheels.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
   {
-    Side& side = sides_[s];
-    const TrackSpec& t = model_.tracks[s];
-    side.spec = &t;
-    side.radius = t.road_wheels[0].radius;
-    const std::size_t n = t.road_wheels.size();
-    side.contact_length = t.contactLength();
-    side.segment_length = side.contact_length / static_cast<double>(n);
-    side.centre = Eigen::Vector3d::Zero();
-    for (const RoadWheelSpec& w : t.road_wheels)
-      side.centre += w.rest_position / static_cast<double>(n);
-    // The belt couples the sprocket, the idler and the belt itself to the road wheels' spin:
-    // at road-wheel speed omega the belt runs at r omega, the sprocket at r omega / r_s, the
-    // idler at r omega / r_i. Their kinetic energy, as an inertia at road-wheel speed, is
-    // shared by the road wheels (the belt's m v^2 / 2 of circulation on top of its
-    // translation with the hull: the loop's mean velocity relative to the hull is zero).
-    const double r = side.radius;
-    const double reflected = findBody(model_, t.sprocket_link)->inertia(1, 1) * std::pow(r / sprocket_radius_, 2) +
-                             findBody(model_, t.idler_link)->inertia(1, 1) * std::pow(r / t.idler_radius, 2) +
-                             findBody(model_, t.belt_link)->mass * r * r;
-    side.wheels.resize(n);
-    for (std::size_t i = 0; i < n; ++i)
-    {
-      const RoadWheelSpec& spec = t.road_wheels[i];
-      const Body& body = *wheel_bodies[s][i];
-      RoadWheel& w = side.wheels[i];
-      w.spec = &spec;
-      w.mass = body.mass;
-      w.tilt_inertia = std::min(body.inertia(0, 0), body.inertia(2, 2));
-      Eigen::Matrix3d inertia = body.inertia;
-      inertia(1, 1) += reflected / static_cast<double>(n);
-      w.spin_inertia = inertia(1, 1);
-      side.spin_inertia += w.spin_inertia;
-      w.pivot_from_com = spec.pivot - chassis_com_;
-      w.arm = spec.rest_position - spec.pivot;
-      w.arm_length = std::hypot(w.arm.x(), w.arm.z());
-      // d(centre z) / d(angle about +y) = -arm x: a trailing arm (wheel behind the pivot) lifts.
-      w.lift_sign = w.arm.x() < 0.0 ? 1.0 : -1.0;
-      w.lower = spec.arm_axis_sign > 0.0 ? spec.arm_lower : -spec.arm_upper;
-      w.upper = spec.arm_axis_sign > 0.0 ? spec.arm_upper : -spec.arm_lower;
-      // Segments laid end to end along the whole ground length (front first), each centred
-      // under its road wheel: the shear displacement (T11) grows over the whole track.
-      w.segment_offset = 0.5 * side.contact_length - (static_cast<double>(i) + 0.5) * side.segment_length;
-      const double omega2 = std::pow(kAttachStepOmega / h, 2);
-      w.k_attach = omega2 * w.mass;
-      w.c_attach = 2.0 * kAttachDampingRatio * std::sqrt(w.k_attach * w.mass);
-      w.k_tilt = omega2 * w.tilt_inertia;
-      w.c_tilt = 2.0 * kAttachDampingRatio * std::sqrt(w.k_tilt * w.tilt_inertia);
+    const RoadWheelSpec& spec = t.road_wheels[i];
+    const Body& body = *bodies[i];
+    RoadWheel& w = side.wheels[i];
+    w.spec = &spec;
+    w.mass = body.mass;
+    w.tilt_inertia = std::min(body.inertia(0, 0), body.inertia(2, 2));
+    Eigen::Matrix3d inertia = body.inertia;
+    inertia(1, 1) += reflected / static_cast<double>(n);
+    w.spin_inertia = inertia(1, 1);
+    side.spin_inertia += w.spin_inertia;
+    w.pivot_from_com = spec.pivot - chassis_com_;
+    w.arm = spec.rest_position - spec.pivot;
+    w.arm_length = std::hypot(w.arm.x(), w.arm.z());
+    // d(centre z) / d(angle about +y) = -arm x: a trailing arm (wheel behind the pivot) lifts.
+    w.lift_sign = w.arm.x() < 0.0 ? 1.0 : -1.0;
+    w.lower = spec.arm_axis_sign > 0.0 ? spec.arm_lower : -spec.arm_upper;
+    w.upper = spec.arm_axis_sign > 0.0 ? spec.arm_upper : -spec.arm_lower;
+    // Segments laid end to end along the whole ground length (front first), each centred
+    // under its road wheel: the shear displacement (T11) grows over the whole track.
+    w.segment_offset = 0.5 * side.contact_length - (static_cast<double>(i) + 0.5) * side.segment_length;
+    const double omega2 = std::pow(kAttachStepOmega / h, 2);
+    w.k_attach = omega2 * w.mass;
+    w.c_attach = 2.0 * kAttachDampingRatio * std::sqrt(w.k_attach * w.mass);
+    w.k_tilt = omega2 * w.tilt_inertia;
+    w.c_tilt = 2.0 * kAttachDampingRatio * std::sqrt(w.k_tilt * w.tilt_inertia);
 
-      w.body = dBodyCreate(world_);
-      setMass(w.body, w.mass, inertia);
-      const Eigen::Vector3d wp = pose * spec.rest_position;
-      dBodySetPosition(w.body, wp.x(), wp.y(), wp.z());
-      setRotation(w.body, rot);
-      // Finite rotation about the axle keeps a fast-spinning wheel true (as wheeled).
-      dBodySetFiniteRotationMode(w.body, 1);
-    }
-    // The belt turns its road wheels at one speed: an unbounded angular motor between
-    // neighbours about the axle, with the same tiny compliance as the wheeled couplings.
-    const double wheel_brake = model_.brakes.max_torque * side.radius / sprocket_radius_;
-    for (std::size_t i = 1; i < n; ++i)
-    {
-      const dJointID motor = dJointCreateAMotor(world_, nullptr);
-      dJointAttach(motor, side.wheels[i - 1].body, side.wheels[i].body);
-      dJointSetAMotorMode(motor, dAMotorUser);
-      dJointSetAMotorNumAxes(motor, 1);
-      dJointSetAMotorAxis(motor, 0, 0, y.x(), y.y(), y.z());
-      dJointSetAMotorParam(motor, dParamVel, 0.0);
-      dJointSetAMotorParam(motor, dParamFMax, dInfinity);
-      dJointSetAMotorParam(motor, dParamCFM, kRegularization / wheel_brake);
-      side.chain.push_back(motor);
-    }
-    // The sprocket's brake, acting on the chain through its front road wheel: a motor holding
-    // the wheel's spin relative to the hull at zero, up to the brake torque seen at the road
-    // wheel. It joins the track's island to the hull's (a larger system for ODE's exact
-    // solver), so it is enabled only while the brake is on. (Held against the hull's spin at
-    // the start of the step instead, the track crept by the step's change of pitch rate:
-    // rolling, to T8, on a slope where traction must hold the hull.)
-    side.brake = dJointCreateAMotor(world_, nullptr);
-    dJointAttach(side.brake, side.wheels[0].body, chassis_);
-    dJointSetAMotorMode(side.brake, dAMotorUser);
-    dJointSetAMotorNumAxes(side.brake, 1);
-    dJointSetAMotorAxis(side.brake, 0, 0, y.x(), y.y(), y.z());
-    dJointSetAMotorParam(side.brake, dParamVel, 0.0);
-    dJointSetAMotorParam(side.brake, dParamFMax, 0.0);
-    dJointSetAMotorParam(side.brake, dParamCFM, kRegularization / wheel_brake);
-    dJointDisable(side.brake);
+    w.body = dBodyCreate(world_);
+    setMass(w.body, w.mass, inertia);
+    const Eigen::Vector3d wp = pose * spec.rest_position;
+    dBodySetPosition(w.body, wp.x(), wp.y(), wp.z());
+    setRotation(w.body, rot);
+    // Finite rotation about the axle keeps a fast-spinning wheel true (as wheeled).
+    dBodySetFiniteRotationMode(w.body, 1);
   }
+  // The belt turns its road wheels at one speed: an unbounded angular motor between
+  // neighbours about the axle, with the same tiny compliance as the wheeled couplings.
+  const double wheel_brake = model_.brakes.max_torque * side.radius / sprocket_radius_;
+  for (std::size_t i = 1; i < n; ++i)
+  {
+    const dJointID motor = dJointCreateAMotor(world_, nullptr);
+    dJointAttach(motor, side.wheels[i - 1].body, side.wheels[i].body);
+    dJointSetAMotorMode(motor, dAMotorUser);
+    dJointSetAMotorNumAxes(motor, 1);
+    dJointSetAMotorAxis(motor, 0, 0, y.x(), y.y(), y.z());
+    dJointSetAMotorParam(motor, dParamVel, 0.0);
+    dJointSetAMotorParam(motor, dParamFMax, dInfinity);
+    dJointSetAMotorParam(motor, dParamCFM, kRegularization / wheel_brake);
+    side.chain.push_back(motor);
+  }
+  // The sprocket's brake, acting on the chain through its front road wheel: a motor holding
+  // the wheel's spin relative to the hull at zero, up to the brake torque seen at the road
+  // wheel. It joins the track's island to the hull's (a larger system for ODE's exact
+  // solver), so it is enabled only while the brake is on. (Held against the hull's spin at
+  // the start of the step instead, the track crept by the step's change of pitch rate:
+  // rolling, to T8, on a slope where traction must hold the hull.)
+  side.brake = dJointCreateAMotor(world_, nullptr);
+  dJointAttach(side.brake, side.wheels[0].body, chassis_);
+  dJointSetAMotorMode(side.brake, dAMotorUser);
+  dJointSetAMotorNumAxes(side.brake, 1);
+  dJointSetAMotorAxis(side.brake, 0, 0, y.x(), y.y(), y.z());
+  dJointSetAMotorParam(side.brake, dParamVel, 0.0);
+  dJointSetAMotorParam(side.brake, dParamFMax, 0.0);
+  dJointSetAMotorParam(side.brake, dParamCFM, kRegularization / wheel_brake);
+  dJointDisable(side.brake);
+}
 
+/// The state's names and sizes (tracks, road wheels, segments) from the model.
+void TrackedVehicle::initState(const std::string& name)
+{
   state_.name = name;
   state_.tracks.resize(2);
   for (std::size_t s = 0; s < 2; ++s)
@@ -396,7 +422,6 @@ TrackedVehicle::TrackedVehicle(dWorldID world, const VehicleModel& model, const 
       ts.segments[i].width = model_.track.shoe_width;
     }
   }
-  readState(0.0, false);
 }
 
 TrackedVehicle::~TrackedVehicle()

@@ -121,6 +121,8 @@ private:
   void updateSuspension();
   void soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
   void couple(const std::string& key, const std::vector<std::pair<std::size_t, std::size_t>>& pairs);
+  void buildWheel(std::size_t i, const Body& body, const Eigen::Isometry3d& pose);
+  void lockDifferentials();
 
   VehicleModel model_;
   WorldOptions options_;
@@ -192,58 +194,75 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
   dBodySetPosition(chassis_, cp.x(), cp.y(), cp.z());
   setRotation(chassis_, rot);
 
-  const double h = options_.step;
-  const double k = model_.suspension.stiffness, c = model_.suspension.damping;
   wheels_.resize(model_.wheels.size());
   for (std::size_t i = 0; i < model_.wheels.size(); ++i)
+    buildWheel(i, *wheel_bodies[i], pose);
+  lockDifferentials();
+
+  state_.name = name;
+  state_.wheels.resize(wheels_.size());
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+    state_.wheels[i].name = model_.wheels[i].name;
+  afterStep(0.0, false);
+}
+
+/// Wheel `i`'s body (from the URDF's `body`) and its hinge-2 to the chassis: suspension, brake
+/// motor, steering stops.
+void SimVehicle::buildWheel(std::size_t i, const Body& body, const Eigen::Isometry3d& pose)
+{
+  const Eigen::Matrix3d rot = pose.linear();
+  const double h = options_.step;
+  const double k = model_.suspension.stiffness, c = model_.suspension.damping;
+  const WheelSpec& spec = model_.wheels[i];
+  Wheel& w = wheels_[i];
+  w.spec = &spec;
+  w.mass = body.mass;
+  w.spin_inertia = body.inertia(1, 1);
+  w.lower = spec.suspension_lower;
+  w.upper = spec.suspension_upper;
+  w.body = dBodyCreate(world_);
+  setMass(w.body, body.mass, body.inertia);
+  const Eigen::Vector3d wp = pose * spec.rest_position;
+  dBodySetPosition(w.body, wp.x(), wp.y(), wp.z());
+  setRotation(w.body, rot);
+  // A fast-spinning wheel integrated with the plain exponential map drifts off its axle;
+  // ODE's finite rotation about the axle keeps it true (axis refreshed every step).
+  dBodySetFiniteRotationMode(w.body, 1);
+
+  w.joint = dJointCreateHinge2(world_, nullptr);
+  dJointAttach(w.joint, chassis_, w.body);
+  dJointSetHinge2Anchor(w.joint, wp.x(), wp.y(), wp.z());
+  const Eigen::Vector3d a1 = rot * Eigen::Vector3d::UnitZ(), a2 = rot * Eigen::Vector3d::UnitY();
+  const dReal axis1[3] = { a1.x(), a1.y(), a1.z() }, axis2[3] = { a2.x(), a2.y(), a2.z() };
+  dJointSetHinge2Axes(w.joint, axis1, axis2);
+  // Implicit spring-damper along axis 1 (ODE manual: ERP = hk/(hk+c), CFM = 1/(hk+c)).
+  dJointSetHinge2Param(w.joint, dParamSuspensionERP, h * k / (h * k + c));
+  dJointSetHinge2Param(w.joint, dParamSuspensionCFM, 1.0 / (h * k + c));
+  // Brake motor on the axle: holds zero spin relative to the chassis; its torque limit is
+  // set every step from the command (updateDrivetrain).
+  dJointSetHinge2Param(w.joint, dParamVel2, 0.0);
+  dJointSetHinge2Param(w.joint, dParamCFM2, regularization_ / model_.brakes.max_torque);
+  if (spec.steering_joint.empty())
   {
-    const WheelSpec& spec = model_.wheels[i];
-    const Body& body = *wheel_bodies[i];
-    Wheel& w = wheels_[i];
-    w.spec = &spec;
-    w.mass = body.mass;
-    w.spin_inertia = body.inertia(1, 1);
-    w.lower = spec.suspension_lower;
-    w.upper = spec.suspension_upper;
-    w.body = dBodyCreate(world_);
-    setMass(w.body, body.mass, body.inertia);
-    const Eigen::Vector3d wp = pose * spec.rest_position;
-    dBodySetPosition(w.body, wp.x(), wp.y(), wp.z());
-    setRotation(w.body, rot);
-    // A fast-spinning wheel integrated with the plain exponential map drifts off its axle;
-    // ODE's finite rotation about the axle keeps it true (axis refreshed every step).
-    dBodySetFiniteRotationMode(w.body, 1);
-
-    w.joint = dJointCreateHinge2(world_, nullptr);
-    dJointAttach(w.joint, chassis_, w.body);
-    dJointSetHinge2Anchor(w.joint, wp.x(), wp.y(), wp.z());
-    const Eigen::Vector3d a1 = rot * Eigen::Vector3d::UnitZ(), a2 = rot * Eigen::Vector3d::UnitY();
-    const dReal axis1[3] = { a1.x(), a1.y(), a1.z() }, axis2[3] = { a2.x(), a2.y(), a2.z() };
-    dJointSetHinge2Axes(w.joint, axis1, axis2);
-    // Implicit spring-damper along axis 1 (ODE manual: ERP = hk/(hk+c), CFM = 1/(hk+c)).
-    dJointSetHinge2Param(w.joint, dParamSuspensionERP, h * k / (h * k + c));
-    dJointSetHinge2Param(w.joint, dParamSuspensionCFM, 1.0 / (h * k + c));
-    // Brake motor on the axle: holds zero spin relative to the chassis; its torque limit is
-    // set every step from the command (updateDrivetrain).
-    dJointSetHinge2Param(w.joint, dParamVel2, 0.0);
-    dJointSetHinge2Param(w.joint, dParamCFM2, regularization_ / model_.brakes.max_torque);
-    if (spec.steering_joint.empty())
-    {
-      dJointSetHinge2Param(w.joint, dParamLoStop, 0.0);
-      dJointSetHinge2Param(w.joint, dParamHiStop, 0.0);
-    }
-    else
-    {
-      // The geometry never asks more than max_angle of a wheel; the stops are a backstop.
-      dJointSetHinge2Param(w.joint, dParamLoStop, -model_.steering.max_angle - 0.05);
-      dJointSetHinge2Param(w.joint, dParamHiStop, model_.steering.max_angle + 0.05);
-    }
-    // Steering motor limit: half a wheel's share of the weight at its radius, far above what
-    // turning the wheel about its own axis needs, so the actuator's rate sets the pace.
-    steer_torque_limit_ =
-        std::max(steer_torque_limit_, 0.5 * model_.total_mass * 9.81 / model_.wheels.size() * spec.radius);
+    dJointSetHinge2Param(w.joint, dParamLoStop, 0.0);
+    dJointSetHinge2Param(w.joint, dParamHiStop, 0.0);
   }
+  else
+  {
+    // The geometry never asks more than max_angle of a wheel; the stops are a backstop.
+    dJointSetHinge2Param(w.joint, dParamLoStop, -model_.steering.max_angle - 0.05);
+    dJointSetHinge2Param(w.joint, dParamHiStop, model_.steering.max_angle + 0.05);
+  }
+  // Steering motor limit: half a wheel's share of the weight at its radius, far above what
+  // turning the wheel about its own axis needs, so the actuator's rate sets the pace.
+  steer_torque_limit_ =
+      std::max(steer_torque_limit_, 0.5 * model_.total_mass * 9.81 / model_.wheels.size() * spec.radius);
+}
 
+/// Sorts the driven wheels by axle and side, and couples those a locked differential holds
+/// at equal speed.
+void SimVehicle::lockDifferentials()
+{
   // Driven wheels by axle (Ackermann) or side (skid-steer), and the locked differentials.
   double mean_x = 0.0;
   for (const WheelSpec& w : model_.wheels)
@@ -298,12 +317,6 @@ SimVehicle::SimVehicle(dWorldID world, const VehicleModel& model, const Eigen::I
     couple("left", chain(driven_left_));
     couple("right", chain(driven_right_));
   }
-
-  state_.name = name;
-  state_.wheels.resize(wheels_.size());
-  for (std::size_t i = 0; i < wheels_.size(); ++i)
-    state_.wheels[i].name = model_.wheels[i].name;
-  afterStep(0.0, false);
 }
 
 SimVehicle::~SimVehicle()
