@@ -1,7 +1,9 @@
 // A scenario's sections as the nodes receive them (rosparam's typing) and through their parsers.
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -120,6 +122,84 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
               std::string::npos)
         << m;
   }
+}
+
+// One parser over the master or a tree (issue 19, item 4): the same value reads the same, the
+// same bad value gives the same message, and the keys read are kept.
+TEST(ParamSource, ATreeReadsAsTheMasterWould)
+{
+  const avsp::node::ParamSource tree(toXmlRpc(
+      YAML::Load("{rate: 50, gain: 0.5, name: ego, on: true, nested: {depth: 3}, list: '[a, b]', bad: fast}")));
+  EXPECT_EQ(avsp::node::boundedParam(tree, "rate", 20.0, 1.0, 100.0), 50.0);  // an int read as a number
+  EXPECT_EQ(avsp::node::boundedParam(tree, "gain", 1.0, 0.0, 1.0), 0.5);
+  EXPECT_EQ(avsp::node::boundedParam(tree, "absent", 7.0, 0.0, 10.0), 7.0);  // the default when unset
+  EXPECT_EQ(avsp::node::stringParam(tree, "name", ""), "ego");
+  EXPECT_TRUE(avsp::node::boolParam(tree, "on", false));
+  EXPECT_EQ(avsp::node::boundedIntParam(tree, "nested/depth", 0, 0, 10), 3);
+  EXPECT_EQ(avsp::node::plainNamesParam(tree, "list", "names"), (std::vector<std::string>{ "a", "b" }));
+  try
+  {
+    avsp::node::boundedParam(tree, "bad", 1.0, 0.0, 1.0);
+    FAIL() << "a string read as a number";
+  }
+  catch (const avsp::node::StartupError& e)
+  {
+    EXPECT_STREQ(e.what(), "parameter ~bad must be a number, got a string");
+  }
+  EXPECT_THROW(avsp::node::boundedParam(tree, "rate", 20.0, 1.0, 10.0), avsp::node::StartupError);
+  EXPECT_FALSE(tree.has("nested/none"));
+  EXPECT_EQ(tree.keysRead(), (std::set<std::string>{ "rate", "gain", "absent", "name", "on", "nested/depth", "list",
+                                                     "bad", "nested/none" }));
+}
+
+// controller_node's parameters from a scenario go through controller_node's own parser (issue 19,
+// item 4): its keys, its ranges, in the controller's mode; no list of names copied beside it.
+TEST(NodeChecks, ControllersGoThroughControllerNodesParser)
+{
+  as::LoadOptions load;
+  load.vehicles_dir = AVSP_CONFIG_DIR "/vehicles";
+  load.soils_file = AVSP_CONFIG_DIR "/soils.yaml";
+  load.check_terrain = false;
+  const as::Scenario reference = as::loadScenario(AVSP_CONFIG_DIR "/scenarios/reference_traverse_ci.yaml", load);
+  ASSERT_EQ(reference.vehicles[0].controller.type, as::ControllerType::kWaypoints);
+  ASSERT_EQ(reference.vehicles[1].controller.type, as::ControllerType::kLeaderFollower);
+  EXPECT_NO_THROW(avsp::node::checkControllersAsTheNodeWill(reference, load.vehicles_dir));
+
+  auto refusal = [&](std::size_t vehicle, const std::string& params) {
+    as::Scenario s = reference;
+    s.vehicles[vehicle].controller.params.reset(YAML::Load(params));  // rebinds: `=` would write into reference's
+    try
+    {
+      avsp::node::checkControllersAsTheNodeWill(s, load.vehicles_dir);
+    }
+    catch (const as::ScenarioError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string file = reference.file + ": ";
+  // In range for the node: accepted; a follower's own keys on a follower.
+  EXPECT_EQ(refusal(0, "{lookahead_min: 2.0, speed_kp: 0.8, track_width_factor: 1.8}"), "");
+  EXPECT_EQ(refusal(1, "{gap_gain: 0.5, safety_distance: 4}"), "");
+  // Out of the node's range: its own message, under the vehicle's controller.
+  const std::string low = refusal(0, "{lookahead_min: 0.01}");
+  EXPECT_EQ(low.rfind(file + "vehicles[0].controller (as controller_node reads it for '" + reference.vehicles[0].name +
+                          "'): parameter ~lookahead_min = 0.010000 must be finite",
+                      0),
+            0u)
+      << low;
+  EXPECT_NE(refusal(1, "{max_speed: 0}").find("parameter ~max_speed = 0.000000"), std::string::npos);
+  // A key the node never reads: a typo, or a follower's key on a waypoint controller.
+  const std::string typo = refusal(0, "{lookahed_min: 2.0}");
+  EXPECT_EQ(typo.rfind(file + "vehicles[0].controller.params.lookahed_min: unknown key (controller_node in mode "
+                              "waypoints reads ",
+                       0),
+            0u)
+      << typo;
+  EXPECT_NE(typo.find("lookahead_min"), std::string::npos) << typo;
+  EXPECT_NE(refusal(0, "{gap_gain: 0.5}").find("params.gap_gain: unknown key"), std::string::npos);
+  EXPECT_NE(refusal(1, "{goal_tolerance: 1.0}").find("params.goal_tolerance: unknown key"), std::string::npos);
 }
 
 // The run's RViz configuration (issue 22, item 5) from what sensors_node will publish: a display

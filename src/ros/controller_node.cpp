@@ -44,23 +44,22 @@ namespace
 {
 namespace ac = avsp::control;
 
-std::string requiredString(const ros::NodeHandle& pnh, const std::string& key, const std::string& what)
+std::string requiredString(const ParamSource& params, const std::string& key, const std::string& what)
 {
-  std::string value;
-  if (!pnh.hasParam(key))
+  XmlRpc::XmlRpcValue value;
+  if (!params.get(key, value))
     throw StartupError("parameter ~" + key + " (" + what + ") is required");
-  if (!pnh.getParam(key, value) || value.empty())
+  if (value.getType() != XmlRpc::XmlRpcValue::TypeString || static_cast<std::string>(value).empty())
     throw StartupError("parameter ~" + key + " must be a non-empty string (" + what + ")");
-  return value;
+  return static_cast<std::string>(value);
 }
 
 /// ~waypoints: a list of {x, y, speed} (m, m, m/s); no other keys.
-std::vector<ac::Waypoint> waypointsFromParams(const ros::NodeHandle& pnh)
+std::vector<ac::Waypoint> waypointsFromParams(const ParamSource& pnh)
 {
   XmlRpc::XmlRpcValue list;
-  if (!pnh.hasParam("waypoints"))
+  if (!avsp::node::structuredParam(pnh, "waypoints", list))
     throw StartupError("parameter ~waypoints (list of {x, y, speed}) is required in mode waypoints");
-  avsp::node::structuredParam(pnh, "waypoints", list);
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~waypoints must be a list of {x, y, speed} entries");
   std::vector<ac::Waypoint> waypoints;
@@ -101,7 +100,7 @@ std::vector<ac::Waypoint> waypointsFromParams(const ros::NodeHandle& pnh)
 }
 
 /// The pursuit and speed-loop parameters, defaults from the mode's options.
-ac::TrackingOptions trackingFromParams(const ros::NodeHandle& pnh, ac::TrackingOptions o)
+ac::TrackingOptions trackingFromParams(const ParamSource& pnh, ac::TrackingOptions o)
 {
   o.lookahead.min = boundedParam(pnh, "lookahead_min", o.lookahead.min, 0.1, 1000.0);
   o.lookahead.gain = boundedParam(pnh, "lookahead_gain", o.lookahead.gain, 0.0, 100.0);
@@ -134,64 +133,82 @@ geometry_msgs::PoseStamped poseStamped(const std::string& frame, double x, doubl
 
 }  // namespace
 
+ControllerSetup readControllerParams(const ParamSource& pnh)
+{
+  ControllerSetup out;
+  out.mode = requiredString(pnh, "mode", "waypoints | leader_follower");
+  const std::string& mode = out.mode;
+  if (mode != "waypoints" && mode != "leader_follower")
+    throw StartupError("parameter ~mode '" + mode + "' must be waypoints or leader_follower");
+  out.model_name = requiredString(pnh, "model", "vehicle model, <config_dir>/<model>.yaml");
+  const std::string& model_name = out.model_name;
+  const std::string config_dir =
+      avsp::node::stringParam(pnh, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
+  const double track_width_factor = boundedParam(pnh, "track_width_factor", 1.0, 1.0, 10.0);
+  try
+  {
+    out.geometry = ac::steeringGeometry(avsp::dynamics::loadVehicleModel(config_dir + "/" + model_name + ".yaml"),
+                                        track_width_factor);
+  }
+  catch (const std::exception& e)
+  {
+    throw StartupError("parameter ~model '" + model_name + "': " + e.what());
+  }
+  const ac::SteeringGeometry& geometry = out.geometry;
+  out.rate = boundedParam(pnh, "rate", 20.0, 1.0, 1000.0);
+  out.frame_id = avsp::node::stringParam(pnh, "frame_id", "map");
+  out.lockstep = avsp::node::boolParam(pnh, "lockstep", false);
+  try
+  {
+    if (mode == "waypoints")
+    {
+      ac::WaypointFollowerOptions o;
+      o.tracking = trackingFromParams(pnh, o.tracking);
+      o.decel = boundedParam(pnh, "decel", o.decel, 0.05, 20.0);
+      o.approach_speed = boundedParam(pnh, "approach_speed", o.approach_speed, 0.05, 10.0);
+      o.goal_tolerance = boundedParam(pnh, "goal_tolerance", o.goal_tolerance, 0.05, 100.0);
+      out.waypoints = std::make_unique<ac::WaypointFollower>(waypointsFromParams(pnh), geometry, o);
+    }
+    else
+    {
+      ac::LeaderFollowerOptions o;
+      o.tracking = trackingFromParams(pnh, o.tracking);
+      out.leader = requiredString(pnh, "leader", "the vehicle_id of the vehicle to follow");
+      o.gap = boundedParam(pnh, "gap", o.gap, 0.0, 10000.0);
+      o.offset = boundedParam(pnh, "offset", o.offset, -1000.0, 1000.0);
+      o.gap_gain = boundedParam(pnh, "gap_gain", o.gap_gain, 0.001, 10.0);
+      o.accel_lead_time = boundedParam(pnh, "accel_lead_time", o.accel_lead_time, 0.0, 10.0);
+      o.max_speed = boundedParam(pnh, "max_speed", std::min(o.max_speed, geometry.max_speed), 0.01, 1000.0);
+      o.safety_distance = boundedParam(pnh, "safety_distance", o.safety_distance, 0.0, 1000.0);
+      o.leader_timeout = boundedParam(pnh, "leader_timeout", o.leader_timeout, 0.01, 3600.0);
+      o.breadcrumb_spacing = boundedParam(pnh, "breadcrumb_spacing", o.breadcrumb_spacing, 0.01, 100.0);
+      o.max_path_length = boundedParam(pnh, "max_path_length", o.max_path_length, 10.0, 1e6);
+      out.follower = std::make_unique<ac::LeaderFollower>(geometry, o);
+    }
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw StartupError("parameter ~" + std::string(e.what()));
+  }
+  return out;
+}
+
 class ControllerNode::Impl
 {
 public:
   Impl(ros::NodeHandle& nh, ros::NodeHandle& pnh)
   {
-    const std::string mode = requiredString(pnh, "mode", "waypoints | leader_follower");
-    if (mode != "waypoints" && mode != "leader_follower")
-      throw StartupError("parameter ~mode '" + mode + "' must be waypoints or leader_follower");
-    const std::string model_name = requiredString(pnh, "model", "vehicle model, <config_dir>/<model>.yaml");
-    const std::string config_dir =
-        avsp::node::stringParam(pnh, "config_dir", ros::package::getPath("avsp") + "/config/vehicles");
-    const double track_width_factor = boundedParam(pnh, "track_width_factor", 1.0, 1.0, 10.0);
-    ac::SteeringGeometry geometry;
-    try
-    {
-      geometry = ac::steeringGeometry(avsp::dynamics::loadVehicleModel(config_dir + "/" + model_name + ".yaml"),
-                                      track_width_factor);
-    }
-    catch (const std::exception& e)
-    {
-      throw StartupError("parameter ~model '" + model_name + "': " + e.what());
-    }
-    const double rate = boundedParam(pnh, "rate", 20.0, 1.0, 1000.0);
-    period_ = 1.0 / rate;
-    frame_id_ = avsp::node::stringParam(pnh, "frame_id", "map");
-    lockstep_ = avsp::node::boolParam(pnh, "lockstep", false);
-    try
-    {
-      if (mode == "waypoints")
-      {
-        ac::WaypointFollowerOptions o;
-        o.tracking = trackingFromParams(pnh, o.tracking);
-        o.decel = boundedParam(pnh, "decel", o.decel, 0.05, 20.0);
-        o.approach_speed = boundedParam(pnh, "approach_speed", o.approach_speed, 0.05, 10.0);
-        o.goal_tolerance = boundedParam(pnh, "goal_tolerance", o.goal_tolerance, 0.05, 100.0);
-        waypoints_ = std::make_unique<ac::WaypointFollower>(waypointsFromParams(pnh), geometry, o);
-      }
-      else
-      {
-        ac::LeaderFollowerOptions o;
-        o.tracking = trackingFromParams(pnh, o.tracking);
-        leader_ = requiredString(pnh, "leader", "the vehicle_id of the vehicle to follow");
-        o.gap = boundedParam(pnh, "gap", o.gap, 0.0, 10000.0);
-        o.offset = boundedParam(pnh, "offset", o.offset, -1000.0, 1000.0);
-        o.gap_gain = boundedParam(pnh, "gap_gain", o.gap_gain, 0.001, 10.0);
-        o.accel_lead_time = boundedParam(pnh, "accel_lead_time", o.accel_lead_time, 0.0, 10.0);
-        o.max_speed = boundedParam(pnh, "max_speed", std::min(o.max_speed, geometry.max_speed), 0.01, 1000.0);
-        o.safety_distance = boundedParam(pnh, "safety_distance", o.safety_distance, 0.0, 1000.0);
-        o.leader_timeout = boundedParam(pnh, "leader_timeout", o.leader_timeout, 0.01, 3600.0);
-        o.breadcrumb_spacing = boundedParam(pnh, "breadcrumb_spacing", o.breadcrumb_spacing, 0.01, 100.0);
-        o.max_path_length = boundedParam(pnh, "max_path_length", o.max_path_length, 10.0, 1e6);
-        follower_ = std::make_unique<ac::LeaderFollower>(geometry, o);
-      }
-    }
-    catch (const std::invalid_argument& e)
-    {
-      throw StartupError("parameter ~" + std::string(e.what()));
-    }
+    ControllerSetup setup = readControllerParams(pnh);
+    period_ = 1.0 / setup.rate;
+    frame_id_ = setup.frame_id;
+    lockstep_ = setup.lockstep;
+    leader_ = setup.leader;
+    waypoints_ = std::move(setup.waypoints);
+    follower_ = std::move(setup.follower);
+    const std::string& mode = setup.mode;
+    const std::string& model_name = setup.model_name;
+    const ac::SteeringGeometry& geometry = setup.geometry;
+    const double rate = setup.rate;
 
     if (lockstep_)
       drive_pub_ = nh.advertise<avsp_msgs::DriveCommand>("cmd_drive", 10);

@@ -6,6 +6,9 @@
 
 #include <avsp_sensors/ros/sensor_params.hpp>
 
+#include "avsp/ros/controller_node.hpp"
+#include "avsp/scenario/launch_generator.hpp"
+
 namespace avsp
 {
 namespace node
@@ -75,6 +78,65 @@ std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario:
                                   " with the vehicles' magnetometers: " + e.what());
   }
   return displays;
+}
+
+XmlRpc::XmlRpcValue paramTree(const std::vector<scenario::NodeParam>& params)
+{
+  int offset = 0;
+  XmlRpc::XmlRpcValue tree("<value><struct></struct></value>", &offset);
+  for (const scenario::NodeParam& p : params)
+  {
+    if (p.type == "str")
+      tree[p.name] = p.value;
+    else if (p.type == "bool")
+      tree[p.name] = p.value == "true";
+    else if (p.type == "yaml")
+      tree[p.name] = toXmlRpc(YAML::Load(p.value));
+    else
+    {
+      std::size_t used = 0;
+      const double v = std::stod(p.value, &used);
+      if (used != p.value.size())
+        throw std::invalid_argument("parameter " + p.name + ": '" + p.value + "' is not a number");
+      if (p.type == "int")
+        tree[p.name] = static_cast<int>(v);
+      else
+        tree[p.name] = v;
+    }
+  }
+  return tree;
+}
+
+void checkControllersAsTheNodeWill(const scenario::Scenario& s, const std::string& vehicles_dir)
+{
+  for (std::size_t i = 0; i < s.vehicles.size(); ++i)
+  {
+    const scenario::VehicleSpec& v = s.vehicles[i];
+    const std::vector<scenario::NodeParam> params = scenario::controllerNodeParams(s, v, vehicles_dir);
+    if (params.empty())
+      continue;  // external control: no controller_node
+    const std::string key = "vehicles[" + std::to_string(i) + "].controller";
+    const ParamSource source(paramTree(params));
+    try
+    {
+      readControllerParams(source);
+    }
+    catch (const std::exception& e)
+    {
+      throw scenario::ScenarioError(s.file + ": " + key + " (as controller_node reads it for '" + v.name +
+                                    "'): " + e.what());
+    }
+    if (!v.controller.params.IsDefined() || !v.controller.params.IsMap())
+      continue;
+    std::string read;
+    for (const std::string& k : source.keysRead())
+      read += (read.empty() ? "" : ", ") + k;
+    for (const auto& kv : v.controller.params)
+      if (source.keysRead().count(kv.first.Scalar()) == 0)
+        throw scenario::ScenarioError(s.file + ": " + key + ".params." + kv.first.Scalar() +
+                                      ": unknown key (controller_node in mode " +
+                                      scenario::toString(v.controller.type) + " reads " + read + ")");
+  }
 }
 
 }  // namespace node

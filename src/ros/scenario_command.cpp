@@ -125,6 +125,7 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
     out.scenario = loadScenario(cmd.scenario, load);
     // The sections the nodes parse themselves, through their own parsers (--check and runs alike).
     displays = checkSensorsAsTheNodeWill(out.scenario, load.vehicles_dir);
+    checkControllersAsTheNodeWill(out.scenario, load.vehicles_dir);
   }
   catch (const std::exception& e)
   {

@@ -455,32 +455,11 @@ void writeVehicleGroups(std::ostream& o, const LaunchInputs& in)
     if (v.controller.type != ControllerType::kExternal)
     {
       g.open("avsp", "controller_node", "controller");
-      g.param("mode", toString(v.controller.type));
-      g.paramBool("lockstep", true);
-      g.param("model", v.model);
-      g.param("config_dir", options.vehicles_dir);
-      if (v.controller.type == ControllerType::kWaypoints)
-      {
-        std::string wps = "[";
-        const std::vector<Waypoint>& path = s.paths.at(v.controller.path);
-        for (std::size_t k = 0; k < path.size(); ++k)
-          wps += std::string(k ? ", " : "") + "{x: " + yamlDouble(path[k].x) + ", y: " + yamlDouble(path[k].y) +
-                 ", speed: " + yamlDouble(path[k].speed) + "}";
-        g.rosparam("waypoints", wps + "]");
-      }
-      else
-      {
-        g.param("leader", v.controller.leader);
-        g.param("gap", v.controller.gap);
-        g.param("offset", v.controller.offset);
-      }
-      if (v.controller.params.IsDefined() && v.controller.params.IsMap())
-        for (const auto& kv : v.controller.params)
-        {
-          double value = 0.0;
-          if (scalarAsDouble(kv.second, value))
-            g.param(kv.first.Scalar(), value);
-        }
+      for (const NodeParam& p : controllerNodeParams(s, v, options.vehicles_dir))
+        if (p.type == "yaml")
+          g.rosparam(p.name, p.value);
+        else
+          g.param(p.name, p.value, p.type);
       g.close();
     }
     o << "  </group>\n";
@@ -581,6 +560,40 @@ std::vector<std::string> runNodes(const LaunchInputs& in)
 }
 
 }  // namespace
+
+std::vector<NodeParam> controllerNodeParams(const Scenario& s, const VehicleSpec& v, const std::string& vehicles_dir)
+{
+  std::vector<NodeParam> p;
+  if (v.controller.type == ControllerType::kExternal)
+    return p;
+  p.push_back({ "mode", toString(v.controller.type), "str" });
+  p.push_back({ "lockstep", "true", "bool" });
+  p.push_back({ "model", v.model, "str" });
+  p.push_back({ "config_dir", vehicles_dir, "str" });
+  if (v.controller.type == ControllerType::kWaypoints)
+  {
+    std::string wps = "[";
+    const std::vector<Waypoint>& path = s.paths.at(v.controller.path);
+    for (std::size_t k = 0; k < path.size(); ++k)
+      wps += std::string(k ? ", " : "") + "{x: " + yamlDouble(path[k].x) + ", y: " + yamlDouble(path[k].y) +
+             ", speed: " + yamlDouble(path[k].speed) + "}";
+    p.push_back({ "waypoints", wps + "]", "yaml" });
+  }
+  else
+  {
+    p.push_back({ "leader", v.controller.leader, "str" });
+    p.push_back({ "gap", yamlDouble(v.controller.gap), "double" });
+    p.push_back({ "offset", yamlDouble(v.controller.offset), "double" });
+  }
+  if (v.controller.params.IsDefined() && v.controller.params.IsMap())
+    for (const auto& kv : v.controller.params)
+    {
+      double value = 0.0;
+      if (scalarAsDouble(kv.second, value))
+        p.push_back({ kv.first.Scalar(), yamlDouble(value), "double" });
+    }
+  return p;
+}
 
 std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
 {

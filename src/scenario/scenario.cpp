@@ -385,32 +385,6 @@ YAML::Node readSensors(const Context& ctx, const YAML::Node& node, const std::st
   return YAML::Clone(node);
 }
 
-/// controller_node parameters a scenario may set through `params` (the others follow from
-/// the controller's type, leader, gap, offset and the vehicle's model).
-const std::vector<std::string> kControllerParams = { "track_width_factor",
-                                                     "rate",
-                                                     "lookahead_min",
-                                                     "lookahead_gain",
-                                                     "lookahead_max",
-                                                     "speed_kp",
-                                                     "speed_ki",
-                                                     "speed_kd",
-                                                     "speed_integral_limit",
-                                                     "coast_band",
-                                                     "brake_gain",
-                                                     "max_accel",
-                                                     "decel",
-                                                     "approach_speed",
-                                                     "goal_tolerance",
-                                                     "lead_time",
-                                                     "gap_gain",
-                                                     "accel_lead_time",
-                                                     "max_speed",
-                                                     "safety_distance",
-                                                     "leader_timeout",
-                                                     "breadcrumb_spacing",
-                                                     "max_path_length" };
-
 ControllerSpec readController(const Context& ctx, const YAML::Node& node, const std::string& path)
 {
   ControllerSpec c;
@@ -439,12 +413,14 @@ ControllerSpec readController(const Context& ctx, const YAML::Node& node, const 
     const YAML::Node params = m.get("params");
     if (present(params))
     {
+      // Numbers here; which keys and what ranges: controller_node's own parser, run on what the
+      // launch file gives it (node_checks.hpp, checkControllersAsTheNodeWill).
       MapReader p(ctx, params, m.key("params"));
-      for (const std::string& k : kControllerParams)
+      for (const auto& kv : params)
       {
-        const YAML::Node v = p.get(k);
+        const YAML::Node v = p.get(kv.first.Scalar());
         if (present(v))
-          toDouble(ctx, v, p.key(k), -1e9, 1e9);  // a number; controller_node checks its range
+          toDouble(ctx, v, p.key(kv.first.Scalar()), -1e9, 1e9);
       }
       p.finish();
       c.params = YAML::Clone(params);

@@ -35,10 +35,43 @@ std::string parameterKind(const XmlRpc::XmlRpcValue& v)
   }
 }
 
-double numberParam(const ros::NodeHandle& pnh, const std::string& key, double fallback)
+bool ParamSource::get(const std::string& key, XmlRpc::XmlRpcValue& value) const
+{
+  read_.insert(key);
+  if (pnh_ != nullptr)
+    return pnh_->getParam(key, value);
+  XmlRpc::XmlRpcValue* at = &tree_;
+  std::size_t begin = 0;
+  while (true)
+  {
+    const std::size_t end = key.find('/', begin);
+    const std::string member = key.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
+    if (at->getType() != XmlRpc::XmlRpcValue::TypeStruct || !at->hasMember(member))
+      return false;
+    at = &(*at)[member];
+    if (end == std::string::npos)
+      break;
+    begin = end + 1;
+  }
+  value = *at;
+  return true;
+}
+
+bool ParamSource::has(const std::string& key) const
+{
+  if (pnh_ != nullptr)
+  {
+    read_.insert(key);
+    return pnh_->hasParam(key);
+  }
+  XmlRpc::XmlRpcValue ignored;
+  return get(key, ignored);
+}
+
+double numberParam(const ParamSource& params, const std::string& key, double fallback)
 {
   XmlRpc::XmlRpcValue v;
-  if (!pnh.getParam(key, v))
+  if (!params.get(key, v))
     return fallback;
   if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
     return static_cast<double>(v);
@@ -47,9 +80,9 @@ double numberParam(const ros::NodeHandle& pnh, const std::string& key, double fa
   throw StartupError("parameter ~" + key + " must be a number, got " + parameterKind(v));
 }
 
-double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min, double max)
+double boundedParam(const ParamSource& params, const std::string& key, double fallback, double min, double max)
 {
-  const double value = numberParam(pnh, key, fallback);
+  const double value = numberParam(params, key, fallback);
   if (!std::isfinite(value) || value < min || value > max)
     throw StartupError("parameter ~" + key + " = " + std::to_string(value) + " must be finite and in [" +
                        std::to_string(min) + ", " + std::to_string(max) + "]");
@@ -61,11 +94,11 @@ bool isWholeInt(double d)
   return std::floor(d) == d && d >= -2147483648.0 && d <= 2147483647.0;
 }
 
-int boundedIntParam(const ros::NodeHandle& pnh, const std::string& key, int fallback, int min, int max)
+int boundedIntParam(const ParamSource& params, const std::string& key, int fallback, int min, int max)
 {
   int value = fallback;
   XmlRpc::XmlRpcValue v;
-  if (pnh.getParam(key, v))
+  if (params.get(key, v))
   {
     if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
       value = static_cast<int>(v);
@@ -89,33 +122,33 @@ int boundedIntParam(const ros::NodeHandle& pnh, const std::string& key, int fall
   return value;
 }
 
-bool boolParam(const ros::NodeHandle& pnh, const std::string& key, bool fallback)
+bool boolParam(const ParamSource& params, const std::string& key, bool fallback)
 {
   XmlRpc::XmlRpcValue v;
-  if (!pnh.getParam(key, v))
+  if (!params.get(key, v))
     return fallback;
   if (v.getType() != XmlRpc::XmlRpcValue::TypeBoolean)
     throw StartupError("parameter ~" + key + " must be true or false, got " + parameterKind(v));
   return static_cast<bool>(v);
 }
 
-std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& fallback)
+std::string stringParam(const ParamSource& params, const std::string& key, const std::string& fallback)
 {
   XmlRpc::XmlRpcValue v;
-  if (!pnh.getParam(key, v))
+  if (!params.get(key, v))
     return fallback;
   if (v.getType() != XmlRpc::XmlRpcValue::TypeString)
     throw StartupError("parameter ~" + key + " must be a string, got " + parameterKind(v));
   return static_cast<std::string>(v);
 }
 
-std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& what)
+std::vector<std::string> plainNamesParam(const ParamSource& params, const std::string& key, const std::string& what)
 {
   std::vector<std::string> names;
-  if (!pnh.hasParam(key))
+  if (!params.has(key))
     return names;
   XmlRpc::XmlRpcValue list;
-  structuredParam(pnh, key, list);
+  structuredParam(params, key, list);
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw StartupError("parameter ~" + key + " must be a list of " + what + ", got " + parameterKind(list));
   for (int k = 0; k < list.size(); ++k)
@@ -201,10 +234,10 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node)
   }
 }
 
-bool structuredParam(const ros::NodeHandle& pnh, const std::string& key, XmlRpc::XmlRpcValue& value)
+bool structuredParam(const ParamSource& params, const std::string& key, XmlRpc::XmlRpcValue& value)
 {
   XmlRpc::XmlRpcValue v;
-  if (!pnh.getParam(key, v))
+  if (!params.get(key, v))
     return false;
   if (v.getType() == XmlRpc::XmlRpcValue::TypeString)
   {

@@ -7,13 +7,41 @@
  *        with ~lockstep, a cmd_drive answering every odometry on its grid.
  */
 #include <memory>
+#include <string>
 
+#include <avsp_terrain/ros/node_params.hpp>
 #include <ros/node_handle.h>
+
+#include "avsp/control/leader_follower.hpp"
+#include "avsp/control/steering.hpp"
+#include "avsp/control/waypoint_follower.hpp"
 
 namespace avsp
 {
 namespace node
 {
+/// controller_node's parameters as it reads them, its controller built from them.
+struct ControllerSetup
+{
+  std::string mode;        ///< ~mode: waypoints | leader_follower
+  std::string model_name;  ///< ~model
+  control::SteeringGeometry geometry;
+  double rate = 20.0;  ///< Hz, ~rate
+  std::string frame_id = "map";
+  bool lockstep = false;
+  std::string leader;                                    ///< ~leader (leader_follower)
+  std::unique_ptr<control::WaypointFollower> waypoints;  ///< mode waypoints
+  std::unique_ptr<control::LeaderFollower> follower;     ///< mode leader_follower
+};
+
+/**
+ * @brief controller_node's parameter parser, over the master or a tree (ParamSource): the node
+ *        runs it at start-up, `scenario_launch --check` on what the generated launch file would
+ *        set (node_checks.hpp). Loads ~config_dir/<~model>.yaml for the steering geometry.
+ * @throw avsp::node::StartupError naming the first bad parameter
+ */
+ControllerSetup readControllerParams(const ParamSource& params);
+
 class ControllerNode
 {
 public:

@@ -35,5 +35,23 @@ namespace node
 std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario::Scenario& s,
                                                                  const std::string& vehicles_dir);
 
+/**
+ * @brief Runs controller_node's parser (readControllerParams) on every controlled vehicle's
+ *        parameters as the generated launch file sets them (controllerNodeParams), with the
+ *        models in `vehicles_dir`; then refuses a key of the vehicle's `controller.params` the
+ *        parser never read (in the controller's mode).
+ * @throw scenario::ScenarioError "<file>: vehicles[i].controller (as controller_node reads it
+ *        for '<v>'): <its message>" or "<file>: vehicles[i].controller.params.<key>: unknown key
+ *        ..."
+ */
+void checkControllersAsTheNodeWill(const scenario::Scenario& s, const std::string& vehicles_dir);
+
+/**
+ * @brief A node's private parameters as a tree (what ParamSource reads), from the launch
+ *        file's `<param>` (str, double, int, bool) and `<rosparam>` ("yaml") entries.
+ * @throw std::invalid_argument for a value its type cannot hold
+ */
+XmlRpc::XmlRpcValue paramTree(const std::vector<scenario::NodeParam>& params);
+
 }  // namespace node
 }  // namespace avsp

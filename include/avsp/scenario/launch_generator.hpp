@@ -35,6 +35,14 @@ struct LaunchOptions
 std::string generateLaunch(const Scenario& scenario, const LaunchOptions& options);
 
 /**
+ * @brief The private parameters the generated launch file gives vehicle `v`'s controller_node
+ *        (none for an external controller), in the order written: type "str", "double",
+ *        "bool", or "yaml" (a `<rosparam>` flow YAML body). node_checks.hpp runs the node's own
+ *        parser on them.
+ */
+std::vector<NodeParam> controllerNodeParams(const Scenario& s, const VehicleSpec& v, const std::string& vehicles_dir);
+
+/**
  * @brief Emits a YAML node in flow style on one line, for a `<rosparam>` body.
  * @param force_double numbers (not booleans, not quoted strings) are written as floating
  *        point (`50` becomes `50.0`) so that nodes reading doubles from XML-RPC get doubles

@@ -10,8 +10,10 @@
  * own, and avsp_msgs keeps messages only. Namespace avsp::node: they belong to no package's
  * domain.
  */
+#include <set>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <ros/node_handle.h>
@@ -32,18 +34,47 @@ struct StartupError : std::runtime_error
 std::string parameterKind(const XmlRpc::XmlRpcValue& v);
 
 /**
+ * @brief Where a node's private parameters come from: the master, through the node's private
+ *        NodeHandle, or a tree of values (an XML-RPC struct: what a generated launch file sets,
+ *        built without a master). The helpers below read through one, so a node's parameter
+ *        parser serves both the node at start-up and `scenario_launch --check` before anything
+ *        starts (include/avsp/ros/node_checks.hpp). It keeps the keys read, so a check can
+ *        refuse a key the parser never asked for.
+ */
+class ParamSource
+{
+public:
+  /// The master, through `pnh` (implicit: every helper takes a NodeHandle as before).
+  ParamSource(const ros::NodeHandle& pnh) : pnh_(&pnh) {}  // NOLINT(google-explicit-constructor)
+  /// A tree: a struct whose members are the private parameters; "a/b" walks into "a".
+  explicit ParamSource(XmlRpc::XmlRpcValue tree) : tree_(std::move(tree)) {}
+
+  /// The value of `key` (relative to the private namespace), if set.
+  bool get(const std::string& key, XmlRpc::XmlRpcValue& value) const;
+  /// Whether `key` is set.
+  bool has(const std::string& key) const;
+  /// The keys get() or has() asked for so far.
+  const std::set<std::string>& keysRead() const { return read_; }
+
+private:
+  const ros::NodeHandle* pnh_ = nullptr;
+  mutable XmlRpc::XmlRpcValue tree_;
+  mutable std::set<std::string> read_;
+};
+
+/**
  * @brief A private number parameter written as an int or a double.
  * @return its value, `fallback` when unset
  * @throw StartupError for a value of another type (a string, a list): refused, not replaced by
  *        the default
  */
-double numberParam(const ros::NodeHandle& pnh, const std::string& key, double fallback);
+double numberParam(const ParamSource& params, const std::string& key, double fallback);
 
 /**
  * @brief A private double parameter (numberParam()) that must be finite and in [min, max].
  * @throw StartupError naming ~key, its value and the range
  */
-double boundedParam(const ros::NodeHandle& pnh, const std::string& key, double fallback, double min, double max);
+double boundedParam(const ParamSource& params, const std::string& key, double fallback, double min, double max);
 
 /// Whether `d` is a whole number an int holds.
 bool isWholeInt(double d);
@@ -54,19 +85,19 @@ bool isWholeInt(double d);
  * @throw StartupError for a fraction or a value of another type (not rounded, not replaced by
  *        the default) and for a value outside the range
  */
-int boundedIntParam(const ros::NodeHandle& pnh, const std::string& key, int fallback, int min, int max);
+int boundedIntParam(const ParamSource& params, const std::string& key, int fallback, int min, int max);
 
 /**
  * @brief A private boolean parameter (default `fallback`).
  * @throw StartupError for a value of another type (a string, a number)
  */
-bool boolParam(const ros::NodeHandle& pnh, const std::string& key, bool fallback);
+bool boolParam(const ParamSource& params, const std::string& key, bool fallback);
 
 /**
  * @brief A private string parameter (default `fallback`).
  * @throw StartupError for a value of another type (a number, a list)
  */
-std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& fallback);
+std::string stringParam(const ParamSource& params, const std::string& key, const std::string& fallback);
 
 /**
  * @brief A private list of plain names (partitions, lockstep followers): empty when absent.
@@ -74,7 +105,7 @@ std::string stringParam(const ros::NodeHandle& pnh, const std::string& key, cons
  * @throw StartupError naming the key (and the index) for a value that is not a list, an entry
  *        that is not a string or not a plain ROS name (no '/'), or a name listed twice
  */
-std::vector<std::string> plainNamesParam(const ros::NodeHandle& pnh, const std::string& key, const std::string& what);
+std::vector<std::string> plainNamesParam(const ParamSource& params, const std::string& key, const std::string& what);
 
 /**
  * @brief A YAML node as rosparam loads it: plain scalars typed as YAML 1.1 does (true/false/yes/
@@ -92,7 +123,7 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
  * @return false when the parameter is not set (`value` untouched)
  * @throw StartupError naming the key when a string starting with '[' or '{' is not valid YAML
  */
-bool structuredParam(const ros::NodeHandle& pnh, const std::string& key, XmlRpc::XmlRpcValue& value);
+bool structuredParam(const ParamSource& params, const std::string& key, XmlRpc::XmlRpcValue& value);
 
 }  // namespace node
 }  // namespace avsp
