@@ -40,14 +40,22 @@ TEST(Avt341Contract, AvspLeavesTheStacksTopicsToTheStack)
   const std::set<std::string> avsp_publishes = { ns + "odometry", ns + "points" };
   const std::set<std::string> avsp_subscribes = { ns + "cmd_vel", ns + "odometry", ns + "points" };
   for (const auto& [topic, nodes] : graph.publishers)
+  {
     if (topic.rfind(ns, 0) == 0 && !nodes.empty())
+    {
       EXPECT_TRUE(avsp_publishes.count(topic)) << topic << " is published by " << *nodes.begin()
                                                << ": under avt_341/ AVSP publishes only odometry and points";
+    }
+  }
   for (const auto& [topic, nodes] : graph.subscribers)
+  {
     if (topic.rfind(ns, 0) == 0 && !nodes.empty())
+    {
       EXPECT_TRUE(avsp_subscribes.count(topic))
           << topic << " is read by " << *nodes.begin()
           << ": under avt_341/ AVSP reads only cmd_vel (and its own odometry and points)";
+    }
+  }
   // The stack's own outputs, by name (the check above covers them; this says which).
   for (const char* stack : { "occupancy_grid", "global_path", "waypoints", "local_path", "cmd_vel" })
     EXPECT_FALSE(graph.published(ns + stack)) << ns + stack << " belongs to the AVT-341 stack";

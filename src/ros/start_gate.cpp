@@ -23,9 +23,7 @@
 #include <vector>
 
 #include <avsp_terrain/ros/node_params.hpp>
-#include <ros/master.h>
-#include <ros/network.h>
-#include <xmlrpcpp/XmlRpcClient.h>
+#include <avsp_terrain/ros/ros_graph.hpp>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <std_msgs/Empty.h>
@@ -56,47 +54,29 @@ std::vector<std::string> stringList(const ros::NodeHandle& pnh, const std::strin
 /// all nodes with any (`registered`).
 bool activeNodes(std::set<std::string>& out, std::set<std::string>& registered)
 {
-  XmlRpc::XmlRpcValue args, result, payload;
-  args[0] = ros::this_node::getName();
-  if (!ros::master::execute("getSystemState", args, result, payload, false))
+  RosGraph graph;
+  if (!readRosGraph(graph))
     return false;
-  for (int kind = 0; kind < 2 && kind < payload.size(); ++kind)  // publishers, subscribers
-    for (int t = 0; t < payload[kind].size(); ++t)
+  for (const TopicNodes* side : { &graph.publishers, &graph.subscribers })
+    for (const auto& [topic, nodes] : *side)
     {
-      const std::string topic = payload[kind][t][0];
-      const bool plain = topic == "/rosout" || topic == "/clock";
-      for (int n = 0; n < payload[kind][t][1].size(); ++n)
-      {
-        registered.insert(static_cast<std::string>(payload[kind][t][1][n]));
-        if (!plain)
-          out.insert(static_cast<std::string>(payload[kind][t][1][n]));
-      }
+      registered.insert(nodes.begin(), nodes.end());
+      if (topic != "/rosout" && topic != "/clock")
+        out.insert(nodes.begin(), nodes.end());
     }
   return true;
 }
+
 /// Outgoing connections `node`'s publishers hold, per topic (its getBusInfo); false when the
 /// node cannot be asked (not registered any more, or an answer we do not understand).
 bool outgoingConnections(const std::string& node, std::map<std::string, int>& per_topic)
 {
-  XmlRpc::XmlRpcValue args, result, payload;
-  args[0] = ros::this_node::getName();
-  args[1] = node;
-  if (!ros::master::execute("lookupNode", args, result, payload, false))
+  XmlRpc::XmlRpcValue connections;
+  if (!readBusInfo(node, connections) || connections.getType() != XmlRpc::XmlRpcValue::TypeArray)
     return false;
-  std::string host;
-  std::uint32_t port = 0;
-  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port))
-    return false;
-  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
-  XmlRpc::XmlRpcValue bus_args, bus;
-  bus_args[0] = ros::this_node::getName();
-  if (!client.execute("getBusInfo", bus_args, bus) || bus.getType() != XmlRpc::XmlRpcValue::TypeArray ||
-      bus.size() < 3 || bus[2].getType() != XmlRpc::XmlRpcValue::TypeArray)
-    return false;
-  // Each entry: [id, peer, direction "o"/"i", transport, topic, connected, ...].
-  for (int k = 0; k < bus[2].size(); ++k)
+  for (int k = 0; k < connections.size(); ++k)
   {
-    XmlRpc::XmlRpcValue& c = bus[2][k];
+    XmlRpc::XmlRpcValue& c = connections[k];
     if (c.getType() != XmlRpc::XmlRpcValue::TypeArray || c.size() < 5 ||
         c[2].getType() != XmlRpc::XmlRpcValue::TypeString || c[4].getType() != XmlRpc::XmlRpcValue::TypeString)
       continue;
@@ -114,18 +94,11 @@ bool outgoingConnections(const std::string& node, std::map<std::string, int>& pe
 /// connected. Each publishing node is asked once per call.
 std::vector<std::string> unconnected()
 {
-  XmlRpc::XmlRpcValue args, result, payload;
-  args[0] = ros::this_node::getName();
-  if (!ros::master::execute("getSystemState", args, result, payload, false) || payload.size() < 2)
+  RosGraph graph;
+  if (!readRosGraph(graph))
     return {};
-  std::map<std::string, std::set<std::string>> publishers, subscribers;
-  for (int kind = 0; kind < 2; ++kind)
-    for (int t = 0; t < payload[kind].size(); ++t)
-    {
-      auto& nodes = (kind == 0 ? publishers : subscribers)[static_cast<std::string>(payload[kind][t][0])];
-      for (int n = 0; n < payload[kind][t][1].size(); ++n)
-        nodes.insert(static_cast<std::string>(payload[kind][t][1][n]));
-    }
+  TopicNodes& publishers = graph.publishers;
+  TopicNodes& subscribers = graph.subscribers;
   std::map<std::string, std::map<std::string, int>> bus;  // publishing node -> topic -> connections
   std::set<std::string> unreadable;
   std::vector<std::string> out;

@@ -1,11 +1,11 @@
 #pragma once
 /**
  * @file ros_graph.hpp
- * @brief The rostests' view of the ROS graph: who publishes and subscribes what (the master's
- *        getSystemState), and whether a node's subscriptions are connected to every publisher
- *        (the publishers' getBusInfo). A test that must not lose the first messages of a run
- *        waits for the connections themselves instead of sleeping and hoping. One definition
- *        for every package's rostests (with spin_until.hpp and run_command.hpp).
+ * @brief The ROS graph as the start gate and the rostests see it: who publishes and subscribes
+ *        what (the master's getSystemState), a node's connections (its getBusInfo), and whether
+ *        a node's subscriptions are connected to every publisher. A test that must not lose the
+ *        first messages of a run waits for the connections themselves instead of sleeping and
+ *        hoping; start_gate opens only once every topic is connected.
  */
 #include <map>
 #include <set>
@@ -58,7 +58,8 @@ inline bool readRosGraph(RosGraph& graph)
 {
   XmlRpc::XmlRpcValue args, result, payload;
   args[0] = ros::this_node::getName();
-  if (!ros::master::execute("getSystemState", args, result, payload, false))
+  if (!ros::master::execute("getSystemState", args, result, payload, false) ||
+      payload.getType() != XmlRpc::XmlRpcValue::TypeArray || payload.size() < 2)
     return false;
   graph = RosGraph{};
   for (int kind = 0; kind < 2; ++kind)
