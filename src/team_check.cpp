@@ -31,30 +31,16 @@ struct TeamMember
 
 bool readTeam(const ros::NodeHandle& pnh, std::vector<TeamMember>& team)
 {
-  XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray || list.size() == 0)
+  try
   {
-    ROS_FATAL("team_check: ~vehicles must be a non-empty list of {name, model}");
-    return false;
+    for (const avsp::node::VehicleListEntry& e :
+         avsp::node::vehicleListParam(pnh, true, { "name", "model", "x", "y", "yaw" }, "{name, model}"))
+      team.push_back({ e.name, e.model });
   }
-  std::set<std::string> names;
-  for (int k = 0; k < list.size(); ++k)
+  catch (const avsp::node::StartupError& e)
   {
-    XmlRpc::XmlRpcValue& v = list[k];
-    if (v.getType() != XmlRpc::XmlRpcValue::TypeStruct || !v.hasMember("name") || !v.hasMember("model") ||
-        v["name"].getType() != XmlRpc::XmlRpcValue::TypeString ||
-        v["model"].getType() != XmlRpc::XmlRpcValue::TypeString)
-    {
-      ROS_FATAL("team_check: ~vehicles[%d] must have string keys 'name' and 'model'", k);
-      return false;
-    }
-    TeamMember m{ static_cast<std::string>(v["name"]), static_cast<std::string>(v["model"]) };
-    if (!names.insert(m.name).second)
-    {
-      ROS_FATAL("team_check: ~vehicles[%d]: vehicle name '%s' is used twice", k, m.name.c_str());
-      return false;
-    }
-    team.push_back(m);
+    ROS_FATAL("team_check: %s", e.what());
+    return false;
   }
   return true;
 }

@@ -378,11 +378,11 @@ TEST(SensorParams, VehicleListIsCheckedEntryByEntry)
   EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") } }) })), "~vehicles[0]", "'model'");
   EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") } }),
                                map({ { "name", str("a") }, { "model", str("m") } }) })),
-                  "~vehicles[1]/name", "used twice");
-  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a/b") }, { "model", str("m") } }) })), "~vehicles[0]/name",
+                  "~vehicles[1].name", "listed twice");
+  EXPECT_MENTIONS(fails(list({ map({ { "name", str("a/b") }, { "model", str("m") } }) })), "~vehicles[0].name",
                   "without '/'");
   EXPECT_MENTIONS(fails(list({ map({ { "name", str("a") }, { "model", str("m") }, { "colour", str("red") } }) })),
-                  "~vehicles[0]/colour", "not a known key");
+                  "~vehicles[0].colour", "unknown key");
 }
 
 TEST(VehicleFrames, ReferenceVehiclesHaveTheSensorLinksAndCollisionBoxes)

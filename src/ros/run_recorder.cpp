@@ -112,22 +112,28 @@ std::string format(const char* fmt, double a)
 
 std::vector<ar::VehicleSpec> vehicleList(const ros::NodeHandle& pnh)
 {
-  XmlRpc::XmlRpcValue list;
-  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray)
-    throw StartupError("parameter ~vehicles must be a list of {name, leader}");
   std::vector<ar::VehicleSpec> out;
-  for (int k = 0; k < list.size(); ++k)
+  for (avsp::node::VehicleListEntry& entry : avsp::node::vehicleListParam(
+           pnh, false, { "name", "leader", "max_speed", "rest_height", "wheel_radius" }, "{name, leader}"))
   {
-    const std::string where = "parameter ~vehicles[" + std::to_string(k) + "]";
-    XmlRpc::XmlRpcValue& e = list[k];
-    if (e.getType() != XmlRpc::XmlRpcValue::TypeStruct)
-      throw StartupError(where + " must be a {name, leader} map");
+    const std::string where = "parameter " + entry.where;
     ar::VehicleSpec v;
+    v.name = entry.name;
     int limits = 0;
-    for (auto it = e.begin(); it != e.end(); ++it)
-    {
-      if (it->first == "max_speed" || it->first == "rest_height" || it->first == "wheel_radius")
+    XmlRpc::XmlRpcValue& e = entry.fields;
+    if (e.getType() == XmlRpc::XmlRpcValue::TypeStruct)
+      for (auto it = e.begin(); it != e.end(); ++it)
       {
+        if (it->first == "name")
+          continue;
+        if (it->first == "leader")
+        {
+          if (it->second.getType() != XmlRpc::XmlRpcValue::TypeString)
+            throw StartupError(where + ".leader must be a string");
+          v.leader = static_cast<std::string>(it->second);
+          continue;
+        }
+        // max_speed, rest_height, wheel_radius (vehicleListParam allows no other key)
         const XmlRpc::XmlRpcValue& n = it->second;
         double value = 0.0;
         if (n.getType() == XmlRpc::XmlRpcValue::TypeDouble)
@@ -141,24 +147,9 @@ std::vector<ar::VehicleSpec> vehicleList(const ros::NodeHandle& pnh)
           throw StartupError(where + "." + it->first + " must be finite" + (positive ? " and > 0" : ""));
         (it->first == "max_speed" ? v.max_speed : it->first == "rest_height" ? v.rest_height : v.wheel_radius) = value;
         ++limits;
-        continue;
       }
-      if (it->first != "name" && it->first != "leader")
-        throw StartupError(where + "." + it->first +
-                           ": unknown key (name, leader, max_speed, rest_height, wheel_radius)");
-      if (it->second.getType() != XmlRpc::XmlRpcValue::TypeString)
-        throw StartupError(where + "." + it->first + " must be a string");
-    }
     if (limits != 0 && limits != 3)
       throw StartupError(where + ": max_speed, rest_height and wheel_radius go together (all or none)");
-    if (!e.hasMember("name"))
-      throw StartupError(where + ".name is required");
-    v.name = static_cast<std::string>(e["name"]);
-    if (e.hasMember("leader"))
-      v.leader = static_cast<std::string>(e["leader"]);
-    std::string why;
-    if (!v.name.empty() && (v.name.find('/') != std::string::npos || !ros::names::validate(v.name, why)))
-      throw StartupError(where + ".name '" + v.name + "' must be a valid ROS name without '/'");
     out.push_back(v);
   }
   try

@@ -45,31 +45,10 @@ namespace at = avsp::terrain;
 /// ~vehicles: names, or {name: ...} dictionaries (the dynamics node's vehicle list works as is).
 std::vector<std::string> vehiclesFromParams(const ros::NodeHandle& pnh)
 {
-  XmlRpc::XmlRpcValue list;
-  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
-      list.size() == 0)
-    throw StartupError("parameter ~vehicles must be a non-empty list of vehicle names (or of {name: ...})");
   std::vector<std::string> names;
-  std::set<std::string> seen;
-  for (int k = 0; k < list.size(); ++k)
-  {
-    const std::string where = "~vehicles[" + std::to_string(k) + "]";
-    XmlRpc::XmlRpcValue& entry = list[k];
-    std::string name;
-    if (entry.getType() == XmlRpc::XmlRpcValue::TypeString)
-      name = static_cast<std::string>(entry);
-    else if (entry.getType() == XmlRpc::XmlRpcValue::TypeStruct && entry.hasMember("name") &&
-             entry["name"].getType() == XmlRpc::XmlRpcValue::TypeString)
-      name = static_cast<std::string>(entry["name"]);
-    else
-      throw StartupError("parameter " + where + " must be a name or a dictionary with a string 'name'");
-    std::string why;
-    if (name.empty() || name.find('/') != std::string::npos || !ros::names::validate(name, why))
-      throw StartupError("parameter " + where + " '" + name + "' must be a valid ROS name without '/'");
-    if (!seen.insert(name).second)
-      throw StartupError("parameter " + where + " '" + name + "' is listed twice");
-    names.push_back(name);
-  }
+  for (const avsp::node::VehicleListEntry& e :
+       avsp::node::vehicleListParam(pnh, false, {}, "vehicle names (or of {name: ...})"))
+    names.push_back(e.name);
   return names;
 }
 

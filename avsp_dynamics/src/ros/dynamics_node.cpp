@@ -157,34 +157,16 @@ struct VehicleSpec
 
 std::vector<VehicleSpec> vehicleSpecs(const ros::NodeHandle& pnh)
 {
-  XmlRpc::XmlRpcValue list;
-  if (!avsp::node::structuredParam(pnh, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
-      list.size() == 0)
-    throw StartupError("parameter ~vehicles must be a non-empty list of {name, model, x, y, yaw}");
   std::vector<VehicleSpec> specs;
-  std::set<std::string> names;
-  for (int k = 0; k < list.size(); ++k)
+  for (avsp::node::VehicleListEntry& e :
+       avsp::node::vehicleListParam(pnh, true, { "name", "model", "x", "y", "yaw" }, "{name, model, x, y, yaw}"))
   {
-    const std::string where = "parameter ~vehicles[" + std::to_string(k) + "]";
-    XmlRpc::XmlRpcValue& entry = list[k];
-    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct || !entry.hasMember("name") || !entry.hasMember("model") ||
-        entry["name"].getType() != XmlRpc::XmlRpcValue::TypeString ||
-        entry["model"].getType() != XmlRpc::XmlRpcValue::TypeString)
-      throw StartupError(where + " must have string keys 'name' and 'model'");
     VehicleSpec s;
-    s.name = static_cast<std::string>(entry["name"]);
-    s.model = static_cast<std::string>(entry["model"]);
-    std::string error;
-    // The name becomes a namespace and a frame prefix, so it must be a plain ROS name.
-    if (s.name.empty() || s.name.find('/') != std::string::npos || !ros::names::validate(s.name, error))
-      throw StartupError(where + ".name '" + s.name + "' must be a valid ROS name without '/'");
-    if (!names.insert(s.name).second)
-      throw StartupError(where + ".name '" + s.name + "' is used twice");
-    if (s.model.empty() || s.model.find('/') != std::string::npos)
-      throw StartupError(where + ".model '" + s.model + "' must be a model name (config_dir/<model>.yaml)");
-    s.x = numberOf(entry, "x", 0.0, where);
-    s.y = numberOf(entry, "y", 0.0, where);
-    s.yaw = numberOf(entry, "yaw", 0.0, where);
+    s.name = e.name;
+    s.model = e.model;
+    s.x = numberOf(e.fields, "x", 0.0, "parameter " + e.where);
+    s.y = numberOf(e.fields, "y", 0.0, "parameter " + e.where);
+    s.yaw = numberOf(e.fields, "yaw", 0.0, "parameter " + e.where);
     specs.push_back(s);
   }
   return specs;

@@ -699,32 +699,15 @@ std::optional<OccupancySetup> parseOccupancy(const Section& s, bool has_lidar)
 }
 }  // namespace
 
-std::vector<VehicleEntry> parseVehicles(const XmlRpc::XmlRpcValue& value)
+std::vector<VehicleEntry> parseVehicles(const XmlRpc::XmlRpcValue& list)
 {
-  XmlRpcValue list = value;
-  if (list.getType() != XmlRpcValue::TypeArray || list.size() == 0)
-    throw StartupError("parameter ~vehicles must be a non-empty list of {name, model}");
+  int offset = 0;
+  XmlRpcValue tree("<value><struct></struct></value>", &offset);
+  tree["vehicles"] = list;
   std::vector<VehicleEntry> out;
-  std::set<std::string> names;
-  for (int k = 0; k < list.size(); ++k)
-  {
-    const Section s(&list[k], "~vehicles[" + std::to_string(k) + "]");
-    s.allowOnly({ "name", "model", "x", "y", "yaw" });
-    if (!s.has("name") || !s.has("model"))
-      throw StartupError("parameter " + s.path() + " must have string keys 'name' and 'model'");
-    VehicleEntry e;
-    e.name = s.text("name", "");
-    e.model = s.text("model", "");
-    std::string error;
-    if (e.name.empty() || e.name.find('/') != std::string::npos || !ros::names::validate(e.name, error))
-      throw StartupError("parameter " + s.key("name") + " = '" + e.name + "' must be a valid ROS name without '/'");
-    if (!names.insert(e.name).second)
-      throw StartupError("parameter " + s.key("name") + " = '" + e.name + "' is used twice");
-    if (e.model.empty() || e.model.find('/') != std::string::npos)
-      throw StartupError("parameter " + s.key("model") + " = '" + e.model +
-                         "' must be a model name (~config_dir/<model>.yaml)");
-    out.push_back(e);
-  }
+  for (const avsp::node::VehicleListEntry& e : avsp::node::vehicleListParam(
+           avsp::node::ParamSource(tree), true, { "name", "model", "x", "y", "yaw" }, "{name, model}"))
+    out.push_back({ e.name, e.model });
   return out;
 }
 

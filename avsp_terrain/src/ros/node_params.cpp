@@ -167,6 +167,58 @@ std::vector<std::string> plainNamesParam(const ParamSource& params, const std::s
   return names;
 }
 
+std::vector<VehicleListEntry> vehicleListParam(const ParamSource& params, bool with_model,
+                                               const std::vector<std::string>& allowed, const std::string& what)
+{
+  XmlRpc::XmlRpcValue list;
+  if (!structuredParam(params, "vehicles", list) || list.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      list.size() == 0)
+    throw StartupError("parameter ~vehicles must be a non-empty list of " + what);
+  std::vector<VehicleListEntry> out;
+  for (int k = 0; k < list.size(); ++k)
+  {
+    VehicleListEntry e;
+    e.where = "~vehicles[" + std::to_string(k) + "]";
+    XmlRpc::XmlRpcValue& v = list[k];
+    const bool is_map = v.getType() == XmlRpc::XmlRpcValue::TypeStruct;
+    auto isString = [&](const char* key) {
+      return is_map && v.hasMember(key) && v[key].getType() == XmlRpc::XmlRpcValue::TypeString;
+    };
+    if (with_model && !(isString("name") && isString("model")))
+      throw StartupError("parameter " + e.where + " must be a dictionary with string keys 'name' and 'model'");
+    if (!with_model && v.getType() != XmlRpc::XmlRpcValue::TypeString && !isString("name"))
+      throw StartupError("parameter " + e.where + " must be a name or a dictionary with a string 'name'");
+    if (is_map && !allowed.empty())
+      for (auto it = v.begin(); it != v.end(); ++it)
+        if (std::find(allowed.begin(), allowed.end(), it->first) == allowed.end())
+        {
+          std::string known;
+          for (const std::string& a : allowed)
+            known += (known.empty() ? "" : ", ") + a;
+          throw StartupError("parameter " + e.where + "." + it->first + ": unknown key (known: " + known + ")");
+        }
+    e.name = is_map ? static_cast<std::string>(v["name"]) : static_cast<std::string>(v);
+    if (is_map)
+    {
+      e.fields = v;
+      if (isString("model"))
+        e.model = static_cast<std::string>(v["model"]);
+    }
+    const std::string name_key = "parameter " + e.where + (is_map ? ".name" : "");
+    std::string why;
+    if (e.name.empty() || e.name.find('/') != std::string::npos || !ros::names::validate(e.name, why))
+      throw StartupError(name_key + " '" + e.name + "' must be a valid ROS name without '/'");
+    for (const VehicleListEntry& earlier : out)
+      if (earlier.name == e.name)
+        throw StartupError(name_key + " '" + e.name + "' is listed twice");
+    if (with_model && (e.model.empty() || e.model.find('/') != std::string::npos))
+      throw StartupError("parameter " + e.where + ".model '" + e.model +
+                         "' must be a model name (~config_dir/<model>.yaml)");
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
 namespace
 {
 /// A plain scalar typed as PyYAML's safe_load (rosparam) types it.

@@ -33,7 +33,8 @@ struct VehicleEntry
 };
 
 /**
- * @brief Reads ~vehicles: a non-empty list of {name, model} (x, y, yaw allowed and ignored).
+ * @brief Reads ~vehicles: a non-empty list of {name, model} (x, y, yaw allowed and ignored),
+ *        through the one parser every node uses (avsp::node::vehicleListParam).
  * @throw avsp::node::StartupError naming the entry and key: not a list, a missing or non-string
  *        name/model, an invalid or duplicate name, an unknown key
  */

@@ -107,6 +107,29 @@ std::string stringParam(const ParamSource& params, const std::string& key, const
  */
 std::vector<std::string> plainNamesParam(const ParamSource& params, const std::string& key, const std::string& what);
 
+/// One entry of a node's ~vehicles list.
+struct VehicleListEntry
+{
+  std::string name;            ///< a plain ROS name (a namespace and a frame prefix), unique in the list
+  std::string model;           ///< "" when the entry names none
+  XmlRpc::XmlRpcValue fields;  ///< the entry's dictionary (invalid for an entry given as a plain name)
+  std::string where;           ///< "~vehicles[k]", for the node's own messages about the entry
+};
+
+/**
+ * @brief The ~vehicles list every node of a run reads (one parser: dynamics_node, sensors_node,
+ *        v2v_radio_node, run_recorder, team_check), also given as YAML text (structuredParam).
+ * @param with_model each entry is a dictionary with string 'name' and 'model' (model: a plain
+ *        file name under ~config_dir); otherwise a plain name or a dictionary with a string 'name'
+ * @param allowed the keys an entry may have; empty: any
+ * @param what the entries, for the message about the list ("{name, model, x, y, yaw}")
+ * @throw StartupError naming ~vehicles or ~vehicles[k](.key): not a non-empty list, an entry of
+ *        the wrong form, a key not allowed, a name that is not a plain ROS name or is listed
+ *        twice, a model that is not a plain name
+ */
+std::vector<VehicleListEntry> vehicleListParam(const ParamSource& params, bool with_model,
+                                               const std::vector<std::string>& allowed, const std::string& what);
+
 /**
  * @brief A YAML node as rosparam loads it: plain scalars typed as YAML 1.1 does (true/false/yes/
  *        no/on/off, integers, floats, .inf/.nan), quoted ones strings, sequences arrays, maps
