@@ -80,11 +80,8 @@ public:
   {
     const std::vector<std::string> vehicles = vehiclesFromParams(pnh);
     av::RadioOptions options;
-    options.range = boundedParam(pnh, "range", 300.0, 1e-3, 1e6);
-    options.latency = boundedParam(pnh, "latency", 0.0, 0.0, 3600.0);
-    options.loss_probability = boundedParam(pnh, "loss_probability", 0.0, 0.0, 1.0);
-    options.antenna_height = boundedParam(pnh, "antenna_height", 1.5, 0.0, 1000.0);
-    options.los_step = boundedParam(pnh, "los_step", 1.0, 0.01, 100.0);
+    for (const av::RadioNumber& n : av::radioNumbers())
+      options.*n.member = boundedParam(pnh, n.key, options.*n.member, n.min, n.max);
     options.seed = static_cast<std::uint64_t>(boundedIntParam(pnh, "seed", 0, 0, 2147483647));
     options.line_of_sight = avsp::node::boolParam(pnh, "line_of_sight", false);
     const double marker_rate = boundedParam(pnh, "marker_rate", 2.0, 0.0, 100.0);

@@ -937,11 +937,8 @@ void readV2v(const Context& ctx, MapReader& top, Scenario& s)
     if (present(v2v))
     {
       MapReader r(ctx, v2v, "v2v");
-      s.v2v.range = readDouble(ctx, r, "range", 300.0, 1e-3, 1e6, "m");
-      s.v2v.latency = readDouble(ctx, r, "latency", 0.0, 0.0, 3600.0, "s");
-      s.v2v.loss_probability = readDouble(ctx, r, "loss_probability", 0.0, 0.0, 1.0);
-      s.v2v.antenna_height = readDouble(ctx, r, "antenna_height", 1.5, 0.0, 1000.0, "m");
-      s.v2v.los_step = readDouble(ctx, r, "los_step", 1.0, 0.01, 100.0, "m");
+      for (const v2v::RadioNumber& n : v2v::radioNumbers())  // the radio node's own table
+        s.v2v.*n.member = readDouble(ctx, r, n.key, s.v2v.*n.member, n.min, n.max, n.unit);
       const YAML::Node los = r.get("line_of_sight");
       if (present(los))
         s.v2v.line_of_sight = toBool(ctx, los, "v2v.line_of_sight");

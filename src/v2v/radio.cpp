@@ -39,6 +39,18 @@ std::uint64_t mix(std::uint64_t z)
 }
 }  // namespace
 
+const std::vector<RadioNumber>& radioNumbers()
+{
+  static const std::vector<RadioNumber> numbers{
+    { "range", &RadioOptions::range, 1e-3, 1e6, "m" },
+    { "latency", &RadioOptions::latency, 0.0, 3600.0, "s" },
+    { "loss_probability", &RadioOptions::loss_probability, 0.0, 1.0, "" },
+    { "antenna_height", &RadioOptions::antenna_height, 0.0, 1000.0, "m" },
+    { "los_step", &RadioOptions::los_step, 0.01, 100.0, "m" },
+  };
+  return numbers;
+}
+
 Radio::Radio(std::vector<std::string> vehicles, const RadioOptions& options, HeightFunction terrain)
   : vehicles_(std::move(vehicles)), options_(options), terrain_(std::move(terrain))
 {
@@ -52,16 +64,13 @@ Radio::Radio(std::vector<std::string> vehicles, const RadioOptions& options, Hei
     if (!seen.insert(v).second)
       throw std::invalid_argument("vehicles: '" + v + "' is listed twice");
   }
-  if (!std::isfinite(options_.range) || options_.range <= 0.0)
-    throw std::invalid_argument("range = " + number(options_.range) + " must be finite and > 0 (m)");
-  if (!std::isfinite(options_.latency) || options_.latency < 0.0 || options_.latency > 3600.0)
-    throw std::invalid_argument("latency = " + number(options_.latency) + " must be in [0, 3600] s");
-  if (!(options_.loss_probability >= 0.0 && options_.loss_probability <= 1.0))
-    throw std::invalid_argument("loss_probability = " + number(options_.loss_probability) + " must be in [0, 1]");
-  if (!std::isfinite(options_.antenna_height) || options_.antenna_height < 0.0 || options_.antenna_height > 1000.0)
-    throw std::invalid_argument("antenna_height = " + number(options_.antenna_height) + " must be in [0, 1000] m");
-  if (!std::isfinite(options_.los_step) || options_.los_step <= 0.0)
-    throw std::invalid_argument("los_step = " + number(options_.los_step) + " must be finite and > 0 (m)");
+  for (const RadioNumber& n : radioNumbers())
+  {
+    const double v = options_.*n.member;
+    if (!(std::isfinite(v) && v >= n.min && v <= n.max))
+      throw std::invalid_argument(std::string(n.key) + " = " + number(v) + " must be finite and in [" + number(n.min) +
+                                  ", " + number(n.max) + "]" + (*n.unit ? std::string(" ") + n.unit : ""));
+  }
   if (options_.line_of_sight && !terrain_)
     throw std::invalid_argument("line_of_sight is on but no terrain was given");
   antennas_.resize(vehicles_.size());

@@ -21,6 +21,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "avsp/v2v/radio.hpp"
+
 #include <avsp/control/leader_follower.hpp>
 #include <avsp_terrain/dem_io.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
@@ -123,11 +125,8 @@ struct FormationSpec
   std::vector<std::string> vehicles;   ///< in slot order; the first leads
 };
 
-struct V2VSpec
-{
-  double range = 300.0, latency = 0.0, loss_probability = 0.0, antenna_height = 1.5, los_step = 1.0;
-  bool line_of_sight = false;
-};
+/// The radio's options (v2v_radio_node's; its seed is the scenario's).
+using V2VSpec = v2v::RadioOptions;
 
 /// A dynamics partition: one dynamics_node process with these vehicles (issue 7).
 struct PartitionSpec

@@ -44,6 +44,20 @@ struct RadioOptions
   std::uint64_t seed = 0;         ///< loss draws
 };
 
+/// One number of RadioOptions as a parameter: the scenario's `v2v.<key>` and v2v_radio_node's
+/// `~<key>` are read through this one table (its default is a default RadioOptions' value).
+struct RadioNumber
+{
+  const char* key;
+  double RadioOptions::*member;
+  double min, max;   ///< inclusive
+  const char* unit;  ///< for messages ("m", "s", "" for a probability)
+};
+
+/// range (m, [1e-3, 1e6]), latency (s, [0, 3600]), loss_probability ([0, 1]), antenna_height
+/// (m, [0, 1000]), los_step (m, [0.01, 100]).
+const std::vector<RadioNumber>& radioNumbers();
+
 /// Terrain height (m) at map (x, y); false where there is no terrain.
 using HeightFunction = std::function<bool(double x, double y, double& height)>;
 
