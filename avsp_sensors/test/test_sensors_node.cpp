@@ -1041,7 +1041,8 @@ TEST_F(SensorsNode, CameraImagesAndInfoAtTheirRateInTheOpticalFrame)
 /// Runs sensors_node under a fresh name with private parameters set on the master first: it
 /// must exit 1 and say what is wrong.
 std::pair<int, std::string> runBadNode(const XmlRpc::XmlRpcValue& sensors, const XmlRpc::XmlRpcValue* own,
-                                       bool origin = true, const std::string& date = "2025-10-15")
+                                       bool origin = true, const std::string& date = "2025-10-15",
+                                       double longitude = kLongitude)
 {
   static int count = 0;
   const std::string name = "bad_sensors_" + std::to_string(getpid()) + "_" + std::to_string(count++);
@@ -1059,7 +1060,7 @@ std::pair<int, std::string> runBadNode(const XmlRpc::XmlRpcValue& sensors, const
   if (origin)
   {
     nh.setParam(ns + "latitude", kLatitude);
-    nh.setParam(ns + "longitude", kLongitude);
+    nh.setParam(ns + "longitude", longitude);
     nh.setParam(ns + "date", date);
   }
   nh.setParam(ns + "sensors", sensors);
@@ -1116,6 +1117,7 @@ TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
     bool origin;
     std::vector<std::string> said;
     std::string date = "2025-10-15";
+    double longitude = kLongitude;
   };
   const std::vector<Case> cases{
     { section("radar", "max_range", -5.0), false, true, { "~sensors/radar", "max_range" } },
@@ -1144,13 +1146,16 @@ TEST_F(SensorsNode, MalformedSensorConfigurationExitsOneNamingTheKey)
       { "~sensors/cameras[0]/outputs" } },
     { cameras(cameraEntry("", "width", 64)), true, true, { "~vehicle_sensors/ego/cameras[0]/name", "required" } },
     { cameras(cameraEntry("front", "lens", 1.0)), false, true, { "~sensors/cameras[0]/lens", "not a known key" } },
+    // The scenario's range for the site (avsp_terrain/geodetic_reference.hpp), not one of its own
+    // (it refused 180-360 deg east, which the scenario check and environment_node accept).
+    { section("gps", "rate", 10.0), false, true, { "~longitude = 361", "-180", "360" }, "2025-10-15", 361.0 },
   };
   for (const Case& c : cases)
   {
     XmlRpc::XmlRpcValue empty;
     empty.begin();
-    const auto [code, out] =
-        c.own ? runBadNode(empty, &c.sensors, c.origin, c.date) : runBadNode(c.sensors, nullptr, c.origin, c.date);
+    const auto [code, out] = c.own ? runBadNode(empty, &c.sensors, c.origin, c.date, c.longitude)
+                                   : runBadNode(c.sensors, nullptr, c.origin, c.date, c.longitude);
     EXPECT_EQ(code, 1) << out;
     for (const std::string& s : c.said)
       EXPECT_NE(out.find(s), std::string::npos) << "'" << s << "' not in: " << out;

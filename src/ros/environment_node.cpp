@@ -12,11 +12,13 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <avsp_msgs/Environment.h>
 #include <avsp_msgs/SetEnvironment.h>
+#include <avsp_terrain/geodetic_reference.hpp>
 #include <avsp_terrain/ros/node_params.hpp>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
@@ -34,16 +36,6 @@ namespace ae = avsp::environment;
 // ros::Time holds 1970-01-01 .. 2106-02-07; the model accepts 1800-2200.
 constexpr double kMinUtc = ae::kRosTimeMinUtc;
 constexpr double kMaxUtc = ae::kRosTimeMaxUtc;
-
-double requiredDouble(const ros::NodeHandle& pnh, const std::string& key, const std::string& unit)
-{
-  double value = 0.0;
-  if (!pnh.hasParam(key))
-    throw StartupError("parameter ~" + key + " (" + unit + ") is required");
-  if (!pnh.getParam(key, value))
-    throw StartupError("parameter ~" + key + " must be a number (" + unit + ")");
-  return value;
-}
 
 /// ~weather: a list of {start, end, ramp?, fog_visibility?, rain_rate_mm_h?, ...}.
 ae::WeatherTimeline weatherFromParams(const ros::NodeHandle& pnh)
@@ -102,9 +94,18 @@ public:
   Impl(ros::NodeHandle& nh, ros::NodeHandle& pnh)
   {
     ae::EnvironmentConfig config;
-    config.site.latitude_deg = requiredDouble(pnh, "latitude", "deg, [-90, 90]");
-    config.site.longitude_deg = requiredDouble(pnh, "longitude", "deg east, [-180, 360]");
-    config.site.altitude_m = boundedParam(pnh, "altitude", 0.0, -500.0, 9000.0);
+    double* const site[] = { &config.site.latitude_deg, &config.site.longitude_deg, &config.site.altitude_m };
+    for (std::size_t k = 0; k < 3; ++k)
+    {
+      const avsp::terrain::GeodeticNumber& n = avsp::terrain::geodeticReferenceNumbers()[k];
+      if (n.required && !pnh.hasParam(n.key))
+      {
+        std::ostringstream what;
+        what << "parameter ~" << n.key << " (" << n.unit << ", [" << n.min << ", " << n.max << "]) is required";
+        throw StartupError(what.str());
+      }
+      *site[k] = boundedParam(pnh, n.key, n.fallback, n.min, n.max);
+    }
     std::string start_utc;
     if (!pnh.getParam("start_utc", start_utc))
       throw StartupError("parameter ~start_utc (string, ISO 8601 UTC such as 2025-06-21T10:30:00Z) is required");

@@ -12,6 +12,7 @@
 
 #include <avsp/environment/astronomy.hpp>
 #include <avsp/environment/weather.hpp>
+#include <avsp_terrain/geodetic_reference.hpp>
 #include <avsp_dynamics/vehicle_model.hpp>
 #include <avsp_terrain/agents.hpp>
 #include <avsp_terrain/soil.hpp>
@@ -719,9 +720,14 @@ void readPlaceAndTime(const Context& ctx, MapReader& top, Scenario& s)
 {
   {
     MapReader g(ctx, top.required("geodetic_reference"), "geodetic_reference");
-    s.latitude = requiredDouble(ctx, g, "latitude", -90.0, 90.0, "deg");
-    s.longitude = requiredDouble(ctx, g, "longitude", -180.0, 360.0, "deg east");
-    s.altitude = readDouble(ctx, g, "altitude", 0.0, -500.0, 9000.0, "m");
+    // The nodes' own table (environment_node and sensors_node read the same keys).
+    double* const value[] = { &s.latitude, &s.longitude, &s.altitude };
+    for (std::size_t k = 0; k < 3; ++k)
+    {
+      const terrain::GeodeticNumber& n = terrain::geodeticReferenceNumbers()[k];
+      *value[k] = n.required ? requiredDouble(ctx, g, n.key, n.min, n.max, n.unit)
+                             : readDouble(ctx, g, n.key, n.fallback, n.min, n.max, n.unit);
+    }
     g.finish();
   }
   {

@@ -49,6 +49,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 
+#include <avsp_terrain/geodetic_reference.hpp>
 #include <avsp_terrain/ros/node_params.hpp>
 #include <avsp_terrain/ros/agent_params.hpp>
 #include <avsp_terrain/ros/conversions.hpp>
@@ -330,10 +331,13 @@ private:
       throw StartupError(
           "parameters ~latitude and ~longitude (deg, the map origin's WGS-84 position) are required "
           "with a GPS or a magnetometer on a geomagnetic model (magnetometer/model other than fixed)");
-    const double lat = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
-    const double lon = boundedParam(pnh_, "longitude", 0.0, -180.0, 180.0);
-    const double alt = boundedParam(pnh_, "altitude", 0.0, -1e4, 1e5);
-    return as::EnuFrame(as::Geodetic{ lat, lon, alt });
+    double value[3];
+    for (std::size_t k = 0; k < 3; ++k)
+    {
+      const avsp::terrain::GeodeticNumber& n = avsp::terrain::geodeticReferenceNumbers()[k];
+      value[k] = boundedParam(pnh_, n.key, n.fallback, n.min, n.max);
+    }
+    return as::EnuFrame(as::Geodetic{ value[0], value[1], value[2] });
   }
 
   std::unique_ptr<VehicleIo> makeVehicle(const asn::VehicleEntry& entry, asn::SensorsSpec spec, std::size_t index,
@@ -521,7 +525,8 @@ private:
   void advertise()
   {
     // Seasons flip south of the equator; without ~latitude the north's are used.
-    camera_latitude_ = boundedParam(pnh_, "latitude", 0.0, -90.0, 90.0);
+    const avsp::terrain::GeodeticNumber& latitude = avsp::terrain::geodeticReferenceNumbers()[0];
+    camera_latitude_ = boundedParam(pnh_, latitude.key, latitude.fallback, latitude.min, latitude.max);
     for (auto& v : vehicles_)
       advertiseVehicle(*v);
     if (!static_frames_.empty())
