@@ -396,8 +396,18 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
       return x.geom_b < y.geom_b;
     return x.order < y.order;
   });
-  auto toppleable = [&](const Hit& h) { return h.vehicle_b == kObstacle && obstacles_[h.geom_b].toppleable; };
 
+  pushToppleable();
+  addRigidJoints(world, group);
+}
+
+bool ObstacleCollision::toppleable(const Hit& h) const
+{
+  return h.vehicle_b == kObstacle && obstacles_[h.geom_b].toppleable;
+}
+
+void ObstacleCollision::pushToppleable()
+{
   // Toppleable objects: the elastic resistance of the deepest penetration, shared among the
   // contact points by depth; pushed over when it reaches the strength.
   pushes_.clear();
@@ -451,7 +461,10 @@ void ObstacleCollision::collide(dWorldID world, dJointGroupID group)
         dGeomDisable(o.geom);
     }
   }
+}
 
+void ObstacleCollision::addRigidJoints(dWorldID world, dJointGroupID group)
+{
   // Rigid obstacles and other vehicles: stiff contact joints with Coulomb friction.
   std::size_t rigid = 0;
   for (const Hit& h : hits_)

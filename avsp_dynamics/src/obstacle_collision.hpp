@@ -184,6 +184,13 @@ private:
   };
 
   static void nearCallback(void* data, dGeomID o1, dGeomID o2);
+  /// Whether a hit is on an object that topples (pushed, not a rigid joint).
+  bool toppleable(const Hit& h) const;
+  /// Toppleable objects hit this step: the vehicles feel their elastic resistance; pushed to
+  /// their strength, they fall.
+  void pushToppleable();
+  /// Rigid obstacles and other vehicles: stiff contact joints with Coulomb friction.
+  void addRigidJoints(dWorldID world, dJointGroupID group);
   void collect(dGeomID a, dGeomID b);
   void clearObstacles();
   void destroyVehicle(VehicleGeoms& v);

@@ -160,23 +160,7 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   double capacity = 0.0;
   const double du = decayed_.norm();
   if (soil_normal > 0.0)
-  {
-    force = Eigen::Vector2d(soil.longitudinal_force, soil.lateral_force);
-    capacity = soil.shear_strength;
-    // N/m of displacement, along it: through the slip (-u / l) and the cap (|u|); at u = 0 the
-    // lesser of the two limits (the soil displaced by s x, or all of it by |u|).
-    const double magnitude = force.norm();
-    const double through_slip = soil.shear_slope / std::max(shear_length_, kMinShearLength);
-    const double radial =
-        du > 1e-12 ? through_slip + soil.shear_cap_slope
-                   : (soil.shear_cap_slope > 0.0 ? std::min(through_slip, soil.shear_cap_slope) : through_slip);
-    const double transverse = du > 1e-12 ? magnitude / du : radial;
-    for (int r = 0; r < 2; ++r)
-    {
-      const double along = du > 1e-12 ? decayed_[r] * decayed_[r] / (du * du) : 1.0;
-      stiffness[r] = radial * along + transverse * (1.0 - along);
-    }
-  }
+    soilShear(soil, force, stiffness, capacity);
   if (on_firm)
   {
     const BrushForce tyre =
@@ -254,10 +238,41 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
   active_ = true;
   t1_ = frame.t1;
   t2_ = frame.t2;
+  keepLoads(soil, soil_normal, on_firm ? firm.surface : nullptr, firm_normal, firm_spec);
+  return true;
+}
+
+void GroundContact::soilShear(const terrain::ContactForces& soil, Eigen::Vector2d& force, Eigen::Vector2d& stiffness,
+                              double& capacity) const
+{
+  const double du = decayed_.norm();
+  force = Eigen::Vector2d(soil.longitudinal_force, soil.lateral_force);
+  capacity = soil.shear_strength;
+  // N/m of displacement, along it: through the slip (-u / l) and the cap (|u|); at u = 0 the
+  // lesser of the two limits (the soil displaced by s x, or all of it by |u|).
+  const double magnitude = force.norm();
+  const double through_slip = soil.shear_slope / std::max(shear_length_, kMinShearLength);
+  const double radial =
+      du > 1e-12 ? through_slip + soil.shear_cap_slope
+                 : (soil.shear_cap_slope > 0.0 ? std::min(through_slip, soil.shear_cap_slope) : through_slip);
+  const double transverse = du > 1e-12 ? magnitude / du : radial;
+  for (int r = 0; r < 2; ++r)
+  {
+    const double along = du > 1e-12 ? decayed_[r] * decayed_[r] / (du * du) : 1.0;
+    stiffness[r] = radial * along + transverse * (1.0 - along);
+  }
+}
+
+void GroundContact::keepLoads(const terrain::ContactForces& soil, double soil_normal,
+                              const terrain::SoilParameters* firm_surface, double firm_normal,
+                              const FirmGroundSpec& firm_spec)
+{
+  const bool on_firm = firm_surface != nullptr;
+  const double f_n = soil_normal + firm_normal;
   normal_ = f_n;
   firm_normal_ = firm_normal;
   resistance_ = (soil_normal > 0.0 ? soil.resistance_force : 0.0) +
-                (on_firm ? firm.surface->rolling_resistance * firm_normal : 0.0);
+                (on_firm ? firm_surface->rolling_resistance * firm_normal : 0.0);
   // Relaxation lengths for the next step: the soil's loaded length, a tyre's own, by load.
   if (soil_normal > 0.0)
     soil_length_ = std::max(soil.contact_length, kMinRelaxationLength);
@@ -265,7 +280,6 @@ bool GroundContact::addJoint(dWorldID world, dJointGroupID contacts, dBodyID bod
                  firm_normal * (on_firm ? firm_spec.relaxation_length : 0.0)) /
                 f_n;
   limit_ = std::max(soil_normal > 0.0 ? soil_length_ : 0.0, on_firm ? firm_spec.relaxation_length : 0.0);
-  return true;
 }
 
 void GroundContact::finish(const Eigen::Vector3d& point_velocity)

@@ -255,6 +255,14 @@ public:
   double resistance() const { return resistance_; }        ///< N, applied at the centre this step
 
 private:
+  /// The soil's shear at the relaxed displacement, its stiffness in the two rows, its strength.
+  void soilShear(const terrain::ContactForces& soil, Eigen::Vector2d& force, Eigen::Vector2d& stiffness,
+                 double& capacity) const;
+  /// Keeps this step's loads (normal, firm share, rolling resistance) and the next step's
+  /// relaxation lengths. `firm_surface`: the rigid ground under the contact, nullptr: none.
+  void keepLoads(const terrain::ContactForces& soil, double soil_normal, const terrain::SoilParameters* firm_surface,
+                 double firm_normal, const FirmGroundSpec& firm_spec);
+
   Eigen::Vector2d u_ = Eigen::Vector2d::Zero();        ///< m, displacement after the last step
   Eigen::Vector2d decayed_ = Eigen::Vector2d::Zero();  ///< m, relaxed over this step (before the gear moves)
   double decay_ = 1.0;                                 ///< this step's relaxation factor 1 / (1 + h D / L)

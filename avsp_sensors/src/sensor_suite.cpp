@@ -258,49 +258,7 @@ SuiteOutput VehicleSensors::update(const VehicleState& state, const Scene& scene
   }
 
   if (lidar_)
-  {
-    if (sweep_start_ && sweep_clock_->due(t))
-    {
-      // The sweep ran from sweep_start_ to this state: the constant twist that takes the sensor
-      // from its pose then to its pose now.
-      const VehicleState& s0 = *sweep_start_;
-      const Eigen::Isometry3d& mount = config_.lidar->mount;
-      const Eigen::Isometry3d q0 = s0.pose * mount, q1 = P * mount;
-      const double dt = t - s0.time;
-      LidarSweep sweep;
-      sweep.start = s0.time;
-      sweep.motion.pose = q0;
-      if (dt > 0.0)
-      {
-        sweep.motion.linear_velocity = (q1.translation() - q0.translation()) / dt;
-        sweep.motion.angular_velocity = rotationVector(q1.linear() * q0.linear().transpose()) / dt;
-      }
-      LidarScanRequest req;
-      req.motion = sweep.motion;
-      req.weather = weather;
-      req.sweep = sweep_clock_->index(s0.time);
-      req.registered = config_.lidar->registered;
-      req.threads = threads;
-      req.ignore_body = body_id_;
-      auto start = std::chrono::steady_clock::now();
-      sweep.scan = lidar_->scan(scene, req);
-      out.cost.lidar = since(start);
-      if (occupancy_)
-      {
-        start = std::chrono::steady_clock::now();
-        occupancy_->insert(sweep.scan, sweep.motion, config_.occupancy->slices);
-        out.cost.occupancy = since(start);
-      }
-      out.lidar = std::move(sweep);
-      sweep_clock_->taken(t);
-      sweep_start_ = state;
-    }
-    else if (!sweep_start_ && sweep_clock_->due(t))
-    {
-      sweep_clock_->taken(t);
-      sweep_start_ = state;  // the first sweep starts here
-    }
-  }
+    sweepLidar(state, scene, weather, threads, out);
 
   if (radar_ && radar_clock_->due(t))
   {
@@ -362,6 +320,54 @@ SuiteOutput VehicleSensors::update(const VehicleState& state, const Scene& scene
 
   last_ = state;
   return out;
+}
+
+void VehicleSensors::sweepLidar(const VehicleState& state, const Scene& scene, const Weather& weather, unsigned threads,
+                                SuiteOutput& out)
+{
+  const double t = state.time;
+  const Eigen::Isometry3d& P = state.pose;
+  if (sweep_start_ && sweep_clock_->due(t))
+  {
+    // The sweep ran from sweep_start_ to this state: the constant twist that takes the sensor
+    // from its pose then to its pose now.
+    const VehicleState& s0 = *sweep_start_;
+    const Eigen::Isometry3d& mount = config_.lidar->mount;
+    const Eigen::Isometry3d q0 = s0.pose * mount, q1 = P * mount;
+    const double dt = t - s0.time;
+    LidarSweep sweep;
+    sweep.start = s0.time;
+    sweep.motion.pose = q0;
+    if (dt > 0.0)
+    {
+      sweep.motion.linear_velocity = (q1.translation() - q0.translation()) / dt;
+      sweep.motion.angular_velocity = rotationVector(q1.linear() * q0.linear().transpose()) / dt;
+    }
+    LidarScanRequest req;
+    req.motion = sweep.motion;
+    req.weather = weather;
+    req.sweep = sweep_clock_->index(s0.time);
+    req.registered = config_.lidar->registered;
+    req.threads = threads;
+    req.ignore_body = body_id_;
+    auto start = std::chrono::steady_clock::now();
+    sweep.scan = lidar_->scan(scene, req);
+    out.cost.lidar = since(start);
+    if (occupancy_)
+    {
+      start = std::chrono::steady_clock::now();
+      occupancy_->insert(sweep.scan, sweep.motion, config_.occupancy->slices);
+      out.cost.occupancy = since(start);
+    }
+    out.lidar = std::move(sweep);
+    sweep_clock_->taken(t);
+    sweep_start_ = state;
+  }
+  else if (!sweep_start_ && sweep_clock_->due(t))
+  {
+    sweep_clock_->taken(t);
+    sweep_start_ = state;  // the first sweep starts here
+  }
 }
 
 OccupancyGrid2D VehicleSensors::occupancyGrid(double x, double y, const HeightField& terrain) const

@@ -250,6 +250,10 @@ public:
   OccupancyGrid2D occupancyGrid(double x, double y, const HeightField& terrain) const;
 
 private:
+  /// The lidar's part of update(): a sweep (and its OctoMap insertion) when one is due.
+  void sweepLidar(const VehicleState& state, const Scene& scene, const Weather& weather, unsigned threads,
+                  SuiteOutput& out);
+
   SuiteConfig config_;
   std::uint32_t body_id_;
   std::unique_ptr<Lidar> lidar_;
