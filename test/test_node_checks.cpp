@@ -1,6 +1,7 @@
 // A scenario's sections as the nodes receive them (rosparam's typing) and through their parsers.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
@@ -43,6 +44,29 @@ TEST(ToXmlRpc, TypesScalarsAsRosparamDoes)
   // Beyond XML-RPC's 32-bit ints: a double, as roslaunch sends it.
   EXPECT_EQ(c["big"].getType(), XmlRpcValue::TypeDouble);
   EXPECT_THROW(toXmlRpc(YAML::Load("{a: ~}")), std::invalid_argument);
+}
+
+// The way back (a node's parameters to the core's YAML parsers): every type and value survives
+// the round trip; a string that spells a number or a boolean stays a string.
+TEST(ToYaml, IsTheInverseOfToXmlRpc)
+{
+  const XmlRpcValue v = toXmlRpc(YAML::Load(
+      "{b: true, i: -7, d: 0.1, tiny: 5e-324, inf: -.inf, s: deer, q: '42', t: 'yes', l: [1, 2.5, x], m: {}}"));
+  XmlRpcValue back = toXmlRpc(avsp::node::toYaml(v));
+  XmlRpcValue c = v;
+  ASSERT_EQ(back.getType(), XmlRpcValue::TypeStruct);
+  for (const char* key : { "b", "i", "d", "tiny", "inf", "s", "q", "t", "l", "m" })
+    EXPECT_EQ(back[key].getType(), c[key].getType()) << key;
+  EXPECT_TRUE(static_cast<bool>(back["b"]));
+  EXPECT_EQ(static_cast<int>(back["i"]), -7);
+  EXPECT_EQ(static_cast<double>(back["d"]), 0.1);  // %.17g: the same double, bit for bit
+  EXPECT_EQ(static_cast<double>(back["tiny"]), 5e-324);
+  EXPECT_EQ(static_cast<double>(back["inf"]), -std::numeric_limits<double>::infinity());
+  EXPECT_EQ(static_cast<std::string>(back["q"]), "42");
+  EXPECT_EQ(static_cast<std::string>(back["t"]), "yes");
+  EXPECT_EQ(back["l"].size(), 3);
+  EXPECT_EQ(back["l"][2].getType(), XmlRpcValue::TypeString);
+  EXPECT_EQ(back["m"].size(), 0);
 }
 
 TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)

@@ -194,7 +194,7 @@ TEST(Scenario, MissingKeysAreNamed)
   EXPECT_ERROR(errorOf(n), "weather[0]", "end");
   n = base();
   n["agents"][0].remove("type");
-  EXPECT_ERROR(errorOf(n), "agents[0].type: missing key");
+  EXPECT_ERROR(errorOf(n), "agents[0].type: missing (required)");
 }
 
 TEST(Scenario, UnknownKeysAreNamed)
@@ -276,7 +276,7 @@ TEST(Scenario, EmptyPathAndNegativeSpeedsAreRefused)
   EXPECT_ERROR(errorOf(n), "agents[0].path: a moving looping agent needs at least 3 points, got 2");
   n = base();
   n["agents"][0]["type"] = "bear";
-  EXPECT_ERROR(errorOf(n), "agents[0].type: unknown 'bear' (deer, pedestrian, truck)");
+  EXPECT_ERROR(errorOf(n), "agents[0].type: unknown agent type 'bear' (deer, pedestrian or truck)");
   n = base();
   n["weather"][0]["rain_rate_mm_h"] = -5;
   EXPECT_ERROR(errorOf(n), "weather[0].rain_rate_mm_h");

@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace avsp
 {
@@ -201,6 +202,95 @@ void validateAgentSpecs(const std::vector<AgentSpec>& specs, const std::string& 
     if (!names.insert(specs[k].name).second)
       throw std::invalid_argument(key + ".name: '" + specs[k].name + "' is used by another agent");
   }
+}
+
+namespace
+{
+/// A plain YAML scalar that reads as a number (a quoted scalar is a string).
+bool yamlNumber(const YAML::Node& n, double& out)
+{
+  if (!n.IsScalar() || n.Tag() == "!")
+    return false;
+  try
+  {
+    out = n.as<double>();
+    return true;
+  }
+  catch (const YAML::Exception&)
+  {
+    return false;
+  }
+}
+
+/// A plain YAML scalar that reads as a string.
+bool yamlString(const YAML::Node& n, std::string& out)
+{
+  if (!n.IsScalar())
+    return false;
+  out = n.Scalar();
+  return true;
+}
+}  // namespace
+
+std::vector<AgentSpec> parseAgentSpecs(const YAML::Node& list, const std::string& list_key)
+{
+  if (!list.IsSequence())
+    throw std::invalid_argument(list_key + " must be a list of {name, type, path, speed, start_time, loop, yaw}");
+  std::vector<AgentSpec> specs;
+  for (std::size_t k = 0; k < list.size(); ++k)
+  {
+    const std::string where = list_key + "[" + std::to_string(k) + "]";
+    const YAML::Node e = list[k];
+    if (!e.IsMap())
+      throw std::invalid_argument(where + " must be a map {name, type, path, ...}");
+    static const std::array<const char*, 7> known{ "name", "type", "path", "speed", "start_time", "loop", "yaw" };
+    for (const auto& kv : e)
+    {
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("?");
+      if (std::none_of(known.begin(), known.end(), [&](const char* n) { return key == n; }))
+        throw std::invalid_argument(where + "." + key +
+                                    ": unknown key (known: name, type, path, speed, start_time, loop, yaw)");
+    }
+    for (const char* required : { "name", "type", "path" })
+      if (!e[required])
+        throw std::invalid_argument(where + "." + required + ": missing (required)");
+    AgentSpec s;
+    if (!yamlString(e["name"], s.name))
+      throw std::invalid_argument(where + ".name: must be a string");
+    std::string type;
+    if (!yamlString(e["type"], type))
+      throw std::invalid_argument(where + ".type: must be a string (deer, pedestrian or truck)");
+    const std::optional<AgentType> t = agentTypeFromString(type);
+    if (!t)
+      throw std::invalid_argument(where + ".type: unknown agent type '" + type + "' (deer, pedestrian or truck)");
+    s.type = *t;
+    const YAML::Node path = e["path"];
+    if (!path.IsSequence())
+      throw std::invalid_argument(where + ".path: must be a list of [x, y] points (m)");
+    for (std::size_t p = 0; p < path.size(); ++p)
+    {
+      double x = 0.0, y = 0.0;
+      if (!path[p].IsSequence() || path[p].size() != 2 || !yamlNumber(path[p][0], x) || !yamlNumber(path[p][1], y))
+        throw std::invalid_argument(where + ".path[" + std::to_string(p) + "]: must be a pair of numbers [x, y] (m)");
+      s.path.emplace_back(x, y);
+    }
+    for (const auto& [field, target] : { std::pair<const char*, double*>{ "speed", &s.speed },
+                                         std::pair<const char*, double*>{ "start_time", &s.start_time },
+                                         std::pair<const char*, double*>{ "yaw", &s.yaw } })
+      if (e[field] && !yamlNumber(e[field], *target))
+        throw std::invalid_argument(where + "." + field + ": must be a number");
+    if (e["loop"])
+    {
+      const YAML::Node loop = e["loop"];
+      bool value = false;
+      if (!loop.IsScalar() || loop.Tag() == "!" || !YAML::convert<bool>::decode(loop, value))
+        throw std::invalid_argument(where + ".loop: must be true or false");
+      s.loop = value;
+    }
+    specs.push_back(std::move(s));
+  }
+  validateAgentSpecs(specs, list_key);
+  return specs;
 }
 
 // ---- AgentPath ------------------------------------------------------------------------------

@@ -96,6 +96,50 @@ WeatherEvent makeWeatherEvent(const std::string& where, const std::map<std::stri
   return e;
 }
 
+std::vector<WeatherEvent> parseWeatherEvents(const YAML::Node& list, const std::string& list_key)
+{
+  if (!list.IsSequence())
+    throw WeatherError(list_key + " must be a list of events {start, end, ...}");
+  std::vector<WeatherEvent> events;
+  for (std::size_t k = 0; k < list.size(); ++k)
+  {
+    const std::string where = list_key + "[" + std::to_string(k) + "]";
+    const YAML::Node entry = list[k];
+    if (!entry.IsMap())
+      throw WeatherError(where + " must be a map {start, end, ...}");
+    std::map<std::string, double> numbers;
+    std::vector<std::string> others;
+    std::set<std::string> seen;
+    for (const auto& kv : entry)
+    {
+      if (!kv.first.IsScalar())
+        throw WeatherError(where + ": a key is not a plain string");
+      const std::string key = kv.first.Scalar();
+      if (!seen.insert(key).second)
+        throw WeatherError(where + "." + key + ": duplicate key");
+      double v = 0.0;
+      bool is_number = kv.second.IsScalar() && kv.second.Tag() != "!";
+      if (is_number)
+      {
+        try
+        {
+          v = kv.second.as<double>();
+        }
+        catch (const YAML::Exception&)
+        {
+          is_number = false;
+        }
+      }
+      if (is_number)
+        numbers[key] = v;
+      else
+        others.push_back(key);
+    }
+    events.push_back(makeWeatherEvent(where, numbers, others));
+  }
+  return events;
+}
+
 WeatherTimeline::WeatherTimeline(std::vector<WeatherEvent> events) : events_(std::move(events))
 {
   for (std::size_t k = 0; k < events_.size(); ++k)

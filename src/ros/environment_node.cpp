@@ -37,44 +37,21 @@ namespace ae = avsp::environment;
 constexpr double kMinUtc = ae::kRosTimeMinUtc;
 constexpr double kMaxUtc = ae::kRosTimeMaxUtc;
 
-/// ~weather: a list of {start, end, ramp?, fog_visibility?, rain_rate_mm_h?, ...}.
+/// ~weather: a list of {start, end, ramp?, fog_visibility?, rain_rate_mm_h?, ...}, through the
+/// reader the scenario loader uses.
 ae::WeatherTimeline weatherFromParams(const ros::NodeHandle& pnh)
 {
-  if (!pnh.hasParam("weather"))
-    return {};
   XmlRpc::XmlRpcValue list;
-  avsp::node::structuredParam(pnh, "weather", list);
-  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
-    throw StartupError("parameter ~weather must be a list of {start, end, ...} entries (see README)");
-  std::vector<ae::WeatherEvent> events;
-  for (int k = 0; k < list.size(); ++k)
+  if (!avsp::node::structuredParam(pnh, "weather", list))
+    return {};
+  try
   {
-    const std::string where = "~weather[" + std::to_string(k) + "]";
-    XmlRpc::XmlRpcValue& entry = list[k];
-    if (entry.getType() != XmlRpc::XmlRpcValue::TypeStruct)
-      throw StartupError("parameter " + where + " must be a dictionary {start, end, ...}");
-    std::map<std::string, double> numbers;
-    std::vector<std::string> others;
-    for (auto it = entry.begin(); it != entry.end(); ++it)
-    {
-      XmlRpc::XmlRpcValue& v = it->second;
-      if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
-        numbers[it->first] = static_cast<double>(v);
-      else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt)
-        numbers[it->first] = static_cast<int>(v);
-      else
-        others.push_back(it->first);
-    }
-    try
-    {
-      events.push_back(ae::makeWeatherEvent(where, numbers, others));
-    }
-    catch (const ae::WeatherError& e)
-    {
-      throw StartupError(std::string("parameter ") + e.what());
-    }
+    return ae::WeatherTimeline(ae::parseWeatherEvents(avsp::node::toYaml(list), "~weather"));
   }
-  return ae::WeatherTimeline(std::move(events));
+  catch (const ae::WeatherError& e)
+  {
+    throw StartupError(std::string("parameter ") + e.what());
+  }
 }
 
 geometry_msgs::Vector3 vector3(const std::array<double, 3>& v)

@@ -466,98 +466,37 @@ std::vector<Waypoint> readPath(const Context& ctx, const YAML::Node& node, const
 YAML::Node readAgents(const Context& ctx, const YAML::Node& node, std::set<std::string>& names,
                       std::vector<terrain::AgentSpec>& specs)
 {
-  if (!node.IsSequence())
-    ctx.fail("agents", "must be a list of agents {name, type, path, speed, start_time, loop, yaw}");
-  specs.clear();
-  for (std::size_t i = 0; i < node.size(); ++i)
-  {
-    const std::string key = indexKey("agents", i);
-    MapReader m(ctx, node[i], key);
-    terrain::AgentSpec spec;
-    spec.name = toString(ctx, m.required("name"), m.key("name"));
-    if (!isRosName(spec.name))
-      ctx.fail(m.key("name"), "'" + spec.name + "' is not a valid name (a letter, then letters, digits, _)");
-    if (!names.insert(spec.name).second)
-      ctx.fail(m.key("name"), "duplicate name '" + spec.name + "'");
-    const std::string type = toString(ctx, m.required("type"), m.key("type"));
-    const std::optional<terrain::AgentType> parsed = terrain::agentTypeFromString(type);
-    if (!parsed)
-      ctx.fail(m.key("type"), "unknown '" + type + "' (deer, pedestrian, truck)");
-    spec.type = *parsed;
-    const YAML::Node path = m.required("path");
-    if (!path.IsSequence())
-      ctx.fail(m.key("path"), "must be a list of [x, y] points");
-    for (std::size_t k = 0; k < path.size(); ++k)
-    {
-      const std::string pk = indexKey(m.key("path"), k);
-      if (!path[k].IsSequence() || path[k].size() != 2)
-        ctx.fail(pk, "must be a point [x, y]");
-      spec.path.emplace_back(toDouble(ctx, path[k][0], pk + "[0]", -1e7, 1e7, "m"),
-                             toDouble(ctx, path[k][1], pk + "[1]", -1e7, 1e7, "m"));
-    }
-    spec.speed = readDouble(ctx, m, "speed", 0.0, -kInf, kInf, "m/s");
-    spec.start_time = readDouble(ctx, m, "start_time", 0.0, 0.0, 1e9, "s");
-    const YAML::Node loop = m.get("loop");
-    if (present(loop))
-      spec.loop = toBool(ctx, loop, m.key("loop"));
-    spec.yaw = readDouble(ctx, m, "yaw", 0.0, -100.0, 100.0, "rad");
-    m.finish();
-    specs.push_back(spec);
-  }
-  // The rules dynamics_node, sensors_node and agents_node apply to ~agents (one validator).
+  // The nodes' own parser and validator (dynamics_node, sensors_node and agents_node read ~agents
+  // with it); the scenario adds that an agent's name is a plain name no vehicle has.
   try
   {
-    terrain::validateAgentSpecs(specs, "agents");
+    specs = terrain::parseAgentSpecs(node, "agents");
   }
   catch (const std::invalid_argument& e)
   {
     throw ScenarioError(ctx.file() + ": " + e.what());
+  }
+  for (std::size_t i = 0; i < specs.size(); ++i)
+  {
+    const std::string key = indexKey("agents", i) + ".name";
+    if (!isRosName(specs[i].name))
+      ctx.fail(key, "'" + specs[i].name + "' is not a valid name (a letter, then letters, digits, _)");
+    if (!names.insert(specs[i].name).second)
+      ctx.fail(key, "duplicate name '" + specs[i].name + "'");
   }
   return YAML::Clone(node);
 }
 
 YAML::Node readWeather(const Context& ctx, const YAML::Node& node)
 {
-  if (!node.IsSequence())
-    ctx.fail("weather", "must be a list of events {start, end, ...}");
   std::vector<environment::WeatherEvent> events;
-  for (std::size_t i = 0; i < node.size(); ++i)
+  try
   {
-    const std::string key = indexKey("weather", i);
-    if (!node[i].IsMap())
-      ctx.fail(key, "must be a map of keys");
-    MapReader duplicates(ctx, node[i], key);  // refuses duplicate and non-string keys
-    std::map<std::string, double> numbers;
-    std::vector<std::string> others;
-    for (const auto& kv : node[i])
-    {
-      const std::string k = kv.first.Scalar();
-      double v = 0.0;
-      bool is_number = kv.second.IsScalar();
-      if (is_number)
-      {
-        try
-        {
-          v = kv.second.as<double>();
-        }
-        catch (const YAML::Exception&)
-        {
-          is_number = false;
-        }
-      }
-      if (is_number)
-        numbers[k] = v;
-      else
-        others.push_back(k);
-    }
-    try
-    {
-      events.push_back(environment::makeWeatherEvent(key, numbers, others));
-    }
-    catch (const std::exception& e)
-    {
-      throw ScenarioError(ctx.file() + ": " + e.what());
-    }
+    events = environment::parseWeatherEvents(node, "weather");  // environment_node's reader too
+  }
+  catch (const std::exception& e)
+  {
+    throw ScenarioError(ctx.file() + ": " + e.what());
   }
   try
   {

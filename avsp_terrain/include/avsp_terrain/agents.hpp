@@ -20,6 +20,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <yaml-cpp/yaml.h>
 
 #include "avsp_terrain/elevation_grid.hpp"
 
@@ -102,6 +103,18 @@ void validateAgentSpec(const AgentSpec& spec, const std::string& key);
 
 /// validateAgentSpec() for each (key "<list_key>[k]") and unique names. @throw std::invalid_argument
 void validateAgentSpecs(const std::vector<AgentSpec>& specs, const std::string& list_key = "agents");
+
+/**
+ * @brief The one parser of an agent list, {name, type, path, speed, start_time, loop, yaw} per
+ *        agent: the scenario's `agents` (its YAML) and the nodes' `~agents` (their XML-RPC value
+ *        as YAML) alike; then validateAgentSpecs(). A number is a plain YAML scalar (a quoted one
+ *        is a string, as rosparam types it).
+ * @param list_key names the list in messages ("agents", "~agents")
+ * @throw std::invalid_argument "<list_key>[k].<field>: <why>": not a list, an entry not a map,
+ *        an unknown or missing key, a value of the wrong type, an unknown type, then what
+ *        validateAgentSpecs() refuses
+ */
+std::vector<AgentSpec> parseAgentSpecs(const YAML::Node& list, const std::string& list_key);
 
 /// A point of a path at an arc length.
 struct PathSample

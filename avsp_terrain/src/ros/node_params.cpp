@@ -286,6 +286,51 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node)
   }
 }
 
+YAML::Node toYaml(const XmlRpc::XmlRpcValue& value)
+{
+  XmlRpc::XmlRpcValue& v = const_cast<XmlRpc::XmlRpcValue&>(value);  // XmlRpcValue's readers are not const
+  switch (v.getType())
+  {
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return YAML::Node(static_cast<bool>(v) ? "true" : "false");
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return YAML::Node(std::to_string(static_cast<int>(v)));
+    case XmlRpc::XmlRpcValue::TypeDouble:
+    {
+      const double d = static_cast<double>(v);
+      if (std::isnan(d))
+        return YAML::Node(".nan");
+      if (std::isinf(d))
+        return YAML::Node(d > 0 ? ".inf" : "-.inf");
+      char text[32];
+      std::snprintf(text, sizeof text, "%.17g", d);
+      return YAML::Node(std::string(text));
+    }
+    case XmlRpc::XmlRpcValue::TypeString:
+    {
+      YAML::Node n(static_cast<std::string>(v));
+      n.SetTag("!");
+      return n;
+    }
+    case XmlRpc::XmlRpcValue::TypeArray:
+    {
+      YAML::Node n(YAML::NodeType::Sequence);
+      for (int k = 0; k < v.size(); ++k)
+        n.push_back(toYaml(v[k]));
+      return n;
+    }
+    case XmlRpc::XmlRpcValue::TypeStruct:
+    {
+      YAML::Node n(YAML::NodeType::Map);
+      for (auto it = v.begin(); it != v.end(); ++it)
+        n[it->first] = toYaml(it->second);
+      return n;
+    }
+    default:
+      return YAML::Node();
+  }
+}
+
 bool structuredParam(const ParamSource& params, const std::string& key, XmlRpc::XmlRpcValue& value)
 {
   XmlRpc::XmlRpcValue v;

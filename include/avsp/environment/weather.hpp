@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <yaml-cpp/yaml.h>
+
 namespace avsp
 {
 namespace environment
@@ -62,6 +64,16 @@ struct WeatherError : std::invalid_argument
  */
 WeatherEvent makeWeatherEvent(const std::string& where, const std::map<std::string, double>& numbers,
                               const std::vector<std::string>& other_keys = {});
+
+/**
+ * @brief The one reader of a weather list: the scenario's `weather` (its YAML) and
+ *        environment_node's `~weather` (its XML-RPC value as YAML) alike. Each entry a map whose
+ *        plain numeric scalars go to makeWeatherEvent() (a quoted scalar is not a number).
+ * @param list_key names the list in messages ("weather", "~weather")
+ * @throw WeatherError "<list_key> must be a list ...", "<list_key>[k] must be a map ...", a key
+ *        given twice, or what makeWeatherEvent() refuses
+ */
+std::vector<WeatherEvent> parseWeatherEvents(const YAML::Node& list, const std::string& list_key);
 
 /// The events' weather over sim time.
 class WeatherTimeline

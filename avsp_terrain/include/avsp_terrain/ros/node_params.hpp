@@ -139,6 +139,13 @@ std::vector<VehicleListEntry> vehicleListParam(const ParamSource& params, bool w
 XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
 
 /**
+ * @brief An XML-RPC value as YAML, the inverse of toXmlRpc(): a string becomes a quoted scalar
+ *        (tag "!": never read as a number or a boolean), numbers and booleans plain scalars,
+ *        arrays sequences, structs maps. So the core's YAML parsers read a node's parameters.
+ */
+YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
+
+/**
  * @brief A private list or dictionary parameter, also when given as YAML text: `rosrun pkg node
  *        _vehicles:='[a, b]'` sets the string "[a, b]" (roscpp types a command-line parameter
  *        as a number, a boolean or a string), which is read here as rosparam would read it.
