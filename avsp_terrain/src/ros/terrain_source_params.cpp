@@ -39,10 +39,12 @@ TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
     s.png.cell_size = numberParam(pnh, "png_cell_size", 0.0);
     s.png.z_scale = numberParam(pnh, "png_z_scale", 0.0);
   }
+  // The cell sizes' upper bounds are relative (a tenth of the square or of the course's
+  // sides): loadTerrainSource applies them, the rule the scenario check loads with too.
   s.flat_size = boundedParam(pnh, "flat_size", 100.0, 1.0, 1e4);
-  s.flat_cell_size = boundedParam(pnh, "flat_cell_size", 0.1, 0.005, 10.0);
+  s.flat_cell_size = boundedParam(pnh, "flat_cell_size", 0.1, 0.005, 1e3);
   s.course.seed = static_cast<std::uint64_t>(boundedIntParam(pnh, "course_seed", 1, 0, 2147483647));
-  s.course.cell_size = boundedParam(pnh, "course_cell_size", 0.1, 1e-3, 100.0);
+  s.course.cell_size = boundedParam(pnh, "course_cell_size", 0.1, 1e-3, 1e4);
   s.course.length_x = boundedParam(pnh, "course_length_x", 600.0, 1.0, 1e5);
   s.course.length_y = boundedParam(pnh, "course_length_y", 400.0, 1.0, 1e5);
   // XML-RPC integers are 32-bit: the budget is given in grid points up to 2^31 - 1.
