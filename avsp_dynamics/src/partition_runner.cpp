@@ -167,6 +167,25 @@ void PartitionRunner::applyOne(const std::string& peer, const PartitionExchange&
 {
   for (const ExchangedVehicle& v : m.vehicles)
     placeProxy(peer, v, t);
+  // A vehicle the peer no longer sends has left its run: its proxy goes too.
+  for (auto it = proxies_.begin(); it != proxies_.end();)
+  {
+    const bool sent = std::any_of(m.vehicles.begin(), m.vehicles.end(),
+                                  [&](const ExchangedVehicle& v) { return v.name == it->first; });
+    if (it->second.peer != peer || sent)
+    {
+      ++it;
+      continue;
+    }
+    const std::size_t index = it->second.index;
+    world_.removeProxy(index);
+    for (auto& [name, other] : proxies_)
+      if (other.index > index)
+        --other.index;
+    note(Level::kInfo, "partition '" + options_.partition + "': " + it->first + " (partition '" + peer +
+                           "') left the run at t = " + seconds(t) + " s; its proxy is gone");
+    it = proxies_.erase(it);
+  }
   // Thousands of points per interval: one 32-bit division each (the grid has fewer than 2^32
   // points, see the constructor), into a buffer kept from the last interval.
   const terrain::ElevationGrid& g = terrain_.base();
@@ -225,6 +244,7 @@ void PartitionRunner::placeProxy(const std::string& peer, const ExchangedVehicle
       throw std::invalid_argument("vehicle '" + v.name + "' of partition '" + peer + "': " + e.what());
     }
     Proxy p;
+    p.peer = peer;
     p.index = world_.addProxy(model, v.name);
     p.box = boundingBox(model);
     it = proxies_.emplace(v.name, p).first;
@@ -333,8 +353,9 @@ void PartitionRunner::addSoilChanges(PartitionExchange& m, double t)
   const auto columns = static_cast<std::uint32_t>(terrain_.base().columns());
   std::vector<terrain::PointChange>& changes = sent_changes_;
   changes.clear();
-  if (options_.step_ahead_intervals == 0 || !peers_known_ || !unsentSoilApart(t))
+  if (options_.step_ahead_intervals == 0 || !peers_known_ || flush_soil_ || !unsentSoilApart(t))
   {
+    flush_soil_ = false;
     // Changes accumulate in the terrain until taken: a point changed in several intervals goes
     // out once, from its state at our last soil exchange to now.
     terrain_.takeChanges(changes);
@@ -364,6 +385,56 @@ void PartitionRunner::addSoilChanges(PartitionExchange& m, double t)
     after[1] = c.after.displaced;
     after[2] = c.after.sigma_max;
   }
+}
+
+void PartitionRunner::addVehicle(PartitionVehicle vehicle)
+{
+  if (runs(vehicle.name))
+    throw std::invalid_argument("vehicle '" + vehicle.name + "' already runs in partition '" + options_.partition +
+                                "'");
+  const std::string owner = ownerOf(vehicle.name);
+  if (!owner.empty())
+    throw std::invalid_argument("vehicle '" + vehicle.name + "' runs in partition '" + owner + "'");
+  // Its soil changes are reckoned from where it stands now, at rest: at least as far as it can
+  // have gone since our last soil exchange (it did not exist before).
+  const VehicleState& s = world_.state(vehicle.id);
+  soil_sent_states_.resize(vehicles_.size());
+  soil_sent_states_.push_back(SentState{ s.pose, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero() });
+  vehicles_.push_back(std::move(vehicle));
+  note(Level::kInfo, "partition '" + options_.partition + "' runs " + vehicles_.back().name + " (" +
+                         vehicles_.back().model + ") from t = " + seconds(world_.time()) + " s");
+}
+
+bool PartitionRunner::removeVehicle(const std::string& name)
+{
+  const auto it =
+      std::find_if(vehicles_.begin(), vehicles_.end(), [&](const PartitionVehicle& v) { return v.name == name; });
+  if (it == vehicles_.end())
+    return false;
+  const std::size_t id = it->id;
+  const auto k = it - vehicles_.begin();
+  vehicles_.erase(it);
+  if (static_cast<std::size_t>(k) < soil_sent_states_.size())
+    soil_sent_states_.erase(soil_sent_states_.begin() + k);
+  for (PartitionVehicle& v : vehicles_)
+    if (v.id > id)
+      --v.id;  // World::removeVehicle moved the later ones down
+  // Its unsent ruts would otherwise wait for a peer to come near a vehicle that is gone.
+  flush_soil_ = true;
+  note(Level::kInfo,
+       "partition '" + options_.partition + "': " + name + " left the run at t = " + seconds(world_.time()) + " s");
+  return true;
+}
+
+std::string PartitionRunner::ownerOf(const std::string& name) const
+{
+  const auto it = proxies_.find(name);
+  return it == proxies_.end() ? std::string() : it->second.peer;
+}
+
+bool PartitionRunner::runs(const std::string& name) const
+{
+  return std::any_of(vehicles_.begin(), vehicles_.end(), [&](const PartitionVehicle& v) { return v.name == name; });
 }
 
 std::vector<std::uint32_t> PartitionRunner::takeToppledByPeers()

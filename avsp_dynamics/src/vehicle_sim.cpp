@@ -928,6 +928,20 @@ void World::setProxyState(std::size_t proxy, const Eigen::Isometry3d& pose, cons
   driveProxies();
 }
 
+void World::removeProxy(std::size_t proxy)
+{
+  if (proxy >= proxies_.size())
+    throw std::out_of_range("World::removeProxy: no proxy " + std::to_string(proxy) + " (have " +
+                            std::to_string(proxies_.size()) + ")");
+  const auto at = static_cast<std::ptrdiff_t>(proxy);
+  collision_->clearAgents();  // geoms before the body they ride on
+  dBodyDestroy(ode_->proxy_bodies[proxy]);
+  ode_->proxy_bodies.erase(ode_->proxy_bodies.begin() + at);
+  ode_->proxy_geoms.erase(ode_->proxy_geoms.begin() + at);
+  proxies_.erase(proxies_.begin() + at);
+  updateKinematicGeoms();
+}
+
 Eigen::Isometry3d World::proxyPose(std::size_t proxy) const
 {
   if (proxy >= proxies_.size())

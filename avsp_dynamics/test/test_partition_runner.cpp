@@ -122,6 +122,28 @@ struct Sim
     }
   }
 
+  /// Adds a vehicle between intervals (a spawn); its World index.
+  std::size_t add(const VehicleSetup& v)
+  {
+    const VehicleModel m = model(v.model);
+    vehicles.emplace_back(world->addVehicle(m, world->restingPose(m, v.x, v.y, v.yaw, 0.01), v.name), v);
+    return vehicles.back().first;
+  }
+
+  /// Removes a vehicle between intervals; the later ones' World indices move down.
+  void remove(const std::string& name)
+  {
+    const auto it =
+        std::find_if(vehicles.begin(), vehicles.end(), [&](const auto& e) { return e.second.name == name; });
+    ASSERT_NE(it, vehicles.end());
+    const std::size_t id = it->first;
+    world->removeVehicle(id);
+    vehicles.erase(it);
+    for (auto& e : vehicles)
+      if (e.first > id)
+        --e.first;
+  }
+
   std::vector<PartitionVehicle> partitionVehicles() const
   {
     std::vector<PartitionVehicle> out;
@@ -314,6 +336,128 @@ TEST(PartitionRunner, SteppingAheadGivesTheStrictAnswerBitForBit)
   EXPECT_GT(ahead, 100u);
   EXPECT_GT(p1.runner->steppedAhead(), 100u);
   EXPECT_GT(p1.runner->exchangesSent() - p1.runner->soilExchangesSent(), 50u);  // soil held back
+}
+
+// Vehicles that join and leave a partitioned run (issue 22: spawn and remove in partitions).
+// "late" joins p1 at 1 s, 8 m north of lead's path; lead leaves p1 at 3 s. The same calls at the
+// same times in one World give the same trajectories bit for bit; the peers take the newcomer as
+// a proxy from p1's next exchange and drop the leaver's proxy from the one after it left.
+const VehicleSetup kLate{ "late", "mrzr", -10.0, 8.0, 0.0, 1.5, 0.05 };
+constexpr double kLateJoins = 1.0, kLeadLeaves = 3.0;
+
+const Sim& onePartitionWithJoinAndLeave()
+{
+  static const std::unique_ptr<Sim> sim = [] {
+    auto s = std::make_unique<Sim>(crossingScenario());
+    for (int k = 1; k <= std::lround(kCrossingUntil / kInterval); ++k)
+    {
+      s->stepTo(k * kInterval);
+      if (k == std::lround(kLateJoins / kInterval))
+        s->add(kLate);
+      if (k == std::lround(kLeadLeaves / kInterval))
+        s->remove("lead");
+    }
+    return s;
+  }();
+  return *sim;
+}
+
+void joinAndLeave(int k, Schedule schedule)
+{
+  const std::vector<VehicleSetup> s = crossingScenario();
+  Partition p1("p1", { s[0] }, { "p2" }, k), p2("p2", { s[1] }, { "p1" }, k);
+  ASSERT_TRUE(run(p1, p2, kLateJoins, schedule));
+  EXPECT_EQ(p2.sim.world->proxyCount(), 1u);
+  const std::size_t id = p1.sim.add(kLate);
+  p1.runner->addVehicle(PartitionVehicle{ id, kLate.name, kLate.model, boundingBox(model(kLate.model)) });
+  EXPECT_TRUE(p1.runner->runs("late"));
+  // A name the peer runs, or one p1 runs, cannot join again.
+  EXPECT_THROW(p1.runner->addVehicle(PartitionVehicle{ id, "crosser", "mrzr", boundingBox(model("mrzr")) }),
+               std::invalid_argument);
+  EXPECT_THROW(p1.runner->addVehicle(PartitionVehicle{ id, "late", "mrzr", boundingBox(model("mrzr")) }),
+               std::invalid_argument);
+  EXPECT_EQ(p1.runner->ownerOf("crosser"), "p2");
+
+  ASSERT_TRUE(run(p1, p2, kLeadLeaves, schedule));
+  EXPECT_EQ(p2.sim.world->proxyCount(), 2u);  // lead and late
+  EXPECT_EQ(p2.runner->ownerOf("late"), "p1");
+  p1.sim.remove("lead");
+  EXPECT_TRUE(p1.runner->removeVehicle("lead"));
+  EXPECT_FALSE(p1.runner->removeVehicle("lead"));
+  EXPECT_FALSE(p1.runner->removeVehicle("crosser"));  // not p1's
+
+  ASSERT_TRUE(run(p1, p2, kCrossingUntil, schedule));
+  EXPECT_EQ(p2.sim.world->proxyCount(), 1u);  // late only
+  EXPECT_EQ(p2.runner->ownerOf("lead"), "");
+  const Sim& one = onePartitionWithJoinAndLeave();
+  ASSERT_EQ(one.samples.at("late").size(), 400u);  // 1.01 .. 5.0 s
+  ASSERT_EQ(one.samples.at("lead").size(), 300u);  // 0.01 .. 3.0 s
+  EXPECT_EQ(differing(one, p1.sim, "lead"), 0u);
+  EXPECT_EQ(differing(one, p1.sim, "late"), 0u);
+  EXPECT_EQ(differing(one, p2.sim, "crosser"), 0u);
+  EXPECT_GT(one.samples.at("late").back().pose(0, 3), kLate.x + 2.0);  // it drove
+  // p2 holds every rut lead made (AVehicleThatLeavesTakesItsUnsentRutsWithIt: also held-back ones).
+  std::size_t compared = 0, rutted = 0;
+  for (std::size_t i = 0; i < 501; ++i)
+    for (std::size_t j = 130; j <= 170; ++j)  // |y| < 2 m: lead's path
+    {
+      if (i >= 20 && i <= 70)  // crosser's crossing (x -23 .. -18 m): p2's own soil
+        continue;
+      ASSERT_EQ(p2.sim.ground->deformation(i, j).plastic, p1.sim.ground->deformation(i, j).plastic)
+          << "point (" << i << ", " << j << ")";
+      ++compared;
+      rutted += p1.sim.ground->deformation(i, j).plastic > 0.0f ? 1 : 0;
+    }
+  EXPECT_GT(rutted, 100u) << "of " << compared << " points compared";
+}
+
+TEST(PartitionRunner, VehiclesJoinAndLeaveAsInOneWorldStrict)
+{
+  joinAndLeave(0, Schedule::kRoundRobin);
+}
+
+TEST(PartitionRunner, VehiclesJoinAndLeaveAsInOneWorldSteppingAhead)
+{
+  joinAndLeave(4, Schedule::kGreedy);
+}
+
+TEST(PartitionRunner, AVehicleThatLeavesTakesItsUnsentRutsWithIt)
+{
+  // K = 4, the peer's vehicle far away: p1 holds back what its mrzr presses. When the mrzr
+  // leaves, the next exchange carries all of it (no peer vehicle would ever come near it).
+  Partition p("p1", { VehicleSetup{ "mrzr", "mrzr", 0.0, 0.0, 0.0, 1e9, 0.0 } }, { "p2" }, 4);
+  PartitionExchange far;
+  far.partition = "p2";
+  ExchangedVehicle v;
+  v.name = "far";
+  v.model = "fed_alpha";
+  v.position = Eigen::Vector3d(60.0, 40.0, 1.0);
+  far.vehicles.push_back(v);
+  for (int k = 0; k < 30; ++k)
+  {
+    far.time = 0.01 * k;
+    p.runner->receive("p2", far);
+    ASSERT_TRUE(p.tryInterval()) << "interval " << k;
+  }
+  ASSERT_EQ(p.runner->soilExchangesSent(), 1u);  // at 0 only
+  std::set<std::uint32_t> pressed;
+  for (std::uint32_t j = 120; j <= 180; ++j)
+    for (std::uint32_t i = 220; i <= 280; ++i)
+    {
+      const terrain::PointDeformation d = p.sim.ground->deformation(i, j);
+      if (d.plastic != 0.0f || d.displaced != 0.0f || d.sigma_max != 0.0f)
+        pressed.insert(j * 501 + i);
+    }
+  ASSERT_GT(pressed.size(), 20u);
+  p.sim.remove("mrzr");
+  ASSERT_TRUE(p.runner->removeVehicle("mrzr"));
+  far.time = 0.3;
+  p.runner->receive("p2", far);
+  ASSERT_TRUE(p.tryInterval());
+  EXPECT_EQ(p.runner->soilExchangesSent(), 2u);
+  const PartitionExchange& last = p.transport.outbox.back();
+  EXPECT_TRUE(last.vehicles.empty());
+  EXPECT_EQ(std::set<std::uint32_t>(last.soil_points.begin(), last.soil_points.end()), pressed);
 }
 
 /// A partition with one braked mrzr at the origin, and a peer "p2" the test plays by hand.

@@ -9,6 +9,8 @@
 //   exchanges and hold their soil changes back, and the odometry equals, bit for bit, a strict
 //   pair's (~step_ahead_intervals 0) run alongside on the same clock.
 // - A malformed exchange from a peer stops the partition with exit 1 naming the topic.
+// - Vehicles join and leave a partitioned run through any partition's ~spawn_vehicle and
+//   ~remove_vehicle (forwarded to the partition that runs them).
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -20,12 +22,15 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/PartitionExchange.h>
+#include <avsp_msgs/RemoveVehicle.h>
+#include <avsp_msgs/SpawnVehicle.h>
 #include <avsp_msgs/StepDone.h>
 #include <avsp_msgs/VehicleTelemetry.h>
 #include <avsp_dynamics/vehicle_model.hpp>
@@ -36,6 +41,7 @@
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
 #include <xmlrpcpp/XmlRpcClient.h>
+#include <avsp_terrain/ros/ros_graph.hpp>
 #include <avsp_terrain/ros/spin_until.hpp>
 
 namespace
@@ -507,4 +513,79 @@ int main(int argc, char** argv)
   ros::init(argc, argv, "test_partitions");
   ros::NodeHandle nh;
   return RUN_ALL_TESTS();
+}
+
+namespace
+{
+/// Who publishes `topic` (full node names).
+std::set<std::string> publishersOf(const std::string& topic)
+{
+  avsp::node::RosGraph graph;
+  if (!avsp::node::readRosGraph(graph) || graph.publishers.count(topic) == 0)
+    return {};
+  return graph.publishers.at(topic);
+}
+}  // namespace
+
+TEST(PartitionSpawn, AVehicleJoinsThePartitionNamedAndLeavesThroughAnyPartition)
+{
+  ros::NodeHandle nh;
+  double clock = 0.0;
+  ros::Subscriber clock_sub = nh.subscribe<rosgraph_msgs::Clock>(
+      "/clock", 10, [&](const rosgraph_msgs::Clock::ConstPtr& m) { clock = m->clock.toSec(); });
+  std::vector<double> c_stamps;
+  ros::Subscriber c_sub = nh.subscribe<nav_msgs::Odometry>(
+      "/c/avt_341/odometry", 1000,
+      [&](const nav_msgs::Odometry::ConstPtr& m) { c_stamps.push_back(m->header.stamp.toSec()); });
+  ASSERT_TRUE(ros::service::waitForService("/p1/spawn_vehicle", 30000));
+  ASSERT_TRUE(ros::service::waitForService("/p2/spawn_vehicle", 30000));
+  ASSERT_TRUE(spinUntil([&] { return clock > 0.5; }, 60.0)) << "the clock did not start";
+
+  avsp_msgs::SpawnVehicle spawn;
+  spawn.request.name = "c";
+  spawn.request.model = "mrzr";
+  spawn.request.x = 10.0;
+  spawn.request.y = 0.0;
+  spawn.request.partition = "p9";
+  ASSERT_TRUE(ros::service::call("/p1/spawn_vehicle", spawn));
+  EXPECT_FALSE(spawn.response.success);
+  EXPECT_NE(spawn.response.message.find("no partition 'p9' in this run (partitions: p1, p2)"), std::string::npos)
+      << spawn.response.message;
+
+  // Asked of p1, run by p2.
+  spawn.request.partition = "p2";
+  ASSERT_TRUE(ros::service::call("/p1/spawn_vehicle", spawn));
+  ASSERT_TRUE(spawn.response.success) << spawn.response.message;
+  EXPECT_EQ(spawn.response.message.rfind("partition 'p2': 'c' (mrzr) set down at (10, 0)", 0), 0u)
+      << spawn.response.message;
+  const double spawned = clock;
+  ASSERT_TRUE(spinUntil([&] { return !c_stamps.empty() && clock > spawned + 0.2; }, 30.0)) << "no odometry of c";
+  EXPECT_EQ(publishersOf("/c/avt_341/odometry"), std::set<std::string>{ "/p2" });
+  // p1 has applied p2's exchanges well past the spawn: it knows c as p2's.
+  avsp_msgs::SpawnVehicle again = spawn;
+  again.request.partition = "";
+  ASSERT_TRUE(ros::service::call("/p1/spawn_vehicle", again));
+  EXPECT_FALSE(again.response.success);
+  EXPECT_NE(again.response.message.find("there is already a vehicle 'c' (partition 'p2')"), std::string::npos)
+      << again.response.message;
+
+  // Removed through p1, by p2.
+  avsp_msgs::RemoveVehicle remove;
+  remove.request.name = "c";
+  ASSERT_TRUE(ros::service::call("/p1/remove_vehicle", remove));
+  ASSERT_TRUE(remove.response.success) << remove.response.message;
+  EXPECT_EQ(remove.response.message.rfind("partition 'p2': 'c' removed at t = ", 0), 0u) << remove.response.message;
+  const double removed = clock;
+  ASSERT_TRUE(spinUntil([&] { return clock > removed + 0.2; }, 30.0));
+  EXPECT_TRUE(publishersOf("/c/avt_341/odometry").empty());
+  const double last = c_stamps.back();
+  EXPECT_LE(last, removed + 0.05) << "c's odometry went on after its removal";
+  // p1 has dropped its proxy: the name is free, and c joins p1 this time.
+  ASSERT_TRUE(ros::service::call("/p1/spawn_vehicle", again));
+  ASSERT_TRUE(again.response.success) << again.response.message;
+  ASSERT_TRUE(spinUntil([&] { return !c_stamps.empty() && c_stamps.back() > last + 0.1; }, 30.0));
+  EXPECT_EQ(publishersOf("/c/avt_341/odometry"), std::set<std::string>{ "/p1" });
+  ASSERT_TRUE(ros::service::call("/p2/remove_vehicle", remove));  // and leaves through p2
+  EXPECT_TRUE(remove.response.success) << remove.response.message;
+  EXPECT_EQ(remove.response.message.rfind("partition 'p1': ", 0), 0u) << remove.response.message;
 }

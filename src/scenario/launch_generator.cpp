@@ -304,6 +304,7 @@ void writeDynamics(std::ostream& o, const LaunchInputs& in)
       w.rosparam("peers", "[" + peers + "]");
       w.paramBool("publish_clock", false);
       w.param("lockstep_timeout", kPartitionTimeout);
+      w.rosparam("sensor_nodes", "[" + quoted(kSensorsPartition) + "]");  // a vehicle spawned here is sensed
     }
     else
     {

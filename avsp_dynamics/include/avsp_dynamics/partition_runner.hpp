@@ -196,6 +196,24 @@ public:
   /// objects our vehicles toppled since the last one).
   void finish(double t);
 
+  /**
+   * @brief A vehicle added to this partition's World between intervals (spawned at run time):
+   *        it goes out with our next exchange, and the peers take it as a proxy.
+   * @throw std::invalid_argument when the name is one of ours or a peer's (ownerOf())
+   */
+  void addVehicle(PartitionVehicle vehicle);
+  /**
+   * @brief One of ours removed from the World between intervals (after World::removeVehicle:
+   *        the later vehicles' ids move down by one). It is missing from our next exchange, which
+   *        also carries every soil change not sent yet (its ruts), and the peers drop its proxy.
+   * @return false when no vehicle of ours has the name
+   */
+  bool removeVehicle(const std::string& name);
+  /// The peer partition that runs `name` (a proxy here), "" when none does.
+  std::string ownerOf(const std::string& name) const;
+  /// Whether `name` is one of this partition's vehicles.
+  bool runs(const std::string& name) const;
+
   /// s: the exchange prepare() last found missing.
   double waitingFor() const { return waiting_for_; }
   /// The peers whose exchange of waitingFor() has not arrived, as their sources.
@@ -218,6 +236,7 @@ private:
   /// A peer's vehicle as its last applied exchange gave it.
   struct Proxy
   {
+    std::string peer;       ///< the partition that runs it
     std::size_t index = 0;  ///< World proxy index
     VehicleBox box;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
@@ -264,6 +283,7 @@ private:
   std::vector<SentState> soil_sent_states_;                            ///< per vehicle, in vehicles_ order
   double soil_sent_ = 0.0;    ///< s: the last exchange that carried our soil changes
   bool peers_known_ = false;  ///< every peer's exchange applied at least once
+  bool flush_soil_ = false;   ///< a vehicle left: the next exchange carries every unsent soil change
   double peers_applied_ = 0.0;
   std::uint64_t exchanges_ = 0, soil_exchanges_ = 0, stepped_ahead_ = 0, merged_points_ = 0;
 };

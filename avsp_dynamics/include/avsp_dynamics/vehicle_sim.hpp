@@ -362,6 +362,12 @@ public:
    */
   void setProxyState(std::size_t proxy, const Eigen::Isometry3d& pose, const Eigen::Vector3d& linear_velocity,
                      const Eigen::Vector3d& angular_velocity);
+  /**
+   * @brief Removes proxy k (its vehicle left its partition's run): its body and boxes go; the
+   *        later proxies' indices move down by one. Between steps.
+   * @throw std::out_of_range for an unknown proxy
+   */
+  void removeProxy(std::size_t proxy);
   std::size_t proxyCount() const { return proxies_.size(); }
   /// Proxy k's base_link pose now (map), where its body is. @throw std::out_of_range
   Eigen::Isometry3d proxyPose(std::size_t proxy) const;

@@ -83,6 +83,7 @@
 #include <avsp_terrain/ros/agent_params.hpp>
 #include <avsp_terrain/ros/conversions.hpp>
 #include <avsp_terrain/ros/node_params.hpp>
+#include <avsp_terrain/ros/ros_graph.hpp>
 #include <avsp_terrain/ros/terrain_source_params.hpp>
 #include <avsp_terrain/soil.hpp>
 
@@ -456,6 +457,8 @@ private:
     const double h = world_->options().step;
     const double exchanged_before = costs.exchanging;
     if (runner_ && !prepareInterval(from, end, costs.exchanging))
+      return false;
+    if (!awaiting_.empty() && !waitForSensorSubscriptions())  // a spawned vehicle's first interval
       return false;
     const ros::WallTime begin = ros::WallTime::now();
     costs.waiting += (begin - mark).toSec() - (costs.exchanging - exchanged_before);
@@ -1055,8 +1058,34 @@ private:
 
   // ---- ~spawn_vehicle, ~remove_vehicle -------------------------------------------------------
   // Between two steps, like every callback: for a reproducible script, ~pause, ~step to the
-  // instant, call, ~resume. A partition's vehicles are fixed at start-up (its peers hold proxies
-  // of them), so a partitioned run refuses both.
+  // instant, call, ~resume. In a partitioned run, between two intervals (the clock is
+  // lockstep_clock's, which has no pause: the call takes effect at the interval it arrives in);
+  // a request for another partition's vehicle, or naming another partition, is forwarded to the
+  // node that publishes that partition's exchange.
+
+  /// The node running partition `peer` (the publisher of /lockstep/exchange/<peer>), "" if none.
+  static std::string peerNode(const std::string& peer)
+  {
+    avsp::node::RosGraph graph;
+    if (!avsp::node::readRosGraph(graph))
+      return "";
+    const auto it = graph.publishers.find("/lockstep/exchange/" + peer);
+    return it == graph.publishers.end() || it->second.size() != 1 ? std::string() : *it->second.begin();
+  }
+
+  /// Forwards a request to partition `peer`'s node: false (with `message`) when it cannot.
+  template <class Service>
+  bool forward(const std::string& peer, const std::string& service, Service& call, std::string& message)
+  {
+    const std::string node = peerNode(peer);
+    if (node.empty())
+      message = "refused: no node publishes /lockstep/exchange/" + peer + " (partition '" + peer + "')";
+    else if (!ros::service::call(node + "/" + service, call))
+      message = "refused: " + node + "/" + service + " (partition '" + peer + "') did not answer";
+    else
+      return true;
+    return false;
+  }
 
   bool onSpawnVehicle(avsp_msgs::SpawnVehicle::Request& req, avsp_msgs::SpawnVehicle::Response& res)
   {
@@ -1065,12 +1094,31 @@ private:
     const auto named = [&](const std::string& n) {
       return std::any_of(vehicles_.begin(), vehicles_.end(), [&](const auto& v) { return v->name == n; });
     };
-    if (!partition_.empty())
-      res.message = "refused: partition '" + partition_ + "' runs a fixed set of vehicles (~partition)";
+    const std::vector<std::string> peers = runner_ ? runner_->options().peers : std::vector<std::string>();
+    if (!req.partition.empty() && req.partition != partition_)
+    {
+      if (std::find(peers.begin(), peers.end(), req.partition) == peers.end())
+        res.message = "refused: no partition '" + req.partition + "' in this run" +
+                      (peers.empty() ? std::string(" (it has none)")
+                                     : " (partitions: " + partition_ + ", " + joined(peers) + ")");
+      else
+      {
+        avsp_msgs::SpawnVehicle call;
+        call.request = req;
+        if (forward(req.partition, "spawn_vehicle", call, res.message))
+        {
+          res = call.response;
+          res.message = "partition '" + req.partition + "': " + res.message;
+        }
+      }
+    }
     else if (req.name.empty() || req.name.find('/') != std::string::npos || !ros::names::validate(req.name, why))
       res.message = "refused: name '" + req.name + "' must be a valid ROS name without '/'";
     else if (named(req.name))
       res.message = "refused: there is already a vehicle '" + req.name + "'";
+    else if (runner_ && !runner_->ownerOf(req.name).empty())
+      res.message =
+          "refused: there is already a vehicle '" + req.name + "' (partition '" + runner_->ownerOf(req.name) + "')";
     else if (req.model.empty() || req.model.find('/') != std::string::npos ||
              !std::filesystem::is_regular_file(config_dir_ + "/" + req.model + ".yaml"))
       res.message = "refused: no model '" + req.model + "' in ~config_dir " + config_dir_ +
@@ -1102,6 +1150,9 @@ private:
             vehicles_.pop_back();
             throw std::runtime_error(refused);
           }
+          if (runner_)
+            runner_->addVehicle(ad::PartitionVehicle{ vehicles_.back()->id, req.name, req.model,
+                                                      ad::boundingBox(vehicles_.back()->model) });
           transforms_.resize(vehicles_.size());
           publishOdomFrames();
           VehicleIo* raw = vehicles_.back().get();
@@ -1133,8 +1184,17 @@ private:
     std::vector<std::string> names;
     for (const auto& v : vehicles_)
       names.push_back(v->name);
-    if (!partition_.empty())
-      res.message = "refused: partition '" + partition_ + "' runs a fixed set of vehicles (~partition)";
+    const std::string owner = runner_ && it == vehicles_.end() ? runner_->ownerOf(req.name) : std::string();
+    if (!owner.empty())
+    {
+      avsp_msgs::RemoveVehicle call;
+      call.request = req;
+      if (forward(owner, "remove_vehicle", call, res.message))
+      {
+        res = call.response;
+        res.message = "partition '" + owner + "': " + res.message;
+      }
+    }
     else if (it == vehicles_.end())
       res.message = "refused: no vehicle '" + req.name + "' (vehicles: " + joined(names) + ")";
     else
@@ -1152,6 +1212,8 @@ private:
           --o->id;  // World::removeVehicle moved the later ones down
       transforms_.erase(transforms_.begin() + (it - vehicles_.begin()));
       vehicles_.erase(it);  // its subscribers and publishers shut down with it
+      if (runner_)
+        runner_->removeVehicle(req.name);
       res.success = true;
       res.message = "'" + req.name + "' removed at t = " + shortNumber(world_->time()) + " s";
     }
