@@ -907,6 +907,66 @@ void DeformableTerrain::fillWindow(std::size_t i0, std::size_t i1, std::size_t j
   return out;
 }
 
+/// What collect() works out once per contact and every point of it reads.
+struct DeformableTerrain::Sweep
+{
+  double ca = 1.0, sa = 0.0;                          ///< the footprint's heading
+  double dx = 0.0, dy = 0.0, ox = 0.0, oy = 0.0;      ///< the grid's spacing and origin
+  double lateral_spacing = 0.0, along_spacing = 0.0;  ///< m, grid points across and along the footprint
+  double half_cell = 0.0;                             ///< m, half along_spacing
+  double reach = 0.0;                                 ///< m, how far along the footprint its points reach
+  double r = 0.0, r2 = 0.0;                           ///< m, the wheel's radius (a track patch's half length)
+  bool rolling = false;                               ///< a wheel rolling over its rut (not pressed at rest)
+  double pressing = 0.0;                       ///< m, only cells this near the bottom along the footprint can press
+  std::size_t i0 = 0, i1 = 0, j0 = 0, j1 = 0;  ///< the grid points the footprint may cover
+};
+
+bool DeformableTerrain::sweepOf(const Footprint& fp, Sweep& sw)
+{
+  sw.ca = fp.ca;
+  sw.sa = fp.sa;
+  const double ca = fp.ca, sa = fp.sa;
+  const double dx = sw.dx = base_.dx(), dy = sw.dy = base_.dy();
+  // Spacing of grid points across and along the footprint (exact when it is axis-aligned).
+  sw.lateral_spacing = dx * std::abs(sa) + dy * std::abs(ca);
+  sw.along_spacing = dx * std::abs(ca) + dy * std::abs(sa);
+  sw.half_cell = 0.5 * sw.along_spacing;
+  // A wheel's points reach half a cell beyond its rim: their cells are partly under it.
+  sw.reach = fp.wheel ? fp.half_length + sw.half_cell : fp.half_length;
+  // Axis-aligned bounds of the footprint rectangle (the wheel's is 2r x w), widened by the
+  // on-edge tolerance so that the index range keeps a row of points lying on an edge.
+  const double across_reach = fp.half_width + 0.5 * sw.lateral_spacing;  // cells partly under the band
+  const double ext_x = sw.reach * std::abs(ca) + across_reach * std::abs(sa) + kOnEdge * (dx + dy);
+  const double ext_y = sw.reach * std::abs(sa) + across_reach * std::abs(ca) + kOnEdge * (dx + dy);
+  const double ox = sw.ox = base_.originX(), oy = sw.oy = base_.originY();
+  if (!gridRange(fp.cx - ext_x, fp.cx + ext_x, ox, dx, base_.columns(), sw.i0, sw.i1) ||
+      !gridRange(fp.cy - ext_y, fp.cy + ext_y, oy, dy, base_.rows(), sw.j0, sw.j1))
+    return false;
+  sw.r = fp.half_length;
+  sw.r2 = sw.r * sw.r;
+  sw.rolling = std::abs(fp.v_long) > kRollingSpeed;
+  // A wheel presses nowhere its rim is above the window's highest surface: only cells within
+  // `pressing` of the bottom along the footprint can (the exact per-cell test is in loadPoint).
+  sw.pressing = sw.reach;
+  if (!fp.wheel)
+    return true;
+  fillWindow(sw.i0 > 0 ? sw.i0 - 1 : 0, std::min(sw.i1 + 1, base_.columns() - 1), sw.j0 > 0 ? sw.j0 - 1 : 0,
+             std::min(sw.j1 + 1, base_.rows() - 1));
+  WindowPoint* w = window_.data();
+  for (std::size_t b = 0; b < window_rows_; ++b)
+  {
+    const double y = oy + static_cast<double>(window_j0_ + b) * dy - fp.cy;
+    for (std::size_t a = 0; a < window_columns_; ++a, ++w)
+    {
+      const double x = ox + static_cast<double>(window_i0_ + a) * dx - fp.cx;
+      w->along = (x * ca + y * sa) * fp.travel;
+    }
+  }
+  const double clear = fp.cz - window_top_;
+  sw.pressing = clear >= sw.r ? -1.0 : (clear > 0.0 ? std::sqrt(sw.r2 - clear * clear) : sw.r);
+  return true;
+}
+
 void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
 {
   // Kinematics: T8 slip from the theoretical speed (T9/T10), regularised near rest, and the
@@ -915,62 +975,23 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
   out.slip_angle = std::atan2(fp.v_lat, std::max(std::abs(fp.v_long), kSlipRegularisationSpeed));
 
   loaded_.clear();
-  const double ca = fp.ca, sa = fp.sa;
-  const double dx = base_.dx(), dy = base_.dy();
-  // Spacing of grid points across and along the footprint (exact when it is axis-aligned).
-  const double lateral_spacing = dx * std::abs(sa) + dy * std::abs(ca);
-  const double along_spacing = dx * std::abs(ca) + dy * std::abs(sa);
-  const double half_cell = 0.5 * along_spacing;
-  // A wheel's points reach half a cell beyond its rim: their cells are partly under it.
-  const double reach = fp.wheel ? fp.half_length + half_cell : fp.half_length;
-  // Axis-aligned bounds of the footprint rectangle (the wheel's is 2r x w), widened by the
-  // on-edge tolerance so that the index range keeps a row of points lying on an edge.
-  const double across_reach = fp.half_width + 0.5 * lateral_spacing;  // cells partly under the band
-  const double ext_x = reach * std::abs(ca) + across_reach * std::abs(sa) + kOnEdge * (dx + dy);
-  const double ext_y = reach * std::abs(sa) + across_reach * std::abs(ca) + kOnEdge * (dx + dy);
-  const double ox = base_.originX(), oy = base_.originY();
-  std::size_t i0 = 0, i1 = 0, j0 = 0, j1 = 0;
-  if (!gridRange(fp.cx - ext_x, fp.cx + ext_x, ox, dx, base_.columns(), i0, i1) ||
-      !gridRange(fp.cy - ext_y, fp.cy + ext_y, oy, dy, base_.rows(), j0, j1))
+  Sweep sw;
+  if (!sweepOf(fp, sw))
     return;
-  const double r = fp.half_length, r2 = r * r;
-  const bool rolling = std::abs(fp.v_long) > kRollingSpeed;
-  if (fp.wheel)
-  {
-    fillWindow(i0 > 0 ? i0 - 1 : 0, std::min(i1 + 1, base_.columns() - 1), j0 > 0 ? j0 - 1 : 0,
-               std::min(j1 + 1, base_.rows() - 1));
-    WindowPoint* w = window_.data();
-    for (std::size_t b = 0; b < window_rows_; ++b)
-    {
-      const double y = oy + static_cast<double>(window_j0_ + b) * dy - fp.cy;
-      for (std::size_t a = 0; a < window_columns_; ++a, ++w)
-      {
-        const double x = ox + static_cast<double>(window_i0_ + a) * dx - fp.cx;
-        w->along = (x * ca + y * sa) * fp.travel;
-      }
-    }
-  }
+  const double ca = sw.ca, sa = sw.sa, r = sw.r;
   double rigid_weight = 0.0, soil_weight = 0.0, rigid_best = 0.0;
-  // A wheel presses nowhere its rim is above the window's highest surface: only cells within
-  // `pressing` of the bottom along the footprint can (the exact per-cell test is below).
-  double pressing = reach;
-  if (fp.wheel)
+  for (std::size_t j = sw.j0; j <= sw.j1; ++j)
   {
-    const double clear = fp.cz - window_top_;
-    pressing = clear >= r ? -1.0 : (clear > 0.0 ? std::sqrt(r2 - clear * clear) : r);
-  }
-  for (std::size_t j = j0; j <= j1; ++j)
-  {
-    const double py = oy + j * dy - fp.cy;
+    const double py = sw.oy + j * sw.dy - fp.cy;
     const double py_sa = py * sa, py_ca = py * ca;
     const std::size_t tile_row = (j / kTileSize) * tiles_x_, in_row = (j % kTileSize) * kTileSize;
     const std::uint8_t* soil_row = soil_map_.empty() ? nullptr : soil_map_.data() + j * base_.columns();
     const float* base_row = base_.pointHeights().data() + j * base_.columns();  // (i, j) is in the grid
     std::size_t tile_column = tiles_x_;                                         // none yet
     const Tile* tile = nullptr;
-    for (std::size_t i = i0; i <= i1; ++i)
+    for (std::size_t i = sw.i0; i <= sw.i1; ++i)
     {
-      const double px = ox + i * dx - fp.cx;
+      const double px = sw.ox + i * sw.dx - fp.cx;
       const double u = px * ca + py_sa;
       const double v = -px * sa + py_ca;
       // Across the running gear each point carries the share of its cell (v +- half a spacing)
@@ -979,18 +1000,18 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
       // whose cell is partly under the band records the pressing (the next step must find that
       // soil pressed, or the same wheel would keep bearing on virgin soil there); its share of
       // any flow is its share of the cell.
-      const double across = std::min(fp.half_width, std::abs(v) + 0.5 * lateral_spacing) -
-                            std::max(-fp.half_width, std::abs(v) - 0.5 * lateral_spacing);
-      if (!(across > kOnEdge * lateral_spacing) ||
-          (fp.wheel ? std::abs(u) >= reach : !withinEdge(r - std::abs(u), along_spacing)))
+      const double across = std::min(fp.half_width, std::abs(v) + 0.5 * sw.lateral_spacing) -
+                            std::max(-fp.half_width, std::abs(v) - 0.5 * sw.lateral_spacing);
+      if (!(across > kOnEdge * sw.lateral_spacing) ||
+          (fp.wheel ? std::abs(u) >= sw.reach : !withinEdge(r - std::abs(u), sw.along_spacing)))
         continue;
-      const double lateral_weight = std::min(across / lateral_spacing, 1.0);
+      const double lateral_weight = std::min(across / sw.lateral_spacing, 1.0);
       const std::uint8_t soil_index = soil_row ? soil_row[i] : 0;
-      const ContactSoil& soil = contact_soils_[soil_index];
+      const bool rigid = contact_soils_[soil_index].model() == SinkageModel::kRigid;
       // Rigid or soil under the running gear's bottom (a wheel's lowest half radius, a plate).
       if (!fp.wheel || std::abs(u) <= 0.5 * r)
       {
-        if (soil.model() == SinkageModel::kRigid)
+        if (rigid)
         {
           rigid_weight += lateral_weight;
           if (lateral_weight > rigid_best)
@@ -1004,9 +1025,9 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
           soil_weight += lateral_weight;
         }
       }
-      if (soil.model() == SinkageModel::kRigid)
+      if (rigid)
         continue;  // pavement: nothing sinks, the tyre deflects (the vehicle's contact)
-      if (std::abs(u) - half_cell > pressing)
+      if (std::abs(u) - sw.half_cell > sw.pressing)
         continue;  // the rim clears this cell
       // The point's tile changes every kTileSize columns: one directory lookup per tile.
       if (i / kTileSize != tile_column)
@@ -1015,206 +1036,7 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
         tile = tiles_[tile_row + tile_column].get();
       }
       const PointDeformation state = tile ? (*tile)[in_row + i % kTileSize] : PointDeformation{};
-      const double base_z = base_row[i];
-      const double surface = base_z - state.plastic - state.displaced;
-      const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
-      const bool bekker = soil.model() == SinkageModel::kBekker;
-      const double modulus = bekker ? soil.bekkerModulus(fp.bekker_b) : 0.0;
-      const auto load = [&](double penetration) {
-        return bekker ? soil.bekkerLoad(modulus, state.plastic, penetration)
-                      : soil.simpleLoad(state.plastic, deformation, state.sigma_max, penetration);
-      };
-      // Built in place (the point is dropped again where it carries nothing): no copy of it.
-      LoadedPoint& p = loaded_.emplace_back();
-      p.i = static_cast<std::uint32_t>(i);
-      p.j = static_cast<std::uint32_t>(j);
-      p.soil = soil_index;
-      p.weight = lateral_weight;
-      p.pressed = 1.0;
-      double bottom = 0.0;
-      if (fp.wheel)
-      {
-        // The point stands for its cell, u +- half a cell along the footprint: the cell carries
-        // the mean pressure over it, integrated by two Gauss points on each stretch between the
-        // places where the pressure has a kink (the rim's bottom, behind which the soil has
-        // been pressed already, and where the rim meets the point's surface), each with the
-        // soil's state interpolated (bilinearly) between the grid points around it and the rim's
-        // own height there. A rut's floor between points then follows the imprint the points
-        // record, and the wheel's edge cuts a cell where it really does: a 0.1 m grid
-        // integrates a wheel's pressure about as finely as a fine one, instead of each point
-        // taking its whole cell at its own pressure or nothing.
-        bottom = fp.cz - std::sqrt(std::max(r2 - u * u, 0.0));
-        p.penetration = std::abs(u) < r ? surface - bottom : 0.0;
-        p.deforms = p.penetration > 0.0;
-        // If the rim's bottom passed over the point during the step, the point records the
-        // bottom's depth (not the rim's flank where it is now): a rut's floor then has no ripple
-        // of the step's travel, on which the next wheel would bounce.
-        const double along = u * fp.travel;
-        const double recorded =
-            p.deforms && along <= 0.0 && along + fp.swept >= 0.0 ? surface - (fp.cz - r) : p.penetration;
-        const PointLoad at_point = p.deforms ? load(recorded) : PointLoad{};
-        p.sigma_point = at_point.sigma;
-        p.virgin = at_point.virgin;
-        p.depth = state.plastic + recorded;
-        const double gx = ox + i * dx, gy = oy + j * dy;
-        const double lo = std::max(u - half_cell, -r), hi = std::min(u + half_cell, r);
-        // Quick exit for the cells the rim clears (most of a wheel's upper arc): every sample of
-        // this cell interpolates between the window points (i +- 1, j +- 1), so its surface is at
-        // most max(base - displaced) - min(plastic) over them (the front arc's cap only lowers
-        // plastic to at least the least of its corners); if the rim's lowest point over the
-        // cell is above that, nothing here presses and the point is skipped, as the samples
-        // would skip it. Exact: the same result, without the samples.
-        if (!p.deforms)
-        {
-          const std::size_t wi = i - window_i0_, wj = j - window_j0_;
-          const std::size_t a0 = wi > 0 ? wi - 1 : 0, a1 = std::min(wi + 1, window_columns_ - 1);
-          const std::size_t b0 = wj > 0 ? wj - 1 : 0, b1 = std::min(wj + 1, window_rows_ - 1);
-          double top = -std::numeric_limits<double>::infinity(),
-                 least_plastic = std::numeric_limits<double>::infinity();
-          for (std::size_t wb = b0; wb <= b1; ++wb)
-            for (std::size_t wa = a0; wa <= a1; ++wa)
-            {
-              const WindowPoint& w = window_[wb * window_columns_ + wa];
-              top = std::max(top, w.base - w.displaced);
-              least_plastic = std::min(least_plastic, w.plastic);
-            }
-          const double nearest = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
-          const double rim_low = fp.cz - std::sqrt(std::max(r2 - nearest * nearest, 0.0));
-          if (rim_low > top - least_plastic)
-          {
-            loaded_.pop_back();
-            continue;
-          }
-        }
-        double breaks[5] = { lo, 0.0, 0.0, 0.0, hi };
-        int count = 1;
-        const double below_axle = fp.cz - surface;
-        const double edge = below_axle > 0.0 && below_axle < r ? std::sqrt(r2 - below_axle * below_axle) : r;
-        for (const double at : { -edge, 0.0, edge })
-          if (at > lo && at < hi)
-            breaks[count++] = at;
-        breaks[count] = hi;
-        std::sort(breaks + 1, breaks + count);
-        double pressed = 0.0, pressed_lo = hi, pressed_hi = lo;  // the pressed stretch, u
-        for (int k = 0; k < count; ++k)
-        {
-          const double mid = 0.5 * (breaks[k] + breaks[k + 1]), half = 0.5 * (breaks[k + 1] - breaks[k]);
-          if (!(half > 0.0))
-            continue;
-          const double at_sample[2] = { mid - kGauss * half, mid + kGauss * half };
-          double pens[2];
-          for (int g = 0; g < 2; ++g)
-          {
-            const double us = at_sample[g];
-            const double offset = us - u;
-            // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
-            // wheel at rest (pressed straight down) is the same front and back.
-            const double side = rolling ? (us * fp.travel < 0.0 ? 1.0 : -1.0) : 0.0;
-            const WindowPoint w = windowState(gx + offset * ca, gy + offset * sa, side, !bekker);
-            // Ahead of a rolling wheel's bottom, between a point its front arc has pressed and
-            // one it has not reached, the linear interpolant runs above the arc's imprint (the
-            // imprint ends at the arc's leading edge): the soil there has been pressed at most
-            // where the rim was a step ago, unless it was deeper before (the least of the points
-            // around it). Without the cap a coarse grid's front arc loses its pressure near the
-            // leading edge: the wheel sinks deeper and resists less with the bottom mid-cell.
-            double plastic = w.plastic;
-            if (side < 0.0)
-            {
-              const double back = us + fp.travel * fp.swept;
-              const double imprint =
-                  std::abs(back) < r ? w.base - w.displaced - (fp.cz - std::sqrt(r2 - back * back)) : 0.0;
-              plastic = std::min(plastic, std::max(imprint, w.plastic_min));
-            }
-            const double rim_depth = std::sqrt(r2 - us * us);  // the rim below the axle here
-            pens[g] = w.base - plastic - w.displaced - (fp.cz - rim_depth);
-            if (!(pens[g] > 0.0))
-              continue;
-            const PointLoad at = bekker ? soil.bekkerLoad(modulus, plastic, pens[g])
-                                        : soil.simpleLoad(plastic, plastic + w.displaced, w.sigma_max, pens[g]);
-            const double share = half / along_spacing;  // of the cell, this sample's
-            p.sigma += share * at.sigma;
-            p.slope += share * at.slope;
-            p.unload += share * at.unload;
-            // The rim's push along / across the ground where this sample presses (Bekker
-            // compaction): tan(theta - beta), theta the rim's angle from the vertical, beta the
-            // ground's slope, both along the travel.
-            if (bekker)
-            {
-              const double rim = us * fp.travel / rim_depth, ground = fp.ground_slope * fp.travel;
-              p.rim_slope +=
-                  share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
-            }
-          }
-          // The pressed part of this stretch: all of it, or up to where the penetration crosses
-          // 0 between the samples (linearly): the contact's edges at sub-sample resolution.
-          const bool in0 = pens[0] > 0.0, in1 = pens[1] > 0.0;
-          if (in0 || in1)
-          {
-            double from = breaks[k], to = breaks[k + 1];
-            if (in0 != in1)
-            {
-              const double root = at_sample[0] + (at_sample[1] - at_sample[0]) * pens[0] / (pens[0] - pens[1]);
-              (in0 ? to : from) = std::clamp(root, breaks[k], breaks[k + 1]);
-            }
-            pressed += (to - from) / along_spacing;
-            pressed_lo = std::min(pressed_lo, from);
-            pressed_hi = std::max(pressed_hi, to);
-          }
-        }
-        if (!(p.sigma > 0.0) && !p.deforms)
-        {
-          loaded_.pop_back();
-          continue;
-        }
-        p.pressed = std::min(pressed, 1.0);
-        if (p.sigma > 0.0)
-          p.rim_slope /= p.sigma;
-        // Its strip along the travel is the stretch the rim presses (a cell the contact's leading
-        // edge crosses counts from that edge: the shear displacement j = s x starts there).
-        if (!(pressed_hi > pressed_lo))
-          pressed_lo = pressed_hi = u;
-        p.along0 = fp.travel > 0.0 ? pressed_lo : -pressed_hi;
-        p.along1 = fp.travel > 0.0 ? pressed_hi : -pressed_lo;
-      }
-      else
-      {
-        bottom = fp.cz + fp.slope_u * u + fp.slope_v * v;
-        p.penetration = surface - bottom;
-        if (!(p.penetration > 0.0))
-        {
-          loaded_.pop_back();
-          continue;
-        }
-        p.deforms = true;
-        const PointLoad at_point = load(p.penetration);
-        p.sigma = p.sigma_point = at_point.sigma;
-        p.slope = at_point.slope;
-        p.unload = at_point.unload;
-        p.virgin = at_point.virgin;
-        // A track's strip, m behind the whole track's leading edge (T11's j = s x keeps growing
-        // over segments); the points nearest the patch's ends reach to them.
-        const double along = u * fp.travel;
-        const double x = 0.5 * fp.track_length - (fp.segment_offset * fp.travel + along);
-        const double to_lead = r - along, to_trail = r + along;
-        const double near_end = (1.0 - kOnEdge) * along_spacing;
-        p.x0 = to_lead < near_end ? x - to_lead : x - 0.5 * along_spacing;
-        p.x1 = to_trail < near_end ? x + to_trail : x + 0.5 * along_spacing;
-        p.weight *= (p.x1 - p.x0) / along_spacing;
-      }
-      if (!(p.sigma > 0.0))
-      {
-        loaded_.pop_back();
-        continue;
-      }
-      if (!fp.wheel)
-        p.depth = state.plastic + p.penetration;
-      p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0)
-                         : soil.elasticSinkage(p.sigma_point, deformation);
-      // Sinkage where the gear carries load, pressing on (deforming) or resting on soil it has
-      // pressed before (a parked wheel's point at its own imprint).
-      if (p.deforms || (p.sigma > 0.0 && (!fp.wheel || std::abs(u) < r)))
-        out.sinkage = std::max(out.sinkage, base_z - bottom);
-      out.elastic_sinkage = std::max(out.elastic_sinkage, p.elastic);
+      loadPoint(fp, sw, i, j, u, v, lateral_weight, soil_index, state, base_row[i], out);
     }
   }
   if (rigid_weight > 0.0)
@@ -1244,30 +1066,347 @@ void DeformableTerrain::collect(const Footprint& fp, ContactForces& out)
   }
 }
 
+void DeformableTerrain::loadPoint(const Footprint& fp, const Sweep& sw, std::size_t i, std::size_t j, double u,
+                                  double v, double lateral_weight, std::uint8_t soil_index,
+                                  const PointDeformation& state, double base_z, ContactForces& out)
+{
+  const ContactSoil& soil = contact_soils_[soil_index];
+  const double surface = base_z - state.plastic - state.displaced;
+  const double deformation = state.plastic + state.displaced;  // float sum, as T3's z
+  const bool bekker = soil.model() == SinkageModel::kBekker;
+  const double modulus = bekker ? soil.bekkerModulus(fp.bekker_b) : 0.0;
+  const auto load = [&](double penetration) {
+    return bekker ? soil.bekkerLoad(modulus, state.plastic, penetration)
+                  : soil.simpleLoad(state.plastic, deformation, state.sigma_max, penetration);
+  };
+  // Built in place (the point is dropped again where it carries nothing): no copy of it.
+  LoadedPoint& p = loaded_.emplace_back();
+  p.i = static_cast<std::uint32_t>(i);
+  p.j = static_cast<std::uint32_t>(j);
+  p.soil = soil_index;
+  p.weight = lateral_weight;
+  p.pressed = 1.0;
+  double bottom = 0.0;
+  bool kept = true;
+  if (fp.wheel)
+  {
+    bottom = fp.cz - std::sqrt(std::max(sw.r2 - u * u, 0.0));
+    p.penetration = std::abs(u) < sw.r ? surface - bottom : 0.0;
+    p.deforms = p.penetration > 0.0;
+    // If the rim's bottom passed over the point during the step, the point records the
+    // bottom's depth (not the rim's flank where it is now): a rut's floor then has no ripple
+    // of the step's travel, on which the next wheel would bounce.
+    const double along = u * fp.travel;
+    const double recorded =
+        p.deforms && along <= 0.0 && along + fp.swept >= 0.0 ? surface - (fp.cz - sw.r) : p.penetration;
+    const PointLoad at_point = p.deforms ? load(recorded) : PointLoad{};
+    p.sigma_point = at_point.sigma;
+    p.virgin = at_point.virgin;
+    p.depth = state.plastic + recorded;
+    kept = loadWheelCell(fp, sw, p, u, surface, soil, modulus);
+  }
+  else
+  {
+    bottom = fp.cz + fp.slope_u * u + fp.slope_v * v;
+    p.penetration = surface - bottom;
+    kept = p.penetration > 0.0;
+    if (kept)
+    {
+      p.deforms = true;
+      const PointLoad at_point = load(p.penetration);
+      p.sigma = p.sigma_point = at_point.sigma;
+      p.slope = at_point.slope;
+      p.unload = at_point.unload;
+      p.virgin = at_point.virgin;
+      placeTrackStrip(fp, sw, p, u);
+    }
+  }
+  if (!kept || !(p.sigma > 0.0))
+  {
+    loaded_.pop_back();
+    return;
+  }
+  if (!fp.wheel)
+    p.depth = state.plastic + p.penetration;
+  p.elastic = bekker ? (soil.k_unload > 0.0 ? p.sigma_point / soil.k_unload : 0.0)
+                     : soil.elasticSinkage(p.sigma_point, deformation);
+  // Sinkage where the gear carries load, pressing on (deforming) or resting on soil it has
+  // pressed before (a parked wheel's point at its own imprint).
+  if (p.deforms || (p.sigma > 0.0 && (!fp.wheel || std::abs(u) < sw.r)))
+    out.sinkage = std::max(out.sinkage, base_z - bottom);
+  out.elastic_sinkage = std::max(out.elastic_sinkage, p.elastic);
+}
+
+void DeformableTerrain::placeTrackStrip(const Footprint& fp, const Sweep& sw, LoadedPoint& p, double u) const
+{
+  // A track's strip, m behind the whole track's leading edge (T11's j = s x keeps growing
+  // over segments); the points nearest the patch's ends reach to them.
+  const double along = u * fp.travel;
+  const double x = 0.5 * fp.track_length - (fp.segment_offset * fp.travel + along);
+  const double to_lead = sw.r - along, to_trail = sw.r + along;
+  const double near_end = (1.0 - kOnEdge) * sw.along_spacing;
+  p.x0 = to_lead < near_end ? x - to_lead : x - 0.5 * sw.along_spacing;
+  p.x1 = to_trail < near_end ? x + to_trail : x + 0.5 * sw.along_spacing;
+  p.weight *= (p.x1 - p.x0) / sw.along_spacing;
+}
+
+bool DeformableTerrain::rimClearsCell(const Footprint& fp, const Sweep& sw, const LoadedPoint& p, double lo,
+                                      double hi) const
+{
+  // Every sample of the point's cell interpolates between the window points (i +- 1, j +- 1),
+  // so its surface is at most max(base - displaced) - min(plastic) over them (the front arc's
+  // cap only lowers plastic to at least the least of its corners); if the rim's lowest point
+  // over the cell is above that, nothing there presses, as the samples would find.
+  const std::size_t wi = p.i - window_i0_, wj = p.j - window_j0_;
+  const std::size_t a0 = wi > 0 ? wi - 1 : 0, a1 = std::min(wi + 1, window_columns_ - 1);
+  const std::size_t b0 = wj > 0 ? wj - 1 : 0, b1 = std::min(wj + 1, window_rows_ - 1);
+  double top = -std::numeric_limits<double>::infinity(), least_plastic = std::numeric_limits<double>::infinity();
+  for (std::size_t wb = b0; wb <= b1; ++wb)
+    for (std::size_t wa = a0; wa <= a1; ++wa)
+    {
+      const WindowPoint& w = window_[wb * window_columns_ + wa];
+      top = std::max(top, w.base - w.displaced);
+      least_plastic = std::min(least_plastic, w.plastic);
+    }
+  const double nearest = lo > 0.0 ? lo : (hi < 0.0 ? -hi : 0.0);
+  const double rim_low = fp.cz - std::sqrt(std::max(sw.r2 - nearest * nearest, 0.0));
+  return rim_low > top - least_plastic;
+}
+
+bool DeformableTerrain::loadWheelCell(const Footprint& fp, const Sweep& sw, LoadedPoint& p, double u, double surface,
+                                      const ContactSoil& soil, double modulus) const
+{
+  // The point stands for its cell, u +- half a cell along the footprint: the cell carries the
+  // mean pressure over it, integrated by two Gauss points on each stretch between the places
+  // where the pressure has a kink (the rim's bottom, behind which the soil has been pressed
+  // already, and where the rim meets the point's surface), each with the soil's state
+  // interpolated (bilinearly) between the grid points around it and the rim's own height
+  // there. A rut's floor between points then follows the imprint the points record, and the
+  // wheel's edge cuts a cell where it really does: a 0.1 m grid integrates a wheel's pressure
+  // about as finely as a fine one, instead of each point taking its whole cell at its own
+  // pressure or nothing.
+  const double r = sw.r, r2 = sw.r2;
+  const double gx = sw.ox + p.i * sw.dx, gy = sw.oy + p.j * sw.dy;
+  const double lo = std::max(u - sw.half_cell, -r), hi = std::min(u + sw.half_cell, r);
+  // Quick exit for the cells the rim clears (most of a wheel's upper arc): exact, the same
+  // result without the samples.
+  if (!p.deforms && rimClearsCell(fp, sw, p, lo, hi))
+    return false;
+  const bool bekker = soil.model() == SinkageModel::kBekker;
+  double breaks[5] = { lo, 0.0, 0.0, 0.0, hi };
+  int count = 1;
+  const double below_axle = fp.cz - surface;
+  const double edge = below_axle > 0.0 && below_axle < r ? std::sqrt(r2 - below_axle * below_axle) : r;
+  for (const double at : { -edge, 0.0, edge })
+    if (at > lo && at < hi)
+      breaks[count++] = at;
+  breaks[count] = hi;
+  std::sort(breaks + 1, breaks + count);
+  double pressed = 0.0, pressed_lo = hi, pressed_hi = lo;  // the pressed stretch, u
+  for (int k = 0; k < count; ++k)
+  {
+    const double mid = 0.5 * (breaks[k] + breaks[k + 1]), half = 0.5 * (breaks[k + 1] - breaks[k]);
+    if (!(half > 0.0))
+      continue;
+    const double at_sample[2] = { mid - kGauss * half, mid + kGauss * half };
+    double pens[2];
+    for (int g = 0; g < 2; ++g)
+    {
+      const double us = at_sample[g];
+      const double offset = us - u;
+      // Behind the bottom of a rolling wheel the soil was pressed by the bottom itself; a
+      // wheel at rest (pressed straight down) is the same front and back.
+      const double side = sw.rolling ? (us * fp.travel < 0.0 ? 1.0 : -1.0) : 0.0;
+      const WindowPoint w = windowState(gx + offset * sw.ca, gy + offset * sw.sa, side, !bekker);
+      // Ahead of a rolling wheel's bottom, between a point its front arc has pressed and one
+      // it has not reached, the linear interpolant runs above the arc's imprint (the imprint
+      // ends at the arc's leading edge): the soil there has been pressed at most where the
+      // rim was a step ago, unless it was deeper before (the least of the points around it).
+      // Without the cap a coarse grid's front arc loses its pressure near the leading edge:
+      // the wheel sinks deeper and resists less with the bottom mid-cell.
+      double plastic = w.plastic;
+      if (side < 0.0)
+      {
+        const double back = us + fp.travel * fp.swept;
+        const double imprint = std::abs(back) < r ? w.base - w.displaced - (fp.cz - std::sqrt(r2 - back * back)) : 0.0;
+        plastic = std::min(plastic, std::max(imprint, w.plastic_min));
+      }
+      const double rim_depth = std::sqrt(r2 - us * us);  // the rim below the axle here
+      pens[g] = w.base - plastic - w.displaced - (fp.cz - rim_depth);
+      if (!(pens[g] > 0.0))
+        continue;
+      const PointLoad at = bekker ? soil.bekkerLoad(modulus, plastic, pens[g])
+                                  : soil.simpleLoad(plastic, plastic + w.displaced, w.sigma_max, pens[g]);
+      const double share = half / sw.along_spacing;  // of the cell, this sample's
+      p.sigma += share * at.sigma;
+      p.slope += share * at.slope;
+      p.unload += share * at.unload;
+      // The rim's push along / across the ground where this sample presses (Bekker
+      // compaction): tan(theta - beta), theta the rim's angle from the vertical, beta the
+      // ground's slope, both along the travel.
+      if (bekker)
+      {
+        const double rim = us * fp.travel / rim_depth, ground = fp.ground_slope * fp.travel;
+        p.rim_slope +=
+            share * at.sigma * std::clamp((rim - ground) / (1.0 + rim * ground), -kMaxRimSlope, kMaxRimSlope);
+      }
+    }
+    // The pressed part of this stretch: all of it, or up to where the penetration crosses 0
+    // between the samples (linearly): the contact's edges at sub-sample resolution.
+    const bool in0 = pens[0] > 0.0, in1 = pens[1] > 0.0;
+    if (in0 || in1)
+    {
+      double from = breaks[k], to = breaks[k + 1];
+      if (in0 != in1)
+      {
+        const double root = at_sample[0] + (at_sample[1] - at_sample[0]) * pens[0] / (pens[0] - pens[1]);
+        (in0 ? to : from) = std::clamp(root, breaks[k], breaks[k + 1]);
+      }
+      pressed += (to - from) / sw.along_spacing;
+      pressed_lo = std::min(pressed_lo, from);
+      pressed_hi = std::max(pressed_hi, to);
+    }
+  }
+  if (!(p.sigma > 0.0) && !p.deforms)
+    return false;
+  p.pressed = std::min(pressed, 1.0);
+  if (p.sigma > 0.0)
+    p.rim_slope /= p.sigma;
+  // Its strip along the travel is the stretch the rim presses (a cell the contact's leading
+  // edge crosses counts from that edge: the shear displacement j = s x starts there).
+  if (!(pressed_hi > pressed_lo))
+    pressed_lo = pressed_hi = u;
+  p.along0 = fp.travel > 0.0 ? pressed_lo : -pressed_hi;
+  p.along1 = fp.travel > 0.0 ? pressed_hi : -pressed_lo;
+  return true;
+}
+
+namespace
+{
+/// exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one per
+/// soil and strip length for the half-strip factor, kept in a small cache: a footprint's rows
+/// alternate between a few strip lengths (interior, and the shorter ones at its edges).
+struct StripConstants
+{
+  int soil = -1;
+  double half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, scale = 0.0;
+  /// exp(-cap / K): the same for every strip of the soil past the cap; NaN until needed.
+  double cap_factor = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// The last few StripConstants of one contact, looked up by soil and half strip length.
+class StripCache
+{
+public:
+  explicit StripCache(double slip_magnitude) : slip_magnitude_(slip_magnitude) {}
+
+  StripConstants& get(int soil, double half, double shear_modulus)
+  {
+    if (strip_ && soil == strip_->soil && half == strip_->half)
+      return *strip_;
+    strip_ = nullptr;
+    for (StripConstants& c : strips_)
+      if (c.soil == soil && c.half == half)
+        strip_ = &c;
+    if (strip_)
+      return *strip_;
+    StripConstants& c = strips_[next_];
+    next_ = (next_ + 1) % strips_.size();
+    const double k = shear_modulus;
+    c.soil = soil;
+    c.half = half;
+    c.inv_k = 1.0 / k;
+    c.half_factor = std::exp(slip_magnitude_ * half * c.inv_k);
+    c.inv_half_factor = 1.0 / c.half_factor;
+    c.scale = k / (slip_magnitude_ * 2.0 * half);
+    c.cap_factor = std::numeric_limits<double>::quiet_NaN();
+    strip_ = &c;
+    return c;
+  }
+
+private:
+  double slip_magnitude_;
+  std::array<StripConstants, 4> strips_{};
+  std::size_t next_ = 0;
+  StripConstants* strip_ = nullptr;
+};
+
+/// A strip's mean shear factor 1 - exp(-j / K) over [x0, x1] with j = min(|s| x, cap), and its
+/// slopes in |s| (dmean) and in the cap (dcap).
+struct StripShear
+{
+  double mean = 0.0, dmean = 0.0, dcap = 0.0;
+};
+
+StripShear stripShear(StripConstants& strip, double slip_magnitude, double shear_cap, double x0, double x1)
+{
+  StripShear out;
+  const double half = 0.5 * (x1 - x0), inv_k = strip.inv_k;
+  if (slip_magnitude * x1 <= shear_cap)
+  {
+    const double e_mid = std::exp(-slip_magnitude * (x0 + half) * inv_k);
+    const double e0 = x0 > 0.0 ? e_mid * strip.half_factor : 1.0;
+    out.mean = meanShearFactor(slip_magnitude * inv_k, x0, x1, strip.scale, e0, e_mid * strip.inv_half_factor, inv_k,
+                               out.dmean);
+    return out;
+  }
+  // Behind x_c = cap / |s| the soil is displaced by the cap (it has been under the contact all
+  // along); ahead of it by |s| x. Means over the strip, and their slopes in |s| and in the cap
+  // (the boundary terms cancel).
+  const double xc = std::max(shear_cap / slip_magnitude, x0), span = x1 - x0;
+  if (std::isnan(strip.cap_factor))
+    strip.cap_factor = std::exp(-shear_cap * inv_k);
+  const double ec = strip.cap_factor;
+  double part = 0.0, dpart = 0.0;
+  if (!(span > 1e-12))
+  {
+    out.mean = 1.0 - ec;  // a point strip, all of it at the cap
+    out.dcap = inv_k * ec;
+  }
+  else if (xc > x0)
+  {
+    const double e0 = std::exp(-slip_magnitude * x0 * inv_k);
+    const double k = 1.0 / inv_k;
+    part = (xc - x0) - k / slip_magnitude * (e0 - ec);
+    dpart = (x0 * e0 - xc * ec) / slip_magnitude + k / (slip_magnitude * slip_magnitude) * (e0 - ec);
+  }
+  if (span > 1e-12)
+  {
+    out.mean = (part + (x1 - xc) * (1.0 - ec)) / span;
+    out.dmean = dpart / span;
+    out.dcap = (x1 - xc) * inv_k * ec / span;
+  }
+  return out;
+}
+}  // namespace
+
 void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool deform, ObjectSet* objects,
                                         ContactForces& out)
 {
   if (loaded_.empty())
     return;
+  sumForces(fp, out);
+  if (objects)
+    vegetation(fp, deform, *objects, out);
+  if (!deform)
+    return;
+  deformLoaded(fp, dt);
+  if (options_.transport)
+  {
+    chooseDragStep(fp);
+    spreadFlow();
+  }
+}
+
+void DeformableTerrain::sumForces(const Footprint& fp, ContactForces& out) const
+{
   // Normal force, and traction per strip with j = s x behind the leading edge (T7, T11).
   const double area = base_.dx() * base_.dy();
   double max_penetration = 0.0;
   for (const LoadedPoint& p : loaded_)
     max_penetration = std::max(max_penetration, p.penetration);
   const double slip_magnitude = std::hypot(fp.shear_long, fp.shear_lat);
-  // exp(-s x / K) at a strip's ends from its value at the centre: one exp per point, and one
-  // per soil and strip length for the half-strip factor, kept in a small cache: a footprint's
-  // rows alternate between a few strip lengths (interior, and the shorter ones at its edges).
-  struct StripConstants
-  {
-    int soil = -1;
-    double half = -1.0, inv_k = 0.0, half_factor = 1.0, inv_half_factor = 1.0, scale = 0.0;
-    /// exp(-cap / K): the same for every strip of the soil past the cap; NaN until needed.
-    double cap_factor = std::numeric_limits<double>::quiet_NaN();
-  };
-  std::array<StripConstants, 4> strips{};
-  std::size_t strip_next = 0;
-  StripConstants* strip = nullptr;
+  StripCache strips(slip_magnitude);
   // T12 per point so that each soil brings its own strength and f: bulldozing shared in
   // proportion to the loaded area, (c + sigma tan phi) w z_rel A_k / A; rolling f sigma A_k.
   // Bekker points instead resist by compaction: a wheel's rim pushes back with
@@ -1310,71 +1449,13 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     }
     if (slip_magnitude > 0.0)
     {
-      const double half = 0.5 * (p.x1 - p.x0);
-      if (!strip || p.soil != strip->soil || half != strip->half)
-      {
-        strip = nullptr;
-        for (StripConstants& c : strips)
-          if (c.soil == p.soil && c.half == half)
-            strip = &c;
-        if (!strip)
-        {
-          StripConstants& c = strips[strip_next];
-          strip_next = (strip_next + 1) % strips.size();
-          const double k = soil.shear_modulus;
-          c.soil = p.soil;
-          c.half = half;
-          c.inv_k = 1.0 / k;
-          c.half_factor = std::exp(slip_magnitude * half * c.inv_k);
-          c.inv_half_factor = 1.0 / c.half_factor;
-          c.scale = k / (slip_magnitude * 2.0 * half);
-          c.cap_factor = std::numeric_limits<double>::quiet_NaN();
-          strip = &c;
-        }
-      }
-      const double inv_k = strip->inv_k;
-      double mean = 0.0, dmean = 0.0, dcap = 0.0;
-      if (slip_magnitude * p.x1 <= fp.shear_cap)
-      {
-        const double e_mid = std::exp(-slip_magnitude * (p.x0 + half) * inv_k);
-        const double e0 = p.x0 > 0.0 ? e_mid * strip->half_factor : 1.0;
-        mean = meanShearFactor(slip_magnitude * inv_k, p.x0, p.x1, strip->scale, e0, e_mid * strip->inv_half_factor,
-                               inv_k, dmean);
-      }
-      else
-      {
-        // Behind x_c = cap / |s| the soil is displaced by the cap (it has been under the contact
-        // all along); ahead of it by |s| x. Means over the strip, and their slopes in |s| and in
-        // the cap (the boundary terms cancel).
-        const double xc = std::max(fp.shear_cap / slip_magnitude, p.x0), span = p.x1 - p.x0;
-        if (std::isnan(strip->cap_factor))
-          strip->cap_factor = std::exp(-fp.shear_cap * inv_k);
-        const double ec = strip->cap_factor;
-        double part = 0.0, dpart = 0.0;
-        if (!(span > 1e-12))
-        {
-          mean = 1.0 - ec;  // a point strip, all of it at the cap
-          dcap = inv_k * ec;
-        }
-        else if (xc > p.x0)
-        {
-          const double e0 = std::exp(-slip_magnitude * p.x0 * inv_k);
-          const double k = 1.0 / inv_k;
-          part = (xc - p.x0) - k / slip_magnitude * (e0 - ec);
-          dpart = (p.x0 * e0 - xc * ec) / slip_magnitude + k / (slip_magnitude * slip_magnitude) * (e0 - ec);
-        }
-        if (span > 1e-12)
-        {
-          mean = (part + (p.x1 - xc) * (1.0 - ec)) / span;
-          dmean = dpart / span;
-          dcap = (p.x1 - xc) * inv_k * ec / span;
-        }
-      }
-      const double tau = strength * mean * cell / slip_magnitude;
+      StripConstants& strip = strips.get(p.soil, 0.5 * (p.x1 - p.x0), soil.shear_modulus);
+      const StripShear shear = stripShear(strip, slip_magnitude, fp.shear_cap, p.x0, p.x1);
+      const double tau = strength * shear.mean * cell / slip_magnitude;
       out.longitudinal_force += fp.shear_long * tau;
       out.lateral_force += fp.shear_lat * tau;
-      out.shear_slope += strength * dmean * cell;
-      out.shear_cap_slope += strength * dcap * cell;
+      out.shear_slope += strength * shear.dmean * cell;
+      out.shear_cap_slope += strength * shear.dcap * cell;
     }
   }
   // T12 with the depth of the soil ahead (largest penetration): for one simple soil this is
@@ -1384,12 +1465,11 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
   // with.
   out.resistance_force =
       bulldozing / total_weight * (2.0 * fp.half_width) * max_penetration + rolling + std::abs(compaction);
+}
 
-  if (objects)
-    vegetation(fp, deform, *objects, out);
-
-  if (!deform)
-    return;
+void DeformableTerrain::deformLoaded(const Footprint& fp, double dt)
+{
+  const double area = base_.dx() * base_.dy();
   const double slip_speed = std::hypot(fp.v_theoretical - fp.v_long, fp.v_lat);  // v_r of T4
   // loaded_ runs row by row: its points change tile every few points, so touch() (allocation,
   // change tracking) once per run of one tile and index the tile directly.
@@ -1432,32 +1512,32 @@ void DeformableTerrain::forcesAndDeform(const Footprint& fp, double dt, bool def
     p.shear_fraction = flow > 0.0 ? shear_flow / flow : 0.0;
     flowed_volume_ += p.flow_volume;
   }
-  if (options_.transport)
-  {
-    // Sheared soil is dragged along with the running gear's slip over the ground: a wheel or
-    // track spinning forward throws it back (ruts deepen under slip, soil lands behind).
-    const double slip_long = fp.v_long - fp.v_theoretical, slip_lat = fp.v_lat;
-    const double magnitude = std::hypot(slip_long, slip_lat);
-    const double fx = magnitude > 0.0 ? (slip_long * fp.ca - slip_lat * fp.sa) / magnitude : 0.0;
-    const double fy = magnitude > 0.0 ? (slip_long * fp.sa + slip_lat * fp.ca) / magnitude : 0.0;
-    // The grid step (one of the 8) nearest that direction.
-    drag_di_ = drag_dj_ = 0;
-    double best = 0.0;
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int di = -1; di <= 1; ++di)
+}
+
+void DeformableTerrain::chooseDragStep(const Footprint& fp)
+{
+  // Sheared soil is dragged along with the running gear's slip over the ground: a wheel or
+  // track spinning forward throws it back (ruts deepen under slip, soil lands behind).
+  const double slip_long = fp.v_long - fp.v_theoretical, slip_lat = fp.v_lat;
+  const double magnitude = std::hypot(slip_long, slip_lat);
+  const double fx = magnitude > 0.0 ? (slip_long * fp.ca - slip_lat * fp.sa) / magnitude : 0.0;
+  const double fy = magnitude > 0.0 ? (slip_long * fp.sa + slip_lat * fp.ca) / magnitude : 0.0;
+  // The grid step (one of the 8) nearest that direction.
+  drag_di_ = drag_dj_ = 0;
+  double best = 0.0;
+  for (int dj = -1; dj <= 1; ++dj)
+    for (int di = -1; di <= 1; ++di)
+    {
+      if (di == 0 && dj == 0)
+        continue;
+      const double cosine = (di * base_.dx() * fx + dj * base_.dy() * fy) / step_length_[(dj + 1) * 3 + (di + 1)];
+      if (cosine > best)
       {
-        if (di == 0 && dj == 0)
-          continue;
-        const double cosine = (di * base_.dx() * fx + dj * base_.dy() * fy) / step_length_[(dj + 1) * 3 + (di + 1)];
-        if (cosine > best)
-        {
-          best = cosine;
-          drag_di_ = di;
-          drag_dj_ = dj;
-        }
+        best = cosine;
+        drag_di_ = di;
+        drag_dj_ = dj;
       }
-    spreadFlow();
-  }
+    }
 }
 
 std::size_t DeformableTerrain::deformedPoints() const

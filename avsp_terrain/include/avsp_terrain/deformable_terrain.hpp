@@ -366,10 +366,31 @@ private:
   PointDeformation& touch(std::size_t i, std::size_t j);
   /// T5: hands each loaded point's flow_volume to its 8 neighbours.
   void spreadFlow();
+  /// What collect() works out once per contact (grid range, spacings, the wheel's window).
+  struct Sweep;
   /// Slip and the points under the footprint with penetration, stress and strip (loaded_).
   void collect(const Footprint& fp, ContactForces& out);
+  /// The grid range and spacings of a contact; for a wheel also its window. False: off the grid.
+  bool sweepOf(const Footprint& fp, Sweep& sw);
+  /// Adds grid point (i, j) at (u, v) in the footprint to loaded_ if the gear loads it.
+  void loadPoint(const Footprint& fp, const Sweep& sw, std::size_t i, std::size_t j, double u, double v,
+                 double lateral_weight, std::uint8_t soil_index, const PointDeformation& state, double base_z,
+                 ContactForces& out);
+  /// A wheel's point: its cell's mean pressure over the rim's stretch of it. False: it carries nothing.
+  bool loadWheelCell(const Footprint& fp, const Sweep& sw, LoadedPoint& p, double u, double surface,
+                     const ContactSoil& soil, double modulus) const;
+  /// Whether the rim's lowest point over [lo, hi] along the footprint is above all soil round p.
+  bool rimClearsCell(const Footprint& fp, const Sweep& sw, const LoadedPoint& p, double lo, double hi) const;
+  /// A track point's strip behind the whole track's leading edge, and its weight along it.
+  void placeTrackStrip(const Footprint& fp, const Sweep& sw, LoadedPoint& p, double u) const;
   /// Forces from loaded_, then (deform) makes the step permanent.
   void forcesAndDeform(const Footprint& fp, double dt, bool deform, ObjectSet* objects, ContactForces& out);
+  /// Normal force, traction, stiffnesses and resistance of loaded_ into out.
+  void sumForces(const Footprint& fp, ContactForces& out) const;
+  /// The step made permanent at loaded_'s points (sinkage, stress, soil that flowed away).
+  void deformLoaded(const Footprint& fp, double dt);
+  /// The grid step (drag_di_, drag_dj_) nearest the direction the gear's slip drags soil.
+  void chooseDragStep(const Footprint& fp);
   /// Grass resistance and pushes on the objects under the loaded footprint.
   void vegetation(const Footprint& fp, bool deform, ObjectSet& objects, ContactForces& out) const;
 
