@@ -536,14 +536,154 @@ std::uint8_t encodeSrgb(float linear)
   return static_cast<std::uint8_t>(code);
 }
 
-CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials, const Eigen::Isometry3d& pose,
-                           const CameraEnvironment& env, unsigned threads, std::uint32_t ignore_body,
-                           std::uint64_t noise_key) const
+namespace
 {
-  if (!pose.matrix().allFinite())
-    throw std::invalid_argument("Camera::render '" + config_.name + "': pose is not finite");
-  validateCameraEnvironment(env);
-  const CameraConfig& c = config_;
+/// A frame's light: everything a pixel needs that does not depend on the pixel.
+struct FrameLight
+{
+  SkyLight sky;
+  double exposure = 0.0;  ///< lux the frame is exposed for
+  float inv_exposure = 0.f;
+  bool sun_up = false, moon_up = false;
+  Eigen::Vector3d sun, moon;  ///< unit directions toward them
+  Eigen::Vector3f ambient_tint;
+  double alpha = 0.0;          ///< 1/m, extinction of fog and precipitation
+  double t_air = 0.0;          ///< K
+  double sky_cooling = 0.0;    ///< K, clear sky below air temperature
+  double night_cooling = 0.0;  ///< K, surfaces radiating to a clear sky
+  float sky_scale = 0.f;
+
+  FrameLight(const CameraConfig& c, const CameraEnvironment& env)
+    : sky(skyLight(env)), sun(env.sun_direction), moon(env.moon_direction), t_air(env.air_temperature)
+  {
+    exposure = std::max(sky.horizontal_total, c.min_exposure_lux);
+    inv_exposure = static_cast<float>(1.0 / exposure);
+    sun_up = sky.sun_normal > 0.0;
+    moon_up = sky.moon_normal > 0.0;
+    ambient_tint = normalised(0.5f * (sky.sky_zenith + sky.sky_horizon));
+    const double v = env.weather.fog_visibility;
+    // Fog: alpha = -ln(eps) / V (eps = 0.02: Koschmieder's 3.912 / V, the lidar's); rain and
+    // snow add their extinction at 550 nm.
+    alpha = (std::isfinite(v) ? -std::log(c.fog_contrast_threshold) / v : 0.0) +
+            precipitationExtinction(env.weather, 550e-9);
+    const float haze = static_cast<float>(std::isfinite(v) ? clamp01(1.0 - v / 10000.0) : 0.0);
+    sky_cooling = 20.0 * (1.0 - haze);
+    night_cooling = 3.0 * (1.0 - haze);
+    sky_scale = static_cast<float>(c.sky_gain * sky.sky_horizontal) * inv_exposure;
+  }
+
+  Eigen::Vector3f skyRadiance(const Eigen::Vector3d& d) const
+  {
+    const float up = static_cast<float>(std::sqrt(std::max(0.0, d.z())));
+    // Clear skies are brighter toward the horizon: luminance 1.3 there, 0.7 at the zenith.
+    const Eigen::Vector3f colour = sky.sky_horizon * (1.3f * (1.f - up)) + sky.sky_zenith * (0.7f * up);
+    return colour * sky_scale;
+  }
+};
+
+/// Pixel k of a ray that hit nothing: the sky's radiance and temperature, an infinite depth.
+void shadeSky(const CameraConfig& c, const FrameLight& light, const Eigen::Vector3d& direction, std::size_t k,
+              CameraFrame& f)
+{
+  if (c.depth)
+    f.depth[k] = std::numeric_limits<float>::infinity();
+  if (c.rgb)
+  {
+    const Eigen::Vector3f s = light.skyRadiance(direction);
+    for (int ch = 0; ch < 3; ++ch)
+      f.radiance[3 * k + ch] = s[ch];
+  }
+  if (c.thermal)
+    f.temperature[k] = static_cast<float>(light.t_air - light.sky_cooling * std::sqrt(std::max(0.0, direction.z())));
+}
+
+/// Pixel k's radiance and temperature where its ray hit a surface of class cls.
+void shadeHit(const CameraConfig& c, const Scene& scene, const CameraMaterials& materials, const CameraEnvironment& env,
+              const FrameLight& light, const Ray& ray, const RayHit& hit, std::uint8_t cls, std::size_t k,
+              CameraFrame& f)
+{
+  const SkyLight& sky = light.sky;
+  // Albedo: soil (wetness darkens, Lobell and Asner: up to about half when saturated) or class.
+  Eigen::Vector3f albedo;
+  if (hit.kind == HitKind::kTerrain)
+  {
+    const SoilLook& soil = materials.soils()[materials.soilAt(scene.terrain(), hit.point.x(), hit.point.y())];
+    const float wet = std::min(1.f, soil.wetness + static_cast<float>(env.surface_wetness));
+    albedo = soil.albedo * (1.f - 0.5f * wet);
+  }
+  else
+    albedo = classAlbedo(cls, env.season);
+  Eigen::Vector3d normal = hit.normal;
+  if (normal.dot(ray.direction) > 0.0)
+    normal = -normal;
+  if (hit.kind != HitKind::kBody && env.snow_cover > 0.0)
+  {
+    const float w = static_cast<float>(env.snow_cover * clamp01((normal.z() - 0.5) / 0.3));
+    albedo = albedo * (1.f - w) + kSnowAlbedo * w;
+  }
+  // Direct sun with a hard shadow ray (the own vehicle casts shadows too).
+  double sun_on = 0.0;
+  const double cos_sun = normal.dot(light.sun);
+  if (light.sun_up && cos_sun > 0.0)
+  {
+    bool lit = true;
+    if (c.shadows)
+    {
+      Ray shadow;
+      shadow.origin = hit.point + 5e-3 * normal;
+      shadow.direction = light.sun;
+      shadow.max_range = c.shadow_range;
+      lit = !scene.occluded(shadow);
+    }
+    if (lit)
+      sun_on = sky.sun_normal * cos_sun;
+  }
+  if (c.rgb)
+  {
+    const double moon_on = light.moon_up ? sky.moon_normal * std::max(0.0, normal.dot(light.moon)) : 0.0;
+    // Sky seen by a tilted surface (isotropic sky view factor (1 + n_z) / 2) plus light
+    // reflected by the ground (albedo 0.2) on faces turned down.
+    const double sky_on = sky.sky_horizontal * 0.5 * (1.0 + normal.z());
+    const double ground_on = 0.2 * sky.horizontal_total * 0.5 * (1.0 - normal.z());
+    const Eigen::Vector3f e = Eigen::Vector3f::Constant(static_cast<float>(sun_on + moon_on + ground_on)) +
+                              light.ambient_tint * static_cast<float>(sky_on);
+    Eigen::Vector3f l = albedo.cwiseProduct(e) * light.inv_exposure;
+    if (light.alpha > 0.0)
+    {
+      // Koschmieder: the object's light decays by T, the airlight of the sky behind fills in.
+      const float t = static_cast<float>(std::exp(-light.alpha * hit.range));
+      l = l * t + light.skyRadiance(ray.direction) * (1.f - t);
+    }
+    for (int ch = 0; ch < 3; ++ch)
+      f.radiance[3 * k + ch] = l[ch];
+  }
+  if (c.thermal)
+  {
+    double temp;
+    if (hit.kind == HitKind::kBody)
+    {
+      temp = materials.bodyTemperature(hit.id);
+      if (std::isnan(temp))
+        temp = cls == kClassPerson ? 305.0 : (cls == kClassAnimal ? 303.0 : light.t_air + 25.0);
+    }
+    else
+    {
+      // Solar gain (sunlight ~110 lm/W) absorbed (1 - albedo) over convection.
+      const double absorbed = (1.0 - luminance(albedo)) * sun_on / 110.0;
+      temp = light.t_air + absorbed / convectiveCoefficient(cls) - light.night_cooling;
+    }
+    if (light.alpha > 0.0)
+    {
+      const double t = std::exp(-light.alpha * hit.range);
+      temp = temp * t + light.t_air * (1.0 - t);
+    }
+    f.temperature[k] = static_cast<float>(temp);
+  }
+}
+
+/// The frame's outputs sized for the configured images (RGB, depth, semantic, thermal).
+CameraFrame blankFrame(const CameraConfig& c)
+{
   const std::size_t n = static_cast<std::size_t>(c.width) * c.height;
   CameraFrame f;
   f.width = c.width;
@@ -562,36 +702,43 @@ CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials,
     f.temperature.assign(n, std::numeric_limits<float>::quiet_NaN());
     f.thermal.assign(n, 0);
   }
+  return f;
+}
 
-  // Per-frame light: everything a pixel needs is fixed here.
-  const SkyLight sky = skyLight(env);
-  const double exposure = std::max(sky.horizontal_total, c.min_exposure_lux);
-  f.exposure_lux = exposure;
-  const float inv_exposure = static_cast<float>(1.0 / exposure);
-  const bool sun_up = sky.sun_normal > 0.0;
-  const bool moon_up = sky.moon_normal > 0.0;
-  const Eigen::Vector3d sun = env.sun_direction, moon = env.moon_direction;
-  const Eigen::Vector3f ambient_tint = normalised(0.5f * (sky.sky_zenith + sky.sky_horizon));
-  const double v = env.weather.fog_visibility;
-  // Fog: alpha = -ln(eps) / V (eps = 0.02: Koschmieder's 3.912 / V, the lidar's); rain and snow
-  // add their extinction at 550 nm.
-  const double alpha =
-      (std::isfinite(v) ? -std::log(c.fog_contrast_threshold) / v : 0.0) + precipitationExtinction(env.weather, 550e-9);
-  const float haze = static_cast<float>(std::isfinite(v) ? clamp01(1.0 - v / 10000.0) : 0.0);
-  const double t_air = env.air_temperature;
-  const double sky_cooling = 20.0 * (1.0 - haze);   // K, clear sky below air temperature
-  const double night_cooling = 3.0 * (1.0 - haze);  // K, surfaces radiating to a clear sky
-  const float sky_scale = static_cast<float>(c.sky_gain * sky.sky_horizontal) * inv_exposure;
+/// The radiance and temperatures coded as 8-bit sRGB and thermal images.
+void encodeFrame(const CameraConfig& c, unsigned threads, CameraFrame& f)
+{
+  parallelFor(static_cast<std::size_t>(c.height), threads, [&](std::size_t row_begin, std::size_t row_end) {
+    for (std::size_t row = row_begin; row < row_end; ++row)
+      for (std::size_t col = 0; col < static_cast<std::size_t>(c.width); ++col)
+      {
+        const std::size_t k = row * c.width + col;
+        if (c.rgb)
+          for (int ch = 0; ch < 3; ++ch)
+            f.rgb[3 * k + ch] = encodeSrgb(f.radiance[3 * k + ch]);
+        if (c.thermal && !std::isnan(f.temperature[k]))
+        {
+          const double x = (f.temperature[k] - c.thermal_min) / (c.thermal_max - c.thermal_min);
+          f.thermal[k] = static_cast<std::uint8_t>(std::lround(255.0 * clamp01(x)));
+        }
+      }
+  });
+}
+}  // namespace
+
+CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials, const Eigen::Isometry3d& pose,
+                           const CameraEnvironment& env, unsigned threads, std::uint32_t ignore_body,
+                           std::uint64_t noise_key) const
+{
+  if (!pose.matrix().allFinite())
+    throw std::invalid_argument("Camera::render '" + config_.name + "': pose is not finite");
+  validateCameraEnvironment(env);
+  const CameraConfig& c = config_;
+  CameraFrame f = blankFrame(c);
+  const FrameLight light(c, env);
+  f.exposure_lux = light.exposure;
   const Eigen::Matrix3d rot = pose.linear();
   const Eigen::Vector3d origin = pose.translation();
-
-  auto skyRadiance = [&](const Eigen::Vector3d& d) -> Eigen::Vector3f {
-    const float up = static_cast<float>(std::sqrt(std::max(0.0, d.z())));
-    // Clear skies are brighter toward the horizon: luminance 1.3 there, 0.7 at the zenith.
-    const Eigen::Vector3f colour = sky.sky_horizon * (1.3f * (1.f - up)) + sky.sky_zenith * (0.7f * up);
-    return colour * sky_scale;
-  };
-
   // Rows are handed out a few at a time to whichever thread is free: their costs differ by an
   // order of magnitude (sky, grazing rays near the horizon, ground with shadow rays), so a
   // fixed half-and-half split left one thread idle. Each pixel depends on its ray alone.
@@ -614,117 +761,19 @@ CameraFrame Camera::render(const Scene& scene, const CameraMaterials& materials,
           f.semantic[k] = cls;
         if (!hit.hit())
         {
-          if (c.depth)
-            f.depth[k] = std::numeric_limits<float>::infinity();
-          if (c.rgb)
-          {
-            const Eigen::Vector3f s = skyRadiance(ray.direction);
-            for (int ch = 0; ch < 3; ++ch)
-              f.radiance[3 * k + ch] = s[ch];
-          }
-          if (c.thermal)
-            f.temperature[k] = static_cast<float>(t_air - sky_cooling * std::sqrt(std::max(0.0, ray.direction.z())));
+          shadeSky(c, light, ray.direction, k, f);
           continue;
         }
         if (c.depth)
           f.depth[k] = static_cast<float>(hit.range * ro.z());
-        if (!c.rgb && !c.thermal)
-          continue;
-        // Albedo: soil (wetness darkens, Lobell and Asner: up to about half when saturated) or class.
-        Eigen::Vector3f albedo;
-        if (hit.kind == HitKind::kTerrain)
-        {
-          const SoilLook& soil = materials.soils()[materials.soilAt(scene.terrain(), hit.point.x(), hit.point.y())];
-          const float wet = std::min(1.f, soil.wetness + static_cast<float>(env.surface_wetness));
-          albedo = soil.albedo * (1.f - 0.5f * wet);
-        }
-        else
-          albedo = classAlbedo(cls, env.season);
-        Eigen::Vector3d normal = hit.normal;
-        if (normal.dot(ray.direction) > 0.0)
-          normal = -normal;
-        if (hit.kind != HitKind::kBody && env.snow_cover > 0.0)
-        {
-          const float w = static_cast<float>(env.snow_cover * clamp01((normal.z() - 0.5) / 0.3));
-          albedo = albedo * (1.f - w) + kSnowAlbedo * w;
-        }
-        // Direct sun with a hard shadow ray (the own vehicle casts shadows too).
-        double sun_on = 0.0;
-        const double cos_sun = normal.dot(sun);
-        if (sun_up && cos_sun > 0.0)
-        {
-          bool lit = true;
-          if (c.shadows)
-          {
-            Ray shadow;
-            shadow.origin = hit.point + 5e-3 * normal;
-            shadow.direction = sun;
-            shadow.max_range = c.shadow_range;
-            lit = !scene.occluded(shadow);
-          }
-          if (lit)
-            sun_on = sky.sun_normal * cos_sun;
-        }
-        if (c.rgb)
-        {
-          const double moon_on = moon_up ? sky.moon_normal * std::max(0.0, normal.dot(moon)) : 0.0;
-          // Sky seen by a tilted surface (isotropic sky view factor (1 + n_z) / 2) plus light
-          // reflected by the ground (albedo 0.2) on faces turned down.
-          const double sky_on = sky.sky_horizontal * 0.5 * (1.0 + normal.z());
-          const double ground_on = 0.2 * sky.horizontal_total * 0.5 * (1.0 - normal.z());
-          const Eigen::Vector3f e = Eigen::Vector3f::Constant(static_cast<float>(sun_on + moon_on + ground_on)) +
-                                    ambient_tint * static_cast<float>(sky_on);
-          Eigen::Vector3f l = albedo.cwiseProduct(e) * inv_exposure;
-          if (alpha > 0.0)
-          {
-            // Koschmieder: the object's light decays by T, the airlight of the sky behind fills in.
-            const float t = static_cast<float>(std::exp(-alpha * hit.range));
-            l = l * t + skyRadiance(ray.direction) * (1.f - t);
-          }
-          for (int ch = 0; ch < 3; ++ch)
-            f.radiance[3 * k + ch] = l[ch];
-        }
-        if (c.thermal)
-        {
-          double temp;
-          if (hit.kind == HitKind::kBody)
-          {
-            temp = materials.bodyTemperature(hit.id);
-            if (std::isnan(temp))
-              temp = cls == kClassPerson ? 305.0 : (cls == kClassAnimal ? 303.0 : t_air + 25.0);
-          }
-          else
-          {
-            // Solar gain (sunlight ~110 lm/W) absorbed (1 - albedo) over convection.
-            const double absorbed = (1.0 - luminance(albedo)) * sun_on / 110.0;
-            temp = t_air + absorbed / convectiveCoefficient(cls) - night_cooling;
-          }
-          if (alpha > 0.0)
-          {
-            const double t = std::exp(-alpha * hit.range);
-            temp = temp * t + t_air * (1.0 - t);
-          }
-          f.temperature[k] = static_cast<float>(temp);
-        }
+        if (c.rgb || c.thermal)
+          shadeHit(c, scene, materials, env, light, ray, hit, cls, k, f);
       }
   });
   if (c.rgb && c.precipitation)
-    drawPrecipitation(f, env, static_cast<float>(std::min(1.0, sky.horizontal_total / exposure)), noise_key);
-  parallelFor(static_cast<std::size_t>(c.height), threads, [&](std::size_t row_begin, std::size_t row_end) {
-    for (std::size_t row = row_begin; row < row_end; ++row)
-      for (std::size_t col = 0; col < static_cast<std::size_t>(c.width); ++col)
-      {
-        const std::size_t k = row * c.width + col;
-        if (c.rgb)
-          for (int ch = 0; ch < 3; ++ch)
-            f.rgb[3 * k + ch] = encodeSrgb(f.radiance[3 * k + ch]);
-        if (c.thermal && !std::isnan(f.temperature[k]))
-        {
-          const double x = (f.temperature[k] - c.thermal_min) / (c.thermal_max - c.thermal_min);
-          f.thermal[k] = static_cast<std::uint8_t>(std::lround(255.0 * clamp01(x)));
-        }
-      }
-  });
+    drawPrecipitation(f, env, static_cast<float>(std::min(1.0, light.sky.horizontal_total / light.exposure)),
+                      noise_key);
+  encodeFrame(c, threads, f);
   return f;
 }
 

@@ -456,83 +456,139 @@ bool HeightField::intersectFrom(const Eigen::Vector3d& o, const Eigen::Vector3d&
   return (this->*kWalks[d.z() >= 0.0 ? 1 : 0][3 * sx + sy + 4])(o, d, g, t_first, t, t1, hit);
 }
 
+/// The hierarchical walk of one ray (HeightField::walk), its state kept as it moves from block
+/// to block. Every method is inlined into walk(): one loop, its state in registers, as when it
+/// was written as one function; the pieces only name its steps.
 template <int SX, int SY, bool RISING>
-bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first, double t,
-                       double t1, TerrainHit& hit) const
+class HeightField::Walker
 {
-  const double X0 = g.X0, Y0 = g.Y0, DX = g.DX, DY = g.DY;
-  const double nx = cells_xd_, ny = cells_yd_;
-  const Level* const levels = levels_.data();
-  const float* const mips = mip_max_.data();
-  constexpr bool px = SX > 0, py = SY > 0;
-  constexpr bool move_x = SX != 0, move_y = SY != 0;
-  // Reciprocals: one multiply per face instead of a division in the inner loop. An axis the ray
-  // does not move along gets an infinite exit face and a factor of 1, so its exit time is +inf.
-  const double iX = move_x ? 1.0 / DX : 1.0, iY = move_y ? 1.0 / DY : 1.0;
-  // The traversal works in blocks of the current level: block b of level L spans cells
-  // [b 2^L, (b + 1) 2^L); the ray leaves it through face (b + exit) 2^L and steps to b + step.
-  constexpr std::int64_t exit_x = px ? 1 : 0, exit_y = py ? 1 : 0;
-  constexpr std::int64_t step_x = px ? 1 : -1, step_y = py ? 1 : -1;
-  const auto ncx = static_cast<std::int64_t>(cells_x_), ncy = static_cast<std::int64_t>(cells_y_);
-  const double oz = o.z(), dz = d.z();
-  constexpr bool rising = RISING;
-  // Level-0 cell holding the ray at t, kept inside [lo, hi) so that rounding of the position
-  // cannot put it in a block the traversal has not reached (or has left).
-  auto cellOf = [](double p, std::int64_t lo, std::int64_t hi) {
-    if (!(p > static_cast<double>(lo)))
-      return lo;
-    return std::min(static_cast<std::int64_t>(p), hi - 1);
-  };
-  const float* const heights = heights_.data();
-  const std::size_t columns = columns_;
-  // The walk is bound by the latency of loading the points of cells it has not met yet (about
-  // a third of its time went to those loads): it asks for them a few steps early. A prefetch
-  // never faults, so an address beyond the grid's edge costs nothing; the arithmetic is done
-  // on integers, not on pointers past the array.
-  const auto row = static_cast<std::ptrdiff_t>(columns);
-  constexpr std::ptrdiff_t kLineFloats = 64 / sizeof(float);
-  constexpr auto kTileFloats = static_cast<std::ptrdiff_t>(Level::kTile * Level::kTile);
-  auto prefetch = [](const float* s, std::ptrdiff_t floats) {
-    __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(s) +
-                                                     static_cast<std::uintptr_t>(floats) * sizeof(float)));
-  };
-  // Stored maximum of block (bi, bj) of level L >= 1 (+inf above the top level).
-  auto mip = [&](int L, std::int64_t bi, std::int64_t bj) -> double {
-    return mips[levels[L].index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj))];
-  };
-  // How far the ray can drop while crossing a block of level L: at most its diagonal times the
-  // ray's slope (0 for rays going up). Used only to choose levels, never to skip.
-  double drop_per_cell = 0.0;
-  if (!rising)
+public:
+  Walker(const HeightField& field, const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first,
+         double t, double t1)
+    : field_(field),
+      o_(o),
+      d_(d),
+      g_(g),
+      X0(g.X0),
+      Y0(g.Y0),
+      DX(g.DX),
+      DY(g.DY),
+      nx(field.cells_xd_),
+      ny(field.cells_yd_),
+      iX(move_x ? 1.0 / DX : 1.0),
+      iY(move_y ? 1.0 / DY : 1.0),
+      ncx(static_cast<std::int64_t>(field.cells_x_)),
+      ncy(static_cast<std::int64_t>(field.cells_y_)),
+      oz(o.z()),
+      dz(d.z()),
+      t_first_(t_first),
+      t1_(t1),
+      levels(field.levels_.data()),
+      mips(field.mip_max_.data()),
+      heights(field.heights_.data()),
+      columns(field.columns_),
+      row(static_cast<std::ptrdiff_t>(field.columns_)),
+      t_(t)
   {
-    const double horizontal = std::sqrt(d.x() * d.x() + d.y() * d.y());
-    drop_per_cell = horizontal > 0.0 ? cell_diagonal_ * (-d.z()) / horizontal : kInf;
-  }
-  // Whether block (bi, bj) of level L >= 1 lies wholly below the ray, which is at height z now.
-  auto clears = [&](int L, std::int64_t bi, std::int64_t bj, double z) {
-    return mip(L, bi, bj) + kSkipMargin + (rising ? 0.0 : drop_per_cell * kBlockSize[L]) < z;
-  };
-  // Start at the coarsest block around the start that the ray is likely to clear: a coarser one
-  // reaches the ray (or the ray drops to it while crossing), so testing it would only lead to
-  // descending through it.
-  int level = 0;
-  std::int64_t bi = cellOf(X0 + t * DX, 0, ncx);
-  std::int64_t bj = cellOf(Y0 + t * DY, 0, ncy);
-  {
-    const double z_start = oz + t * dz;
+    // How far the ray can drop while crossing a block of level L: at most its diagonal times
+    // the ray's slope (0 for rays going up). Used only to choose levels, never to skip.
+    if (!RISING)
+    {
+      const double horizontal = std::sqrt(d.x() * d.x() + d.y() * d.y());
+      drop_per_cell = horizontal > 0.0 ? field.cell_diagonal_ * (-d.z()) / horizontal : kInf;
+    }
+    // Start at the coarsest block around the start that the ray is likely to clear: a coarser
+    // one reaches the ray (or the ray drops to it while crossing), so testing it would only
+    // lead to descending through it.
+    bi = cellOf(X0 + t_ * DX, 0, ncx);
+    bj = cellOf(Y0 + t_ * DY, 0, ncy);
+    const double z_start = oz + t_ * dz;
     while (clears(level + 1, bi >> 1, bj >> 1, z_start))
     {
       ++level;
       bi >>= 1;
       bj >>= 1;
     }
+    enterLevel();
   }
-  // The current block's exit faces (fx, fy, grid units), steps to the next block's (sx, sy) and
-  // block counts, kept as the walk moves and refreshed when it changes level: the faces are
-  // integers times 2^level, exact in doubles, so each is the value (b + exit) 2^level would give.
-  double fx, fy, sx, sy;
-  std::uint64_t nbx, nby;
-  auto enterLevel = [&]() {
+
+  [[gnu::always_inline]] bool run(TerrainHit& hit)
+  {
+    for (;;)
+    {
+      // The ray's exit from block (bi, bj) of the current level. A face beyond the grid's edge
+      // (the last block of a level may be partial) is never reached: t1 ends the ray there.
+      const double tx = (fx - X0) * iX;
+      const double ty = (fy - Y0) * iY;
+      const double t_exit = std::min(tx, ty);
+      // Rounding can leave the current position on the block's exit face: step across it.
+      if (t_exit <= t_)
+      {
+        if (!stepOffFace(tx, ty))
+          return false;
+        continue;
+      }
+      const double t_out = std::min(t_exit, t1_);
+      const double z_low = oz + (RISING ? t_ : t_out) * dz;
+      if (level > 0)
+      {
+        if (dipsInto(z_low))
+        {
+          descend();
+          continue;
+        }
+      }
+      else if (hitsCell(z_low, t_out, hit))
+        return true;
+      // Past this block (skipped, or tested without a hit): into the neighbour it exits to.
+      if (t_out >= t1_ || !advance(tx, ty, t_out))
+        return false;
+      climb();
+    }
+  }
+
+private:
+  static constexpr bool px = SX > 0, py = SY > 0;
+  static constexpr bool move_x = SX != 0, move_y = SY != 0;
+  // The traversal works in blocks of the current level: block b of level L spans cells
+  // [b 2^L, (b + 1) 2^L); the ray leaves it through face (b + exit) 2^L and steps to b + step.
+  static constexpr std::int64_t exit_x = px ? 1 : 0, exit_y = py ? 1 : 0;
+  static constexpr std::int64_t step_x = px ? 1 : -1, step_y = py ? 1 : -1;
+  static constexpr std::ptrdiff_t kLineFloats = 64 / sizeof(float);
+  static constexpr auto kTileFloats = static_cast<std::ptrdiff_t>(Level::kTile * Level::kTile);
+
+  /// Level-0 cell holding the ray at p, kept inside [lo, hi) so that rounding of the position
+  /// cannot put it in a block the traversal has not reached (or has left).
+  [[gnu::always_inline]] static std::int64_t cellOf(double p, std::int64_t lo, std::int64_t hi)
+  {
+    if (!(p > static_cast<double>(lo)))
+      return lo;
+    return std::min(static_cast<std::int64_t>(p), hi - 1);
+  }
+  /// The walk is bound by the latency of loading the points of cells it has not met yet (about
+  /// a third of its time went to those loads): it asks for them a few steps early. A prefetch
+  /// never faults, so an address beyond the grid's edge costs nothing; the arithmetic is done
+  /// on integers, not on pointers past the array.
+  [[gnu::always_inline]] static void prefetch(const float* s, std::ptrdiff_t floats)
+  {
+    __builtin_prefetch(reinterpret_cast<const void*>(reinterpret_cast<std::uintptr_t>(s) +
+                                                     static_cast<std::uintptr_t>(floats) * sizeof(float)));
+  }
+  /// Stored maximum of block (bi, bj) of level L >= 1 (+inf above the top level).
+  [[gnu::always_inline]] double mip(int L, std::int64_t i, std::int64_t j) const
+  {
+    return mips[levels[L].index(static_cast<std::size_t>(i), static_cast<std::size_t>(j))];
+  }
+  /// Whether block (i, j) of level L >= 1 lies wholly below the ray, which is at height z now.
+  [[gnu::always_inline]] bool clears(int L, std::int64_t i, std::int64_t j, double z) const
+  {
+    return mip(L, i, j) + kSkipMargin + (RISING ? 0.0 : drop_per_cell * kBlockSize[L]) < z;
+  }
+  /// The current block's exit faces (fx, fy, grid units), steps to the next block's (sx, sy) and
+  /// block counts, refreshed when the walk changes level: the faces are integers times 2^level,
+  /// exact in doubles, so each is the value (b + exit) 2^level would give.
+  [[gnu::always_inline]] void enterLevel()
+  {
     const double size = kBlockSize[level];
     fx = move_x ? static_cast<double>(bi + exit_x) * size : kInf;
     fy = move_y ? static_cast<double>(bj + exit_y) * size : kInf;
@@ -540,104 +596,98 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
     sy = py ? size : -size;
     nbx = levels[level].nx;
     nby = levels[level].ny;
-  };
-  enterLevel();
-  for (;;)
+  }
+  [[gnu::always_inline]] bool inGrid() const
   {
-    // The ray's exit from block (bi, bj) of the current level. A face beyond the grid's edge
-    // (the last block of a level may be partial) is never reached: t1 ends the ray there.
-    const double tx = (fx - X0) * iX;
-    const double ty = (fy - Y0) * iY;
-    const double t_exit = std::min(tx, ty);
-    // Rounding can leave the current position on the block's exit face: step across it.
-    if (t_exit <= t)
+    return static_cast<std::uint64_t>(bi) < nbx && static_cast<std::uint64_t>(bj) < nby;
+  }
+  /// Across the face(s) the ray is on already. False: off the grid.
+  [[gnu::always_inline]] bool stepOffFace(double tx, double ty)
+  {
+    if (tx <= t_)
     {
-      if (tx <= t)
-      {
-        bi += step_x;
-        fx += sx;
-      }
-      if (ty <= t)
-      {
-        bj += step_y;
-        fy += sy;
-      }
-      if (static_cast<std::uint64_t>(bi) >= nbx || static_cast<std::uint64_t>(bj) >= nby)
-        return false;
-      continue;
+      bi += step_x;
+      fx += sx;
     }
-    const double t_out = std::min(t_exit, t1);
-    const double z_low = oz + (rising ? t : t_out) * dz;
-    if (level > 0)
+    if (ty <= t_)
     {
-      const Level& lv = levels[level];
-      const float* m = mips + lv.index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj));
-      // The same place in the neighbouring tiles along x and y: the blocks the walk meets next
-      // at this level, when they are not in this tile.
-      if (move_x)
-        prefetch(m, px ? kTileFloats : -kTileFloats);
-      if (move_y)
-        prefetch(m, (py ? kTileFloats : -kTileFloats) * static_cast<std::ptrdiff_t>(lv.tiles_x));
-      // What a descent would read first: the children's tile one level down (all four children
-      // of a block share a tile), or at level 1 the block's three rows of points.
-      if (level > 1)
-        prefetch(mips + levels[level - 1].index(static_cast<std::size_t>(2 * bi), static_cast<std::size_t>(2 * bj)), 0);
-      else
-      {
-        const float* s = heights + static_cast<std::size_t>(2 * bj) * columns + static_cast<std::size_t>(2 * bi);
-        prefetch(s, 0);
-        prefetch(s, row);
-        prefetch(s, 2 * row);
-      }
-      if (z_low <= *m + kSkipMargin)
-      {
-        // The ray may dip into this block: look at its children, starting with the one the
-        // ray is in now (the lower one when the upper would lie beyond the grid).
-        --level;
-        const double half = kBlockSize[level];
-        const double mid_x = static_cast<double>(2 * bi + 1) * half, mid_y = static_cast<double>(2 * bj + 1) * half;
-        bi = 2 * bi + (mid_x < nx && X0 + t * DX >= mid_x ? 1 : 0);
-        bj = 2 * bj + (mid_y < ny && Y0 + t * DY >= mid_y ? 1 : 0);
-        enterLevel();
-        continue;
-      }
+      bj += step_y;
+      fy += sy;
     }
+    return inGrid();
+  }
+  /// Whether the ray, at z_low at its lowest over the block, may dip into block (bi, bj) of
+  /// level >= 1; prefetches what the walk reads next either way.
+  [[gnu::always_inline]] bool dipsInto(double z_low) const
+  {
+    const Level& lv = levels[level];
+    const float* m = mips + lv.index(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj));
+    // The same place in the neighbouring tiles along x and y: the blocks the walk meets next at
+    // this level, when they are not in this tile.
+    if (move_x)
+      prefetch(m, px ? kTileFloats : -kTileFloats);
+    if (move_y)
+      prefetch(m, (py ? kTileFloats : -kTileFloats) * static_cast<std::ptrdiff_t>(lv.tiles_x));
+    // What a descent would read first: the children's tile one level down (all four children
+    // of a block share a tile), or at level 1 the block's three rows of points.
+    if (level > 1)
+      prefetch(mips + levels[level - 1].index(static_cast<std::size_t>(2 * bi), static_cast<std::size_t>(2 * bj)), 0);
     else
     {
-      const float* s = heights + static_cast<std::size_t>(bj) * columns + static_cast<std::size_t>(bi);
-      // The points the next cells need: two rows ahead along y, a cache line ahead along x.
-      if (move_y)
-      {
-        prefetch(s, py ? 2 * row : -row);
-        prefetch(s, py ? 3 * row : -2 * row);
-      }
-      if (move_x)
-      {
-        prefetch(s, px ? kLineFloats : -kLineFloats);
-        prefetch(s, row + (px ? kLineFloats : -kLineFloats));
-      }
-      const float cell_max = std::max(std::max(s[0], s[1]), std::max(s[columns], s[columns + 1]));
-      if (z_low <= cell_max + kSkipMargin)
-      {
-        // The exact test runs over the cell's whole stretch of the ray, from where the ray
-        // enters it (or starts), not from where the traversal came in: the hit then depends on
-        // the ray and the cell alone, whatever path (coarse levels, a t_clear start) led here.
-        double t_in = t_first;
-        if (move_x)
-          t_in = std::max(t_in, (static_cast<double>(bi + 1 - exit_x) - X0) * iX);
-        if (move_y)
-          t_in = std::max(t_in, (static_cast<double>(bj + 1 - exit_y) - Y0) * iY);
-        if (cellHit(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj), o, d, g, std::min(t_in, t_out), t_out,
-                    hit))
-          return true;
-      }
+      const float* s = heights + static_cast<std::size_t>(2 * bj) * columns + static_cast<std::size_t>(2 * bi);
+      prefetch(s, 0);
+      prefetch(s, row);
+      prefetch(s, 2 * row);
     }
-    // Past this block (skipped, or tested without a hit): into the neighbour it exits to.
-    if (t_out >= t1)
+    return z_low <= *m + kSkipMargin;
+  }
+  /// Into the children of the current block, starting with the one the ray is in now (the
+  /// lower one when the upper would lie beyond the grid).
+  [[gnu::always_inline]] void descend()
+  {
+    --level;
+    const double half = kBlockSize[level];
+    const double mid_x = static_cast<double>(2 * bi + 1) * half, mid_y = static_cast<double>(2 * bj + 1) * half;
+    bi = 2 * bi + (mid_x < nx && X0 + t_ * DX >= mid_x ? 1 : 0);
+    bj = 2 * bj + (mid_y < ny && Y0 + t_ * DY >= mid_y ? 1 : 0);
+    enterLevel();
+  }
+  /// The exact test of level-0 cell (bi, bj) where the ray, at z_low at its lowest over it, may
+  /// reach its highest corner.
+  [[gnu::always_inline]] bool hitsCell(double z_low, double t_out, TerrainHit& hit) const
+  {
+    const float* s = heights + static_cast<std::size_t>(bj) * columns + static_cast<std::size_t>(bi);
+    // The points the next cells need: two rows ahead along y, a cache line ahead along x.
+    if (move_y)
+    {
+      prefetch(s, py ? 2 * row : -row);
+      prefetch(s, py ? 3 * row : -2 * row);
+    }
+    if (move_x)
+    {
+      prefetch(s, px ? kLineFloats : -kLineFloats);
+      prefetch(s, row + (px ? kLineFloats : -kLineFloats));
+    }
+    const float cell_max = std::max(std::max(s[0], s[1]), std::max(s[columns], s[columns + 1]));
+    if (!(z_low <= cell_max + kSkipMargin))
       return false;
-    t = t_out;
-    // Across x, y or both (at a corner). (Done by arithmetic instead, this costs ~30 more
-    // instructions per ray and saved no time: the hardware predicts it better than callgrind.)
+    // The exact test runs over the cell's whole stretch of the ray, from where the ray enters it
+    // (or starts), not from where the traversal came in: the hit then depends on the ray and the
+    // cell alone, whatever path (coarse levels, a t_clear start) led here.
+    double t_in = t_first_;
+    if (move_x)
+      t_in = std::max(t_in, (static_cast<double>(bi + 1 - exit_x) - X0) * iX);
+    if (move_y)
+      t_in = std::max(t_in, (static_cast<double>(bj + 1 - exit_y) - Y0) * iY);
+    return field_.cellHit(static_cast<std::size_t>(bi), static_cast<std::size_t>(bj), o_, d_, g_, std::min(t_in, t_out),
+                          t_out, hit);
+  }
+  /// Into the neighbour the ray exits to at t_out: across x, y or both (at a corner). False: off
+  /// the grid. (Done by arithmetic instead, this costs ~30 more instructions per ray and saved
+  /// no time: the hardware predicts it better than callgrind.)
+  [[gnu::always_inline]] bool advance(double tx, double ty, double t_out)
+  {
+    t_ = t_out;
     if (tx <= ty)
     {
       bi += step_x;
@@ -648,24 +698,58 @@ bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
       bj += step_y;
       fy += sy;
     }
-    if (static_cast<std::uint64_t>(bi) >= nbx || static_cast<std::uint64_t>(bj) >= nby)
-      return false;
-    // Go up while the parent block lies wholly below the ray here (above the top level sits a
-    // block of +inf). A parent the step did not leave was tested before and dipped to the ray,
-    // so it mostly fails again; testing it anyway is cheaper than the unpredictable branch on
-    // whether the step left it.
-    const double z_now = oz + t * dz;
-    if (clears(level + 1, bi >> 1, bj >> 1, z_now))
-    {
-      do
-      {
-        ++level;
-        bi >>= 1;
-        bj >>= 1;
-      } while (clears(level + 1, bi >> 1, bj >> 1, z_now));
-      enterLevel();
-    }
+    return inGrid();
   }
+  /// Up while the parent block lies wholly below the ray here (above the top level sits a block
+  /// of +inf). A parent the step did not leave was tested before and dipped to the ray, so it
+  /// mostly fails again; testing it anyway is cheaper than the unpredictable branch on whether
+  /// the step left it.
+  [[gnu::always_inline]] void climb()
+  {
+    const double z_now = oz + t_ * dz;
+    if (!clears(level + 1, bi >> 1, bj >> 1, z_now))
+      return;
+    do
+    {
+      ++level;
+      bi >>= 1;
+      bj >>= 1;
+    } while (clears(level + 1, bi >> 1, bj >> 1, z_now));
+    enterLevel();
+  }
+
+  const HeightField& field_;
+  const Eigen::Vector3d& o_;
+  const Eigen::Vector3d& d_;
+  const GridRay& g_;
+  const double X0, Y0, DX, DY;
+  const double nx, ny;
+  /// Reciprocals: one multiply per face instead of a division in the inner loop. An axis the
+  /// ray does not move along gets an infinite exit face and a factor of 1, so its exit time is
+  /// +inf.
+  const double iX, iY;
+  const std::int64_t ncx, ncy;
+  const double oz, dz;
+  const double t_first_, t1_;
+  const Level* const levels;
+  const float* const mips;
+  const float* const heights;
+  const std::size_t columns;
+  const std::ptrdiff_t row;
+  double drop_per_cell = 0.0;
+  double t_;  ///< where the walk is along the ray
+  int level = 0;
+  std::int64_t bi = 0, bj = 0;  ///< the current block of the current level
+  double fx = 0.0, fy = 0.0, sx = 0.0, sy = 0.0;
+  std::uint64_t nbx = 0, nby = 0;
+};
+
+template <int SX, int SY, bool RISING>
+bool HeightField::walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first, double t,
+                       double t1, TerrainHit& hit) const
+{
+  Walker<SX, SY, RISING> walker(*this, o, d, g, t_first, t, t1);
+  return walker.run(hit);
 }
 
 }  // namespace sensors

@@ -30,6 +30,10 @@ bool finiteAtLeast(double v, double lo)
   return std::isfinite(v) && v >= lo;
 }
 
+}  // namespace
+
+namespace detail
+{
 /// One sub-ray's hit as the echo builder needs it.
 struct SubHit
 {
@@ -47,7 +51,9 @@ struct PulseResult
   std::uint32_t rays = 0;
   LidarPoint point{};
 };
-}  // namespace
+}  // namespace detail
+using detail::PulseResult;
+using detail::SubHit;
 
 std::size_t subRayCount(const LidarConfig& c)
 {
@@ -171,145 +177,68 @@ Lidar::Lidar(LidarConfig config, std::uint64_t seed) : config_(std::move(config)
   }
 }
 
-LidarScan Lidar::scan(const Scene& scene, const LidarScanRequest& req) const
+/// What every pulse of a sweep shares.
+struct Lidar::SweepConstants
 {
-  validateMotion(req.motion, "Lidar::scan");
-  validateWeather(req.weather);
-  const LidarConfig& c = config_;
-  const double alpha = extinction(req.weather, c.wavelength);
-  const double kappa = clutterRate(req.weather, c.wavelength, c.clutter_efficiency);
-  const double threshold = c.reference_reflectivity / (c.reference_range * c.reference_range);
-  const std::size_t nch = c.channels.size(), ncol = c.columns, ns = sub_offsets_.size();
-  const double column_period = 1.0 / (c.rotation_rate * static_cast<double>(ncol));
-  const double spin = (c.clockwise ? -2.0 : 2.0) * kPi * c.rotation_rate;
-  const double tan_h = std::tan(0.5 * c.divergence_horizontal), tan_v = std::tan(0.5 * c.divergence_vertical);
-  const double inv_n = 1.0 / static_cast<double>(ns);
+  double alpha;          ///< 1/m, extinction at the wavelength
+  double kappa;          ///< 1/m, rate of falling particles along a beam
+  double threshold;      ///< the weakest detectable echo's power
+  double column_period;  ///< s between columns
+  double spin;           ///< rad/s, signed
+  double tan_h, tan_v;   ///< tangents of the half divergences
+  double inv_n;          ///< 1 / sub-rays
+};
 
-  std::vector<PulseResult> results(nch * ncol);
-  // Columns handed out in small chunks as threads come free (their costs differ with what
-  // they face); every pulse depends on its index alone, so the schedule does not show.
-  parallelForDynamic(ncol, req.threads, 16, [&](std::size_t col_begin, std::size_t col_end) {
-    std::vector<SubHit> subs;
-    subs.reserve(ns + 1);
-    for (std::size_t col = col_begin; col < col_end; ++col)
-      for (std::size_t k = 0; k < nch; ++k)
-      {
-        const LidarChannel& ch = c.channels[k];
-        const std::size_t index = col * nch + k;
-        PulseResult& out = results[index];
-        // Every draw is taken, in this order, whatever happens to the pulse: the stream of
-        // a pulse is then the same under any weather, which makes weather effects monotonic
-        // for a fixed seed.
-        StreamRng rng(streamKey(seed_, req.sweep, index));
-        const double u_drop = rng.uniform();
-        const double n_range = rng.normal();
-        const double u_clutter = rng.uniformPositive();
+namespace
+{
+/// The echo a pulse reports.
+struct Echo
+{
+  double range = -1.0, power = -1.0, intensity = 0.0;
+  bool clutter = false;
+};
 
-        const double t = static_cast<double>(col) * column_period + ch.time_offset;
-        const double az = c.start_azimuth + spin * t + ch.azimuth_offset;
-        const double ca = std::cos(az), sa = std::sin(az), ce = std::cos(ch.elevation), se = std::sin(ch.elevation);
-        const Eigen::Vector3d d(ce * ca, ce * sa, se);
-        const Eigen::Vector3d e_h(-sa, ca, 0.0);
-        const Eigen::Vector3d e_v(-se * ca, -se * sa, ce);
-        const Eigen::Isometry3d pose = req.motion.at(t);
+/// The strongest (or last) echo among the pulse's sub-ray echoes, runs of sub-ray ranges with
+/// gaps <= echo_separation, and the clutter (a falling particle), if any; none: range < 0.
+Echo chooseEcho(const LidarConfig& c, double threshold, std::vector<SubHit>& subs, const SubHit* clutter)
+{
+  std::sort(subs.begin(), subs.end(), [](const SubHit& a, const SubHit& b) { return a.range < b.range; });
+  Echo best;
+  auto consider = [&](double range, double power, double intensity, bool is_clutter) {
+    if (power < threshold || range < c.min_range || range > c.max_range)
+      return;
+    const bool better = c.return_mode == ReturnMode::kStrongest ? power > best.power : range > best.range;
+    if (better)
+      best = { range, power, intensity, is_clutter };
+  };
+  for (std::size_t a = 0; a < subs.size();)
+  {
+    std::size_t b = a + 1;
+    while (b < subs.size() && subs[b].range - subs[b - 1].range <= c.echo_separation)
+      ++b;
+    double power = 0.0, intensity = 0.0, weighted = 0.0;
+    for (std::size_t m = a; m < b; ++m)
+    {
+      power += subs[m].power;
+      intensity += subs[m].intensity;
+      weighted += subs[m].power * subs[m].range;
+    }
+    const double range = power > 0.0 ? weighted / power : subs[a].range;
+    consider(range, power, intensity, false);
+    a = b;
+  }
+  if (clutter)
+    consider(clutter->range, clutter->power, clutter->intensity, true);
+  return best;
+}
 
-        subs.clear();
-        double first_hit = std::numeric_limits<double>::infinity();
-        for (std::size_t m = 0; m < ns; ++m)
-        {
-          const Eigen::Vector2d& s = sub_offsets_[m];
-          Ray ray;
-          ray.origin = pose * (c.aperture_radius * (s.x() * e_h + s.y() * e_v));
-          ray.direction = pose.linear() * (d + tan_h * s.x() * e_h + tan_v * s.y() * e_v).normalized();
-          ray.max_range = c.max_range;
-          ray.ignore_body = req.ignore_body;
-          const RayHit hit = scene.cast(ray);
-          ++out.rays;
-          if (!hit.hit())
-            continue;
-          first_hit = std::min(first_hit, hit.range);
-          const double cos_i = std::max(0.0, -ray.direction.dot(hit.normal));
-          const double intensity = hit.reflectivity * cos_i * inv_n * twoWayTransmission(alpha, hit.range);
-          // A sub-ray starting inside the ground (range 0) has no echo to speak of.
-          if (hit.range > 0.0)
-            subs.push_back({ hit.range, intensity, intensity / (hit.range * hit.range) });
-        }
-        // A falling particle nearer than the first hit: the first event of a Poisson process
-        // of rate kappa along the beam, from min_range on.
-        bool have_clutter = false;
-        SubHit clutter{};
-        if (kappa > 0.0)
-        {
-          const double r = c.min_range - std::log(u_clutter) / kappa;
-          if (r <= c.clutter_max_range && r < first_hit && r > 0.0)
-          {
-            have_clutter = true;
-            const double intensity = c.clutter_reflectivity * twoWayTransmission(alpha, r);
-            clutter = { r, intensity, intensity / (r * r) };
-          }
-        }
-        std::sort(subs.begin(), subs.end(), [](const SubHit& a, const SubHit& b) { return a.range < b.range; });
-        // Echoes: runs of sub-ray ranges with gaps <= echo_separation.
-        double best_range = -1.0, best_power = -1.0, best_intensity = 0.0;
-        bool best_is_clutter = false;
-        auto consider = [&](double range, double power, double intensity, bool is_clutter) {
-          if (power < threshold || range < c.min_range || range > c.max_range)
-            return;
-          const bool better = c.return_mode == ReturnMode::kStrongest ? power > best_power : range > best_range;
-          if (better)
-          {
-            best_range = range;
-            best_power = power;
-            best_intensity = intensity;
-            best_is_clutter = is_clutter;
-          }
-        };
-        for (std::size_t a = 0; a < subs.size();)
-        {
-          std::size_t b = a + 1;
-          while (b < subs.size() && subs[b].range - subs[b - 1].range <= c.echo_separation)
-            ++b;
-          double power = 0.0, intensity = 0.0, weighted = 0.0;
-          for (std::size_t m = a; m < b; ++m)
-          {
-            power += subs[m].power;
-            intensity += subs[m].intensity;
-            weighted += subs[m].power * subs[m].range;
-          }
-          const double range = power > 0.0 ? weighted / power : subs[a].range;
-          consider(range, power, intensity, false);
-          a = b;
-        }
-        if (have_clutter)
-          consider(clutter.range, clutter.power, clutter.intensity, true);
-        if (best_range < 0.0)
-          continue;
-        if (u_drop < c.dropout)
-        {
-          out.dropped = true;
-          continue;
-        }
-        const double range = best_range + c.range_noise * n_range;
-        if (range < c.min_range)
-          continue;
-        Eigen::Vector3d p = range * d;  // along the beam's axis from the sensor's origin
-        if (req.registered)
-          p = pose * p;
-        out.valid = true;
-        out.clutter = best_is_clutter;
-        out.point.x = static_cast<float>(p.x());
-        out.point.y = static_cast<float>(p.y());
-        out.point.z = static_cast<float>(p.z());
-        out.point.intensity = static_cast<float>(100.0 * best_intensity);
-        out.point.ring = rings_[k];
-        out.point.time = static_cast<float>(t);
-      }
-  });
-
+/// The sweep's points in pulse order, with its counts.
+LidarScan gatherScan(const std::vector<PulseResult>& results, const LidarConfig& c, bool registered)
+{
   LidarScan scan;
   scan.pulses = results.size();
   scan.duration = 1.0 / c.rotation_rate;
-  scan.registered = req.registered;
+  scan.registered = registered;
   std::size_t valid = 0;
   for (const PulseResult& r : results)
     valid += r.valid;
@@ -326,6 +255,115 @@ LidarScan Lidar::scan(const Scene& scene, const LidarScanRequest& req) const
     scan.particle_echo.push_back(r.clutter);
   }
   return scan;
+}
+}  // namespace
+
+LidarScan Lidar::scan(const Scene& scene, const LidarScanRequest& req) const
+{
+  validateMotion(req.motion, "Lidar::scan");
+  validateWeather(req.weather);
+  const LidarConfig& c = config_;
+  SweepConstants k;
+  k.alpha = extinction(req.weather, c.wavelength);
+  k.kappa = clutterRate(req.weather, c.wavelength, c.clutter_efficiency);
+  k.threshold = c.reference_reflectivity / (c.reference_range * c.reference_range);
+  const std::size_t nch = c.channels.size(), ncol = c.columns, ns = sub_offsets_.size();
+  k.column_period = 1.0 / (c.rotation_rate * static_cast<double>(ncol));
+  k.spin = (c.clockwise ? -2.0 : 2.0) * kPi * c.rotation_rate;
+  k.tan_h = std::tan(0.5 * c.divergence_horizontal);
+  k.tan_v = std::tan(0.5 * c.divergence_vertical);
+  k.inv_n = 1.0 / static_cast<double>(ns);
+
+  std::vector<PulseResult> results(nch * ncol);
+  // Columns handed out in small chunks as threads come free (their costs differ with what
+  // they face); every pulse depends on its index alone, so the schedule does not show.
+  parallelForDynamic(ncol, req.threads, 16, [&](std::size_t col_begin, std::size_t col_end) {
+    std::vector<SubHit> subs;
+    subs.reserve(ns + 1);
+    for (std::size_t col = col_begin; col < col_end; ++col)
+      for (std::size_t ch = 0; ch < nch; ++ch)
+        firePulse(scene, req, k, col, ch, subs, results[col * nch + ch]);
+  });
+  return gatherScan(results, c, req.registered);
+}
+
+void Lidar::firePulse(const Scene& scene, const LidarScanRequest& req, const SweepConstants& k, std::size_t col,
+                      std::size_t channel, std::vector<SubHit>& subs, PulseResult& out) const
+{
+  const LidarConfig& c = config_;
+  const LidarChannel& ch = c.channels[channel];
+  const std::size_t index = col * c.channels.size() + channel;
+  // Every draw is taken, in this order, whatever happens to the pulse: the stream of a pulse
+  // is then the same under any weather, which makes weather effects monotonic for a fixed seed.
+  StreamRng rng(streamKey(seed_, req.sweep, index));
+  const double u_drop = rng.uniform();
+  const double n_range = rng.normal();
+  const double u_clutter = rng.uniformPositive();
+
+  const double t = static_cast<double>(col) * k.column_period + ch.time_offset;
+  const double az = c.start_azimuth + k.spin * t + ch.azimuth_offset;
+  const double ca = std::cos(az), sa = std::sin(az), ce = std::cos(ch.elevation), se = std::sin(ch.elevation);
+  const Eigen::Vector3d d(ce * ca, ce * sa, se);
+  const Eigen::Vector3d e_h(-sa, ca, 0.0);
+  const Eigen::Vector3d e_v(-se * ca, -se * sa, ce);
+  const Eigen::Isometry3d pose = req.motion.at(t);
+
+  subs.clear();
+  double first_hit = std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector2d& s : sub_offsets_)
+  {
+    Ray ray;
+    ray.origin = pose * (c.aperture_radius * (s.x() * e_h + s.y() * e_v));
+    ray.direction = pose.linear() * (d + k.tan_h * s.x() * e_h + k.tan_v * s.y() * e_v).normalized();
+    ray.max_range = c.max_range;
+    ray.ignore_body = req.ignore_body;
+    const RayHit hit = scene.cast(ray);
+    ++out.rays;
+    if (!hit.hit())
+      continue;
+    first_hit = std::min(first_hit, hit.range);
+    const double cos_i = std::max(0.0, -ray.direction.dot(hit.normal));
+    const double intensity = hit.reflectivity * cos_i * k.inv_n * twoWayTransmission(k.alpha, hit.range);
+    // A sub-ray starting inside the ground (range 0) has no echo to speak of.
+    if (hit.range > 0.0)
+      subs.push_back({ hit.range, intensity, intensity / (hit.range * hit.range) });
+  }
+  // A falling particle nearer than the first hit: the first event of a Poisson process of rate
+  // kappa along the beam, from min_range on.
+  bool have_clutter = false;
+  SubHit clutter{};
+  if (k.kappa > 0.0)
+  {
+    const double r = c.min_range - std::log(u_clutter) / k.kappa;
+    if (r <= c.clutter_max_range && r < first_hit && r > 0.0)
+    {
+      have_clutter = true;
+      const double intensity = c.clutter_reflectivity * twoWayTransmission(k.alpha, r);
+      clutter = { r, intensity, intensity / (r * r) };
+    }
+  }
+  const Echo best = chooseEcho(c, k.threshold, subs, have_clutter ? &clutter : nullptr);
+  if (best.range < 0.0)
+    return;
+  if (u_drop < c.dropout)
+  {
+    out.dropped = true;
+    return;
+  }
+  const double range = best.range + c.range_noise * n_range;
+  if (range < c.min_range)
+    return;
+  Eigen::Vector3d p = range * d;  // along the beam's axis from the sensor's origin
+  if (req.registered)
+    p = pose * p;
+  out.valid = true;
+  out.clutter = best.clutter;
+  out.point.x = static_cast<float>(p.x());
+  out.point.y = static_cast<float>(p.y());
+  out.point.z = static_cast<float>(p.z());
+  out.point.intensity = static_cast<float>(100.0 * best.intensity);
+  out.point.ring = rings_[channel];
+  out.point.time = static_cast<float>(t);
 }
 
 }  // namespace sensors

@@ -184,6 +184,8 @@ private:
   /// The hierarchical walk of intersectFrom() from t (clipped ray [t_first, t1]), for a ray
   /// moving along x and y with signs SX, SY (-1, 0, +1), upward or level (RISING) or downward.
   template <int SX, int SY, bool RISING>
+  class Walker;
+  template <int SX, int SY, bool RISING>
   bool walk(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const GridRay& g, double t_first, double t, double t1,
             TerrainHit& hit) const;
 

@@ -143,6 +143,12 @@ struct LidarScan
   bool registered = true;
 };
 
+namespace detail
+{
+struct SubHit;       ///< lidar.cpp: one sub-ray's hit as the echo builder needs it
+struct PulseResult;  ///< lidar.cpp: what one pulse produced
+}  // namespace detail
+
 /**
  * @brief A lidar with a fixed configuration and random seed.
  *
@@ -174,6 +180,11 @@ public:
   LidarScan scan(const Scene& scene, const LidarScanRequest& request) const;
 
 private:
+  struct SweepConstants;
+  /// Casts pulse `channel` of column `col` into out (subs: scratch for its sub-ray echoes).
+  void firePulse(const Scene& scene, const LidarScanRequest& req, const SweepConstants& k, std::size_t col,
+                 std::size_t channel, std::vector<detail::SubHit>& subs, detail::PulseResult& out) const;
+
   LidarConfig config_;
   std::uint64_t seed_;
   std::vector<std::uint16_t> rings_;
