@@ -25,6 +25,57 @@ double seconds(Clock::time_point t0)
 {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
+
+/// octomap's own insertPointCloud on the same sweep, for comparison (best of 5).
+void benchOctomapReference(const LidarScan& scan, const SensorMotion& motion)
+{
+  std::vector<Eigen::Vector3f> pts;
+  for (const LidarPoint& p : scan.points)
+    pts.emplace_back(p.x, p.y, p.z);
+  const Eigen::Vector3d origin = motion.at(0.5 * scan.duration).translation();
+  for (const bool discretize : { false, true })
+  {
+    OccupancyConfig config;
+    config.discretize = discretize;
+    double best = 1e300;
+    for (int rep = 0; rep < 5; ++rep)
+    {
+      OccupancyMap map(config);
+      const auto t0 = Clock::now();
+      map.insertWithOctomap(pts, origin);
+      best = std::min(best, seconds(t0));
+    }
+    std::printf("reference octomap::OcTree::insertPointCloud, max_range 30 m, discretize %-3s: first sweep %6.1f ms\n",
+                discretize ? "yes" : "no", 1e3 * best);
+  }
+}
+
+/// Projects the map's cells within 30 m onto a 300 x 300 grid at 0.2 m round (x, y): best of 5.
+void benchGridProjection(const OccupancyMap& map, const Scene& scene, double x, double y)
+{
+  GridProjection g;
+  g.width = g.height = 300;
+  g.origin_x = x - 30.0;
+  g.origin_y = y - 30.0;
+  const TerrainHeightFn ground = [&](double gx, double gy, double& gz) { return scene.terrain().heightAt(gx, gy, gz); };
+  double best = 1e300;
+  OccupancyGrid2D grid;
+  for (int rep = 0; rep < 5; ++rep)
+  {
+    const auto t0 = Clock::now();
+    grid = map.projectGrid(g, ground);
+    best = std::min(best, seconds(t0));
+  }
+  std::size_t occupied = 0, free_cells = 0;
+  for (const std::int8_t v : grid.data)
+  {
+    occupied += v == OccupancyGrid2D::kOccupied;
+    free_cells += v == OccupancyGrid2D::kFree;
+  }
+  std::printf("2-D grid 300 x 300 cells (60 m x 60 m at 0.2 m): %6.1f ms; %zu occupied, %zu free, %zu unknown\n",
+              1e3 * best, occupied, free_cells, grid.data.size() - occupied - free_cells);
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -63,26 +114,7 @@ int main(int argc, char** argv)
   } variants[] = { { 30.0, false, 1, false }, { 30.0, false, 2, false }, { 30.0, true, 1, false },
                    { 30.0, false, 1, true },  { 30.0, true, 1, true },   { 100.0, false, 1, false },
                    { 100.0, true, 1, false }, { 100.0, false, 1, true } };
-  // octomap's own insertPointCloud on the same sweep, for comparison (best of 5).
-  std::vector<Eigen::Vector3f> pts;
-  for (const LidarPoint& p : scans[0].points)
-    pts.emplace_back(p.x, p.y, p.z);
-  const Eigen::Vector3d origin = motions[0].at(0.5 * scans[0].duration).translation();
-  for (const bool discretize : { false, true })
-  {
-    OccupancyConfig config;
-    config.discretize = discretize;
-    double best = 1e300;
-    for (int rep = 0; rep < 5; ++rep)
-    {
-      OccupancyMap map(config);
-      const auto t0 = Clock::now();
-      map.insertWithOctomap(pts, origin);
-      best = std::min(best, seconds(t0));
-    }
-    std::printf("reference octomap::OcTree::insertPointCloud, max_range 30 m, discretize %-3s: first sweep %6.1f ms\n",
-                discretize ? "yes" : "no", 1e3 * best);
-  }
+  benchOctomapReference(scans[0], motions[0]);
   for (const auto& v : variants)
   {
     const double max_range = v.max_range;
@@ -123,31 +155,7 @@ int main(int argc, char** argv)
         1e3 * first, sweeps - 1, 1e3 * total / (sweeps - 1), 1e3 * worst, map.leafCount(), occupied,
         map.memoryUsage() / 1e6);
     if (max_range == 30.0 && !discretize && v.threads == 1 && !v.voxel_filter)
-    {
-      GridProjection g;
-      g.width = g.height = 300;
-      g.origin_x = x - 30.0;
-      g.origin_y = y - 30.0;
-      const TerrainHeightFn ground = [&](double gx, double gy, double& gz) {
-        return scene.terrain().heightAt(gx, gy, gz);
-      };
-      double best = 1e300;
-      OccupancyGrid2D grid;
-      for (int rep = 0; rep < 5; ++rep)
-      {
-        const auto t0 = Clock::now();
-        grid = map.projectGrid(g, ground);
-        best = std::min(best, seconds(t0));
-      }
-      std::size_t occupied = 0, free_cells = 0;
-      for (const std::int8_t v : grid.data)
-      {
-        occupied += v == OccupancyGrid2D::kOccupied;
-        free_cells += v == OccupancyGrid2D::kFree;
-      }
-      std::printf("2-D grid 300 x 300 cells (60 m x 60 m at 0.2 m): %6.1f ms; %zu occupied, %zu free, %zu unknown\n",
-                  1e3 * best, occupied, free_cells, grid.data.size() - occupied - free_cells);
-    }
+      benchGridProjection(map, scene, x, y);
   }
   return 0;
 }

@@ -143,6 +143,45 @@ Pattern uniformRandom(double extent, std::size_t queries, std::mt19937& rng)
     p.xy.push_back(pos(rng));
   return p;
 }
+
+/// The floor for random queries: the same two cache lines per query (a cell's south and
+/// north rows), loaded with no arithmetic at all, from an array of the same size.
+void benchBareRead(const std::vector<float>& bare, std::size_t n, std::size_t queries, double grid_mb,
+                   double random_single, double random_batch)
+{
+  std::mt19937 rng2(7);
+  std::uniform_int_distribution<std::size_t> cell(0, (n - 1) * n - 2);
+  std::vector<std::size_t> idx(queries);
+  for (auto& k : idx)
+    k = cell(rng2);
+  double checksum = 0;
+  const double r = rate(
+      queries,
+      [&] {
+        double sum = 0;
+        for (std::size_t k = 0; k < queries; ++k)
+          sum += bare[idx[k]] + bare[idx[k] + n];
+        return sum;
+      },
+      checksum);
+  std::printf(
+      "bare random read of 2 floats one row apart from the same %.0f MB array: %.1f M/s (checksum %.1f); "
+      "random queries: one at a time %.1f M/s (%.0f %% of it), batched %.1f M/s (%.0f %%)\n",
+      grid_mb, r, checksum, random_single, 100.0 * random_single / r, random_batch, 100.0 * random_batch / r);
+  const double l3_mb = l3CacheMegabytes();
+  if (l3_mb > 0.0 && grid_mb > 2.0 * l3_mb)
+    std::printf(
+        "the grid is %.1f x this CPU's %.1f MB L3 cache: random queries miss cache, so memory latency "
+        "sets their rate (the bare read is the ceiling, not the arithmetic), and heights() is faster because "
+        "it overlaps the misses of 16 queries; coherent patterns stay in cache\n",
+        grid_mb / l3_mb, l3_mb);
+  else if (l3_mb > 0.0)
+    std::printf(
+        "the grid fits in about twice this CPU's %.0f MB L3 cache, so random queries mostly hit cache; "
+        "run with points_per_side 4900 for the memory-bound case\n",
+        l3_mb);
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -237,40 +276,6 @@ int main(int argc, char** argv)
   }
   std::printf("checksums of the three paths %s\n", identical ? "identical (bit for bit)" : "DIFFER (bug)");
 
-  // The floor for random queries: the same two cache lines per query (a cell's south and
-  // north rows), loaded with no arithmetic at all, from an array of the same size.
-  {
-    std::mt19937 rng2(7);
-    std::uniform_int_distribution<std::size_t> cell(0, (n - 1) * n - 2);
-    std::vector<std::size_t> idx(queries);
-    for (auto& k : idx)
-      k = cell(rng2);
-    double checksum = 0;
-    const double r = rate(
-        queries,
-        [&] {
-          double sum = 0;
-          for (std::size_t k = 0; k < queries; ++k)
-            sum += bare[idx[k]] + bare[idx[k] + n];
-          return sum;
-        },
-        checksum);
-    std::printf(
-        "bare random read of 2 floats one row apart from the same %.0f MB array: %.1f M/s (checksum %.1f); "
-        "random queries: one at a time %.1f M/s (%.0f %% of it), batched %.1f M/s (%.0f %%)\n",
-        grid_mb, r, checksum, random_single, 100.0 * random_single / r, random_batch, 100.0 * random_batch / r);
-    const double l3_mb = l3CacheMegabytes();
-    if (l3_mb > 0.0 && grid_mb > 2.0 * l3_mb)
-      std::printf(
-          "the grid is %.1f x this CPU's %.1f MB L3 cache: random queries miss cache, so memory latency "
-          "sets their rate (the bare read is the ceiling, not the arithmetic), and heights() is faster because "
-          "it overlaps the misses of 16 queries; coherent patterns stay in cache\n",
-          grid_mb / l3_mb, l3_mb);
-    else if (l3_mb > 0.0)
-      std::printf(
-          "the grid fits in about twice this CPU's %.0f MB L3 cache, so random queries mostly hit cache; "
-          "run with points_per_side 4900 for the memory-bound case\n",
-          l3_mb);
-  }
+  benchBareRead(bare, n, queries, grid_mb, random_single, random_batch);
   return identical ? 0 : 1;
 }

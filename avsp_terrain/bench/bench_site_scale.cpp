@@ -220,6 +220,121 @@ std::size_t parseCount(const char* text, const char* what)
     throw std::invalid_argument(std::string(what) + " must be an integer in [400, 40000] (got '" + text + "')");
   return static_cast<std::size_t>(v);
 }
+/// Writes the site's GeoTIFF in a child process (the parent's memory figures stay its own).
+void writeSiteInChild(const TempSite& site, std::size_t cells_x, std::size_t cells_y)
+{
+  const std::size_t cols = cells_x + 1, rows = cells_y + 1;
+  auto t0 = Clock::now();
+  std::fflush(nullptr);
+  const pid_t child = ::fork();
+  if (child < 0)
+    throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
+  if (child == 0)
+  {
+    const std::string error = writeSite(site.file, cols, rows);
+    if (!error.empty())
+      std::fprintf(stderr, "bench_site_scale: '%s': %s\n", site.file.c_str(), error.c_str());
+    std::fflush(nullptr);
+    ::_exit(error.empty() ? 0 : 1);  // no destructors: the parent owns the temp files
+  }
+  int status = 0;
+  if (::waitpid(child, &status, 0) != child || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw std::runtime_error("writing '" + site.file + "' failed (see above)");
+  const double write_s = seconds(t0);
+  struct stat st
+  {
+  };
+  ::stat(site.file.c_str(), &st);
+  std::printf("site grid: %zu x %zu cells at %.1f m (%zu x %zu = %.1f M points, %.2f km x %.2f km)\n", cells_x, cells_y,
+              kCell, cols, rows, cols * rows / 1e6, cells_x * kCell / 1e3, cells_y * kCell / 1e3);
+  std::printf("GeoTIFF: Float32, uncompressed, %.1f MB, written in %.1f s by a child process\n", st.st_size / 1e6,
+              write_s);
+}
+
+/// Loads the site as a scenario does (read, fill voids, grid, deformable terrain), printing
+/// times and memory; `peak_mb` is the larger of the two peak RSS readings.
+DeformableTerrain loadSite(const std::string& file, const SoilLibrary& soils, std::size_t cols, std::size_t rows,
+                           double& peak_mb)
+{
+  const std::string& site_file = file;
+  const double rss_before = procStatusMb("VmRSS");
+  auto t0 = Clock::now();
+  HeightRaster raster = readGeoTiff(site_file);
+  const double read_s = seconds(t0);
+  const double rss_read = procStatusMb("VmRSS");
+  const double peak_read = procStatusMb("VmHWM");
+  auto t1 = Clock::now();
+  const std::size_t voids = raster.noDataCount();
+  const std::size_t filled = fillNoData(raster, site_file);
+  const double fill_s = seconds(t1);
+  t1 = Clock::now();
+  // Moved, not copied, all the way: the heights exist once.
+  ElevationGrid grid(raster.origin_x, raster.origin_y, raster.cell_size, raster.cell_size, raster.columns, raster.rows,
+                     std::move(raster.heights));
+  DeformableTerrain terrain(std::move(grid), soils.get("sandy_loam"), DeformableTerrain::Options{ true });
+  const double build_s = seconds(t1);
+  const double load_s = seconds(t0);
+  const double rss_loaded = procStatusMb("VmRSS");
+  const double peak_hwm = procStatusMb("VmHWM");
+  const double peak_ru = maxRssMb();
+  const double base_bytes = static_cast<double>(cols) * rows * sizeof(float);
+  std::printf(
+      "load: %.2f s (readGeoTiff %.2f s, fillNoData %.2f s for %zu void points (filled %zu), grid + "
+      "terrain %.2f s)\n",
+      load_s, read_s, fill_s, voids, filled, build_s);
+  std::printf(
+      "RSS: %.1f MB before, %.1f MB after reading (peak so far %.1f MB), %.1f MB loaded; peak %.1f MB "
+      "(VmHWM) / %.1f MB (ru_maxrss)  (limit %.0f MB: %s)\n",
+      rss_before, rss_read, peak_read, rss_loaded, peak_hwm, peak_ru, kPeakLimitMb,
+      std::max(peak_hwm, peak_ru) < kPeakLimitMb ? "met" : "EXCEEDED");
+  std::printf("base heights: %.1f MB (%zu B per point); deformation tile directory: %.1f MB (fixed)\n",
+              base_bytes / 1e6, sizeof(float), terrain.directoryBytes() / 1e6);
+  peak_mb = std::max(peak_hwm, peak_ru);
+  return terrain;
+}
+
+/// The traverse over the loaded site: a 4-wheel vehicle (wheelbase 3.3 m, track 1.9 m) at 2 m/s,
+/// 0.1 m a step, in lanes along x 5 m apart, each lane a fresh strip of ground; prints its
+/// figures and returns the RSS growth, MB.
+double traverseSite(DeformableTerrain& terrain, std::size_t cells_x, std::size_t cells_y, double km)
+{
+  const double rss_pre = procStatusMb("VmRSS");
+  const double lane_length = cells_x * kCell - 10.0;
+  const double length_m = 1000.0 * km;
+  const double step = 0.1, dt = 0.05, speed = step / dt;
+  auto t0 = Clock::now();
+  double driven = 0.0;
+  long contacts = 0;
+  while (driven < length_m)
+  {
+    const int lane = static_cast<int>(driven / lane_length);
+    const double x = 5.0 + std::fmod(driven, lane_length);
+    const double y = 10.0 + 5.0 * lane;
+    if (y > cells_y * kCell - 10.0)
+      throw std::runtime_error("the site is too small for " + std::to_string(km) + " km of lanes");
+    for (const double dxw : { 1.65, -1.65 })
+      for (const double dyw : { 0.95, -0.95 })
+        contacts += terrain.wheelContact(wheel(terrain, x + dxw, y + dyw, 0.03, speed), dt, true).contact_points;
+    driven += step;
+  }
+  const double drive_s = seconds(t0);
+  const double growth = procStatusMb("VmRSS") - rss_pre;
+  const std::size_t deformed = terrain.deformedPoints();
+  const std::size_t state = terrain.deformationBytes();
+  std::printf(
+      "traverse: %.1f km in %.1f s (%.0f wheel contacts, %.1f loaded points each); RSS growth %.1f MB "
+      "(limit %.0f MB: %s)\n",
+      km, drive_s, 4.0 * driven / step, contacts / (4.0 * driven / step), growth, kGrowthLimitMb,
+      growth < kGrowthLimitMb ? "met" : "EXCEEDED");
+  std::printf(
+      "deformed points: %zu; deformation state %.2f MB = %.1f B per deformed point (tiles of %d x %d "
+      "points, %zu B per point slot)\n",
+      deformed, state / 1e6, static_cast<double>(state) / std::max<std::size_t>(deformed, 1),
+      DeformableTerrain::kTileSize, DeformableTerrain::kTileSize, sizeof(PointDeformation));
+  std::printf("peak RSS of the whole run: %.1f MB (VmHWM)\n", procStatusMb("VmHWM"));
+  return growth;
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -248,104 +363,11 @@ int main(int argc, char** argv)
     site.dir = pattern;
     site.file = site.dir + "/site.tif";
 
-    // ---- Write (child process).
-    auto t0 = Clock::now();
-    std::fflush(nullptr);
-    const pid_t child = ::fork();
-    if (child < 0)
-      throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
-    if (child == 0)
-    {
-      const std::string error = writeSite(site.file, cols, rows);
-      if (!error.empty())
-        std::fprintf(stderr, "bench_site_scale: '%s': %s\n", site.file.c_str(), error.c_str());
-      std::fflush(nullptr);
-      ::_exit(error.empty() ? 0 : 1);  // no destructors: the parent owns the temp files
-    }
-    int status = 0;
-    if (::waitpid(child, &status, 0) != child || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
-      throw std::runtime_error("writing '" + site.file + "' failed (see above)");
-    const double write_s = seconds(t0);
-    struct stat st
-    {
-    };
-    ::stat(site.file.c_str(), &st);
-    std::printf("site grid: %zu x %zu cells at %.1f m (%zu x %zu = %.1f M points, %.2f km x %.2f km)\n", cells_x,
-                cells_y, kCell, cols, rows, cols * rows / 1e6, cells_x * kCell / 1e3, cells_y * kCell / 1e3);
-    std::printf("GeoTIFF: Float32, uncompressed, %.1f MB, written in %.1f s by a child process\n", st.st_size / 1e6,
-                write_s);
-
-    // ---- Load: the path a scenario takes (read, fill voids, grid, deformable terrain).
-    const double rss_before = procStatusMb("VmRSS");
-    t0 = Clock::now();
-    HeightRaster raster = readGeoTiff(site.file);
-    const double read_s = seconds(t0);
-    const double rss_read = procStatusMb("VmRSS");
-    const double peak_read = procStatusMb("VmHWM");
-    auto t1 = Clock::now();
-    const std::size_t voids = raster.noDataCount();
-    const std::size_t filled = fillNoData(raster, site.file);
-    const double fill_s = seconds(t1);
-    t1 = Clock::now();
-    // Moved, not copied, all the way: the heights exist once.
-    ElevationGrid grid(raster.origin_x, raster.origin_y, raster.cell_size, raster.cell_size, raster.columns,
-                       raster.rows, std::move(raster.heights));
-    DeformableTerrain terrain(std::move(grid), soils.get("sandy_loam"), DeformableTerrain::Options{ true });
-    const double build_s = seconds(t1);
-    const double load_s = seconds(t0);
-    const double rss_loaded = procStatusMb("VmRSS");
-    const double peak_hwm = procStatusMb("VmHWM");
-    const double peak_ru = maxRssMb();
-    const double base_bytes = static_cast<double>(cols) * rows * sizeof(float);
-    std::printf(
-        "load: %.2f s (readGeoTiff %.2f s, fillNoData %.2f s for %zu void points (filled %zu), grid + "
-        "terrain %.2f s)\n",
-        load_s, read_s, fill_s, voids, filled, build_s);
-    std::printf(
-        "RSS: %.1f MB before, %.1f MB after reading (peak so far %.1f MB), %.1f MB loaded; peak %.1f MB "
-        "(VmHWM) / %.1f MB (ru_maxrss)  (limit %.0f MB: %s)\n",
-        rss_before, rss_read, peak_read, rss_loaded, peak_hwm, peak_ru, kPeakLimitMb,
-        std::max(peak_hwm, peak_ru) < kPeakLimitMb ? "met" : "EXCEEDED");
-    std::printf("base heights: %.1f MB (%zu B per point); deformation tile directory: %.1f MB (fixed)\n",
-                base_bytes / 1e6, sizeof(float), terrain.directoryBytes() / 1e6);
-
-    // ---- Traverse: a 4-wheel vehicle (wheelbase 3.3 m, track 1.9 m) at 2 m/s, 0.1 m a step,
-    // in lanes along x 5 m apart, each lane a fresh strip of ground.
-    const double rss_pre = procStatusMb("VmRSS");
-    const double lane_length = cells_x * kCell - 10.0;
-    const double length_m = 1000.0 * km;
-    const double step = 0.1, dt = 0.05, speed = step / dt;
-    t0 = Clock::now();
-    double driven = 0.0;
-    long contacts = 0;
-    while (driven < length_m)
-    {
-      const int lane = static_cast<int>(driven / lane_length);
-      const double x = 5.0 + std::fmod(driven, lane_length);
-      const double y = 10.0 + 5.0 * lane;
-      if (y > cells_y * kCell - 10.0)
-        throw std::runtime_error("the site is too small for " + std::to_string(km) + " km of lanes");
-      for (const double dxw : { 1.65, -1.65 })
-        for (const double dyw : { 0.95, -0.95 })
-          contacts += terrain.wheelContact(wheel(terrain, x + dxw, y + dyw, 0.03, speed), dt, true).contact_points;
-      driven += step;
-    }
-    const double drive_s = seconds(t0);
-    const double growth = procStatusMb("VmRSS") - rss_pre;
-    const std::size_t deformed = terrain.deformedPoints();
-    const std::size_t state = terrain.deformationBytes();
-    std::printf(
-        "traverse: %.1f km in %.1f s (%.0f wheel contacts, %.1f loaded points each); RSS growth %.1f MB "
-        "(limit %.0f MB: %s)\n",
-        km, drive_s, 4.0 * driven / step, contacts / (4.0 * driven / step), growth, kGrowthLimitMb,
-        growth < kGrowthLimitMb ? "met" : "EXCEEDED");
-    std::printf(
-        "deformed points: %zu; deformation state %.2f MB = %.1f B per deformed point (tiles of %d x %d "
-        "points, %zu B per point slot)\n",
-        deformed, state / 1e6, static_cast<double>(state) / std::max<std::size_t>(deformed, 1),
-        DeformableTerrain::kTileSize, DeformableTerrain::kTileSize, sizeof(PointDeformation));
-    std::printf("peak RSS of the whole run: %.1f MB (VmHWM)\n", procStatusMb("VmHWM"));
-    const bool ok = std::max(peak_hwm, peak_ru) < kPeakLimitMb && growth < kGrowthLimitMb;
+    writeSiteInChild(site, cells_x, cells_y);
+    double peak_mb = 0.0;
+    DeformableTerrain terrain = loadSite(site.file, soils, cols, rows, peak_mb);
+    const double growth = traverseSite(terrain, cells_x, cells_y, km);
+    const bool ok = peak_mb < kPeakLimitMb && growth < kGrowthLimitMb;
     return ok ? 0 : 1;
   }
   catch (const std::exception& e)
