@@ -50,8 +50,9 @@ TEST(ToXmlRpc, TypesScalarsAsRosparamDoes)
 // the round trip; a string that spells a number or a boolean stays a string.
 TEST(ToYaml, IsTheInverseOfToXmlRpc)
 {
-  const XmlRpcValue v = toXmlRpc(YAML::Load(
-      "{b: true, i: -7, d: 0.1, tiny: 5e-324, inf: -.inf, s: deer, q: '42', t: 'yes', l: [1, 2.5, x], m: {}}"));
+  const XmlRpcValue v =
+      toXmlRpc(YAML::Load("{b: true, i: -7, d: 0.1, tiny: 4.9406564584124654e-324, inf: -.inf, s: deer, q: '42', t: "
+                          "'yes', l: [1, 2.5, x], m: {}}"));
   XmlRpcValue back = toXmlRpc(avsp::node::toYaml(v));
   XmlRpcValue c = v;
   ASSERT_EQ(back.getType(), XmlRpcValue::TypeStruct);
@@ -127,6 +128,37 @@ TEST(NodeChecks, SensorsGoThroughSensorsNodesParser)
     const std::string m = e.what();
     EXPECT_EQ(m.rfind("t.yaml: vehicles[1].sensors (as sensors_node reads it for 'bravo'): ", 0), 0u) << m;
     EXPECT_NE(m.find("~vehicle_sensors/bravo/cameras[0]/lens is not a known key"), std::string::npos) << m;
+  }
+  // rosparam types the launch file's text as YAML 1.1 does: 1e3 is text to it (a YAML 1.2 reader
+  // takes it for a number), so sensors_node would refuse it, and the check does too; 1.0e+3 is a
+  // number to both.
+  s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16, max_range: 1e3}}");
+  try
+  {
+    checkSensorsAsTheNodeWill(s, vehicles);
+    FAIL() << "max_range: 1e3 passed (sensors_node reads the string '1e3')";
+  }
+  catch (const as::ScenarioError& e)
+  {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("~vehicle_sensors/bravo/lidar/max_range"), std::string::npos) << m;
+  }
+  s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16, max_range: 1.0e+3}}");
+  EXPECT_NO_THROW(checkSensorsAsTheNodeWill(s, vehicles));
+  // The section as a whole, as sensors_node validates it at start-up.
+  s.vehicles[1].sensors = YAML::Load("{lidar: {preset: VLP-16}, occupancy: {min_height: 0.5, obstacle_height: 0.2}}");
+  try
+  {
+    checkSensorsAsTheNodeWill(s, vehicles);
+    FAIL() << "an obstacle height below the minimum height passed";
+  }
+  catch (const as::ScenarioError& e)
+  {
+    const std::string m = e.what();
+    EXPECT_EQ(m,
+              "t.yaml: vehicles[1].sensors (as sensors_node reads it for 'bravo'): parameter "
+              "~vehicle_sensors/bravo/occupancy: occupancy: obstacle_height must be > min_height")
+        << m;
   }
   s.vehicles[1].sensors = YAML::Node();
   s.sensors = YAML::Load("{lidar: {channels: sixteen}}");  // a wrong type in the shared section
@@ -224,6 +256,50 @@ TEST(NodeChecks, ControllersGoThroughControllerNodesParser)
   EXPECT_NE(typo.find("lookahead_min"), std::string::npos) << typo;
   EXPECT_NE(refusal(0, "{gap_gain: 0.5}").find("params.gap_gain: unknown key"), std::string::npos);
   EXPECT_NE(refusal(1, "{goal_tolerance: 1.0}").find("params.goal_tolerance: unknown key"), std::string::npos);
+  // A value of the wrong type reaches the node's reader with rosparam's type for it (it was
+  // left out of the launch file, and the node took its default).
+  const std::string text = refusal(0, "{speed_kp: fast}");
+  EXPECT_NE(text.find("parameter ~speed_kp must be a number, got a string"), std::string::npos) << text;
+  // With the lockstep, dynamics_node waits at every 0.05 s for the controller's command: a
+  // rate whose grid misses those instants would stop the run at ~lockstep_timeout.
+  EXPECT_EQ(refusal(0, "{rate: 40}"), "");
+  const std::string rate = refusal(0, "{rate: 30}");
+  EXPECT_NE(rate.find("parameter ~rate = 30.000000 Hz: with ~lockstep the barrier period ~lockstep_period = 0.050000 s "
+                      "must be a whole number of control periods"),
+            std::string::npos)
+      << rate;
+}
+
+// The terrain as every node that holds it loads it: their reader on the generated parameters,
+// the same footprint as the scenario's own reading; a value the nodes refuse, refused with
+// their message.
+TEST(NodeChecks, TerrainLoadsAsTheNodesLoadIt)
+{
+  as::TerrainSpec flat;
+  flat.kind = as::TerrainSpec::Kind::kFlat;
+  flat.flat_soil = "gravel";
+  flat.flat_size = 60.0;
+  flat.flat_cell_size = 0.2;
+  flat.soils_file = AVSP_CONFIG_DIR "/soils.yaml";
+  const auto nodes = avsp::node::loadTerrainAsTheNodesWill(flat);
+  const auto own = as::loadTerrainFootprint(flat);
+  EXPECT_EQ(nodes->min_x, own->min_x);
+  EXPECT_EQ(nodes->max_x, own->max_x);
+  EXPECT_EQ(nodes->min_y, own->min_y);
+  EXPECT_EQ(nodes->max_y, own->max_y);
+  EXPECT_EQ(nodes->max_x - nodes->min_x, 60.0);
+  ASSERT_TRUE(nodes->ground);
+  EXPECT_EQ(nodes->ground->palette().front().name, "gravel");
+  flat.flat_size = 2e4;  // beyond terrain_node's ~flat_size range
+  try
+  {
+    avsp::node::loadTerrainAsTheNodesWill(flat);
+    FAIL() << "a 20 km flat square passed";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_EQ(std::string(e.what()).rfind("as the nodes read it: parameter ~flat_size = 20000", 0), 0u) << e.what();
+  }
 }
 
 // The run's RViz configuration (issue 22, item 5) from what sensors_node will publish: a display

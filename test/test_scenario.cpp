@@ -726,6 +726,27 @@ TEST(LaunchGenerator, CommandLine)
   EXPECT_TRUE(as::parseLaunchCommand({ "s.yaml", "--end-launch" }).end_launch);
   EXPECT_FALSE(as::parseLaunchCommand({ "s.yaml" }).end_launch);
   EXPECT_THROW(as::parseLaunchCommand({ "s.yaml", "--duration", "-1" }), std::invalid_argument);
+  // The nodes' ranges (run_numbers.hpp): what dynamics_node or run_recorder would refuse at
+  // start-up is refused on the command line, naming the option and the range.
+  EXPECT_EQ(as::parseLaunchCommand({ "s.yaml", "--real-time-factor", "1000" }).options.real_time_factor, 1000.0);
+  auto refusal = [](const std::vector<std::string>& args) {
+    try
+    {
+      as::parseLaunchCommand(args);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(refusal({ "s.yaml", "--real-time-factor", "2000" }),
+            "--real-time-factor: must be in [0.0, 1000.0] x wall-clock pace (0: as fast as possible)");
+  EXPECT_EQ(refusal({ "s.yaml", "--duration", "1e-4" }),
+            "--duration: must be in [0.001, 1000000000.0] s of sim time (0: the scenario's)");
+  EXPECT_EQ(refusal({ "s.yaml", "--progress-period", "0.001" }),
+            "--progress-period: must be in [0.01, 3600.0] s of wall time");
+  EXPECT_EQ(as::parseLaunchCommand({ "s.yaml", "--duration", "0" }).options.duration, 0.0);
   EXPECT_THROW(as::parseLaunchCommand({ "s.yaml", "--duration" }), std::invalid_argument);
   EXPECT_THROW(as::parseLaunchCommand({ "s.yaml", "--speed", "2" }), std::invalid_argument);
   EXPECT_THROW(as::parseLaunchCommand({}), std::invalid_argument);

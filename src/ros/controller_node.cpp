@@ -11,6 +11,7 @@
 #include "avsp/ros/controller_node.hpp"
 
 #include <deque>
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -158,6 +159,18 @@ ControllerSetup readControllerParams(const ParamSource& pnh)
   out.rate = boundedParam(pnh, "rate", 20.0, 1.0, 1000.0);
   out.frame_id = avsp::node::stringParam(pnh, "frame_id", "map");
   out.lockstep = avsp::node::boolParam(pnh, "lockstep", false);
+  if (out.lockstep)
+  {
+    // dynamics_node waits at every multiple of its ~lockstep_period for this controller's
+    // command: each must be on the controller's own grid k / ~rate, or the barrier waits for an
+    // answer that never comes (the run stops at ~lockstep_timeout).
+    const double barrier = boundedParam(pnh, "lockstep_period", 0.05, 1e-4, 10.0);
+    const double periods = barrier * out.rate;
+    if (std::abs(periods - std::round(periods)) > 1e-9 * std::max(1.0, periods) || std::round(periods) < 1.0)
+      throw StartupError("parameter ~rate = " + std::to_string(out.rate) + " Hz: with ~lockstep the barrier period " +
+                         "~lockstep_period = " + std::to_string(barrier) + " s must be a whole number of control " +
+                         "periods (a rate that is a multiple of " + std::to_string(1.0 / barrier) + " Hz)");
+  }
   try
   {
     if (mode == "waypoints")

@@ -94,7 +94,7 @@ public:
     {
       throw StartupError("parameter ~start_utc: " + std::string(e.what()));
     }
-    config.time_acceleration = boundedParam(pnh, "time_acceleration", 1.0, 1e-6, 1e6);
+    config.time_acceleration = avsp::node::runNumberParam(pnh, avsp::terrain::kTimeAcceleration);
     config.air_temperature = boundedParam(pnh, "air_temperature", 288.15, 150.0, 350.0);
     const double rate = boundedParam(pnh, "rate", 1.0, 0.01, 100.0);
     frame_id_ = avsp::node::stringParam(pnh, "frame_id", "map");

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include <avsp_sensors/ros/sensor_params.hpp>
+#include <avsp_terrain/ros/terrain_source_params.hpp>
 
 #include "avsp/ros/controller_node.hpp"
 #include "avsp/scenario/launch_generator.hpp"
@@ -78,6 +79,27 @@ std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario:
                                   " with the vehicles' magnetometers: " + e.what());
   }
   return displays;
+}
+
+std::shared_ptr<const scenario::TerrainFootprint> loadTerrainAsTheNodesWill(const scenario::TerrainSpec& spec)
+{
+  const std::vector<scenario::NodeParam> params = spec.nodeParams();
+  const ParamSource source(paramTree(params));
+  terrain::TerrainSource terrain_source;
+  std::string soils_file;
+  try
+  {
+    terrain_source = terrain::node::terrainSourceFromParams(source);
+    soils_file = stringParam(source, "soils_file", "");
+  }
+  catch (const StartupError& e)
+  {
+    throw std::invalid_argument(std::string("as the nodes read it: ") + e.what());
+  }
+  for (const scenario::NodeParam& p : params)
+    if (!source.keysRead().count(p.name))
+      throw std::logic_error("terrain parameter ~" + p.name + " is written for the nodes but none reads it");
+  return scenario::footprintOf(terrain::loadTerrainSource(terrain_source, terrain::SoilLibrary::load(soils_file)));
 }
 
 XmlRpc::XmlRpcValue paramTree(const std::vector<scenario::NodeParam>& params)

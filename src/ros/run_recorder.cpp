@@ -248,9 +248,9 @@ public:
     }
     if (!pnh.hasParam("duration"))
       throw StartupError("parameter ~duration is required (s of sim time)");
-    duration_ = avsp::node::boundedParam(pnh, "duration", 0.0, 1e-3, 1e9);
-    progress_period_ = avsp::node::boundedParam(pnh, "progress_period", 1.0, 0.01, 3600.0);
-    requested_rtf_ = avsp::node::boundedParam(pnh, "real_time_factor", 0.0, 0.0, 1000.0);
+    duration_ = avsp::node::runNumberParam(pnh, avsp::terrain::kRunDuration);
+    progress_period_ = avsp::node::runNumberParam(pnh, avsp::terrain::kProgressPeriod);
+    requested_rtf_ = avsp::node::runNumberParam(pnh, avsp::terrain::kRealTimeFactor);
     end_launch_ = avsp::node::boolParam(pnh, "end_launch", false);
     watch_period_ = avsp::node::boundedParam(pnh, "watch_period", 0.25, 0.05, 10.0);
     // Watching starts before the terrain loads: a node that dies meanwhile is seen at the first poll.

@@ -120,6 +120,7 @@ int generateFromCommandLine(const std::string& program, const std::vector<std::s
   std::vector<VehicleDisplays> displays;
   load.vehicles_dir = fs::absolute(config + "/vehicles").lexically_normal().string();
   load.soils_file = fs::absolute(config + "/soils.yaml").lexically_normal().string();
+  load.terrain_loader = loadTerrainAsTheNodesWill;  // the nodes' reader on the generated parameters
   try
   {
     out.scenario = loadScenario(cmd.scenario, load);

@@ -82,7 +82,7 @@ public:
     av::RadioOptions options;
     for (const av::RadioNumber& n : av::radioNumbers())
       options.*n.member = boundedParam(pnh, n.key, options.*n.member, n.min, n.max);
-    options.seed = static_cast<std::uint64_t>(boundedIntParam(pnh, "seed", 0, 0, 2147483647));
+    options.seed = static_cast<std::uint64_t>(avsp::node::runIntParam(pnh, avsp::terrain::kRunSeed));
     options.line_of_sight = avsp::node::boolParam(pnh, "line_of_sight", false);
     const double marker_rate = boundedParam(pnh, "marker_rate", 2.0, 0.0, 100.0);
     const double update_rate = boundedParam(pnh, "update_rate", 100.0, 1.0, 10000.0);

@@ -6,6 +6,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "avsp_terrain/rosparam_yaml.hpp"
+#include "avsp_terrain/run_numbers.hpp"
+
 namespace avsp
 {
 namespace scenario
@@ -72,80 +75,6 @@ std::string quoted(const std::string& s)
     out += c;
   }
   return out + "\"";
-}
-
-bool scalarAsDouble(const YAML::Node& n, double& v)
-{
-  if (n.Tag() == "!")  // quoted in the source: a string
-    return false;
-  try
-  {
-    v = n.as<double>();
-    return true;
-  }
-  catch (const YAML::Exception&)
-  {
-    return false;
-  }
-}
-
-bool scalarIsBool(const YAML::Node& n)
-{
-  if (n.Tag() == "!")
-    return false;
-  try
-  {
-    n.as<bool>();
-    return true;
-  }
-  catch (const YAML::Exception&)
-  {
-    return false;
-  }
-}
-
-void emitFlow(std::ostream& out, const YAML::Node& n, bool force_double)
-{
-  switch (n.Type())
-  {
-    case YAML::NodeType::Map:
-    {
-      out << "{";
-      bool first = true;
-      for (const auto& kv : n)
-      {
-        out << (first ? "" : ", ") << quoted(kv.first.Scalar()) << ": ";
-        emitFlow(out, kv.second, force_double);
-        first = false;
-      }
-      out << "}";
-      break;
-    }
-    case YAML::NodeType::Sequence:
-    {
-      out << "[";
-      for (std::size_t i = 0; i < n.size(); ++i)
-      {
-        out << (i ? ", " : "");
-        emitFlow(out, n[i], force_double);
-      }
-      out << "]";
-      break;
-    }
-    case YAML::NodeType::Scalar:
-    {
-      double v = 0.0;
-      if (scalarIsBool(n))
-        out << (n.as<bool>() ? "true" : "false");
-      else if (scalarAsDouble(n, v))
-        out << (force_double ? yamlDouble(v) : n.Scalar());
-      else
-        out << quoted(n.Scalar());
-      break;
-    }
-    default:
-      out << "null";
-  }
 }
 
 /// A node's opening tag and its private parameters, written line by line. Every node clears its
@@ -216,30 +145,24 @@ std::string leader(const VehicleSpec& v)
 
 }  // namespace
 
+namespace
+{
+/// "<what>: must be in [min, max] <unit>", for a number outside its run_numbers.hpp range.
+std::string rangeMessage(const std::string& what, const terrain::RunNumber& n)
+{
+  return what + ": must be in [" + terrain::rosparamDouble(n.min) + ", " + terrain::rosparamDouble(n.max) + "]" +
+         (*n.unit ? std::string(" ") + n.unit : std::string());
+}
+}  // namespace
+
 std::string yamlDouble(double v)
 {
-  if (std::isnan(v))
-    return ".nan";
-  if (std::isinf(v))
-    return v > 0 ? ".inf" : "-.inf";
-  char buf[64];
-  for (int precision = 15; precision <= 17; ++precision)
-  {
-    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v)
-      break;
-  }
-  std::string s = buf;
-  if (s.find_first_of(".eE") == std::string::npos)
-    s += ".0";
-  return s;
+  return terrain::rosparamDouble(v);
 }
 
 std::string flowYaml(const YAML::Node& node, bool force_double)
 {
-  std::ostringstream o;
-  emitFlow(o, node, force_double);
-  return o.str();
+  return terrain::rosparamFlow(node, force_double);
 }
 
 namespace
@@ -569,6 +492,7 @@ std::vector<NodeParam> controllerNodeParams(const Scenario& s, const VehicleSpec
     return p;
   p.push_back({ "mode", toString(v.controller.type), "str" });
   p.push_back({ "lockstep", "true", "bool" });
+  p.push_back({ "lockstep_period", yamlDouble(kLockstepPeriod), "double" });  // dynamics_node's barrier
   p.push_back({ "model", v.model, "str" });
   p.push_back({ "config_dir", vehicles_dir, "str" });
   if (v.controller.type == ControllerType::kWaypoints)
@@ -589,9 +513,13 @@ std::vector<NodeParam> controllerNodeParams(const Scenario& s, const VehicleSpec
   if (v.controller.params.IsDefined() && v.controller.params.IsMap())
     for (const auto& kv : v.controller.params)
     {
-      double value = 0.0;
-      if (scalarAsDouble(kv.second, value))
-        p.push_back({ kv.first.Scalar(), yamlDouble(value), "double" });
+      // Each key with rosparam's type for it: the node's reader (and --check, which runs it on
+      // these) refuses a value of the wrong type, where dropping it would leave the default.
+      const YAML::Node value = terrain::rosparamTyped(kv.second, true, "controller.params." + kv.first.Scalar());
+      const bool text = value.IsScalar() && value.Tag() == "!";
+      const bool boolean = value.IsScalar() && !text && (value.Scalar() == "true" || value.Scalar() == "false");
+      p.push_back({ kv.first.Scalar(), value.IsScalar() ? value.Scalar() : flowYaml(value, true),
+                    !value.IsScalar() ? "yaml" : (text ? "str" : (boolean ? "bool" : "double")) });
     }
   return p;
 }
@@ -602,11 +530,15 @@ std::string generateLaunch(const Scenario& s, const LaunchOptions& options)
     throw std::invalid_argument("output_dir: required");
   if (options.vehicles_dir.empty())
     throw std::invalid_argument("vehicles_dir: required");
-  if (!std::isfinite(options.real_time_factor) || options.real_time_factor < 0.0)
-    throw std::invalid_argument("real_time_factor: must be finite and >= 0");
+  // The nodes' own ranges (run_numbers.hpp): a value run_recorder or dynamics_node would refuse
+  // at start-up is refused here, before any node starts.
+  if (!terrain::inRange(terrain::kRealTimeFactor, options.real_time_factor))
+    throw std::invalid_argument(rangeMessage("real_time_factor", terrain::kRealTimeFactor));
+  if (!terrain::inRange(terrain::kProgressPeriod, options.progress_period))
+    throw std::invalid_argument(rangeMessage("progress_period", terrain::kProgressPeriod));
   const double duration = options.duration > 0.0 ? options.duration : s.duration;
-  if (!std::isfinite(duration))
-    throw std::invalid_argument("duration: must be finite");
+  if (!terrain::inRange(terrain::kRunDuration, duration))
+    throw std::invalid_argument(rangeMessage("duration", terrain::kRunDuration));
   LaunchInputs in{ s, options, s.terrain.nodeParams(), vehicleListYaml(s), false, "", duration };
   in.has_agents = s.agents.IsDefined() && !s.agents.IsNull() && s.agents.size() > 0;
   if (in.has_agents)
@@ -683,14 +615,15 @@ LaunchCommand parseLaunchCommand(const std::vector<std::string>& args)
     else if (a == "--duration")
     {
       c.options.duration = parseNumber(a, value());
-      if (c.options.duration < 0.0)
-        throw std::invalid_argument("--duration: must be >= 0 (0 = the scenario's)");
+      if (c.options.duration != 0.0 && !terrain::inRange(terrain::kRunDuration, c.options.duration))
+        throw std::invalid_argument(rangeMessage("--duration", terrain::kRunDuration) + " (0: the scenario's)");
     }
     else if (a == "--real-time-factor")
     {
       c.options.real_time_factor = parseNumber(a, value());
-      if (c.options.real_time_factor < 0.0)
-        throw std::invalid_argument("--real-time-factor: must be >= 0 (0 = as fast as possible)");
+      if (!terrain::inRange(terrain::kRealTimeFactor, c.options.real_time_factor))
+        throw std::invalid_argument(rangeMessage("--real-time-factor", terrain::kRealTimeFactor) +
+                                    " (0: as fast as possible)");
     }
     else if (a == "--rviz")
     {
@@ -707,8 +640,8 @@ LaunchCommand parseLaunchCommand(const std::vector<std::string>& args)
     else if (a == "--progress-period")
     {
       c.options.progress_period = parseNumber(a, value());
-      if (c.options.progress_period <= 0.0)
-        throw std::invalid_argument("--progress-period: must be > 0 (s)");
+      if (!terrain::inRange(terrain::kProgressPeriod, c.options.progress_period))
+        throw std::invalid_argument(rangeMessage("--progress-period", terrain::kProgressPeriod));
     }
     else if (a == "--check")
       c.check_only = true;

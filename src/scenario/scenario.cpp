@@ -15,6 +15,8 @@
 #include <avsp_terrain/geodetic_reference.hpp>
 #include <avsp_dynamics/vehicle_model.hpp>
 #include <avsp_terrain/agents.hpp>
+#include <avsp_terrain/rosparam_yaml.hpp>
+#include <avsp_terrain/run_numbers.hpp>
 #include <avsp_terrain/soil.hpp>
 #include <avsp_terrain/terrain_source.hpp>
 
@@ -467,10 +469,14 @@ YAML::Node readAgents(const Context& ctx, const YAML::Node& node, std::set<std::
                       std::vector<terrain::AgentSpec>& specs)
 {
   // The nodes' own parser and validator (dynamics_node, sensors_node and agents_node read ~agents
-  // with it); the scenario adds that an agent's name is a plain name no vehicle has.
+  // with it), on the section as they will read it (typed by rosparam's rules, numbers as
+  // doubles: what the launch file's text gives them); the scenario adds that an agent's name is
+  // a plain name no vehicle has.
+  YAML::Node typed;
   try
   {
-    specs = terrain::parseAgentSpecs(node, "agents");
+    typed = terrain::rosparamTyped(node, true, "agents");
+    specs = terrain::parseAgentSpecs(typed, "agents");
   }
   catch (const std::invalid_argument& e)
   {
@@ -484,15 +490,18 @@ YAML::Node readAgents(const Context& ctx, const YAML::Node& node, std::set<std::
     if (!names.insert(specs[i].name).second)
       ctx.fail(key, "duplicate name '" + specs[i].name + "'");
   }
-  return YAML::Clone(node);
+  return typed;
 }
 
 YAML::Node readWeather(const Context& ctx, const YAML::Node& node)
 {
   std::vector<environment::WeatherEvent> events;
+  YAML::Node typed;
   try
   {
-    events = environment::parseWeatherEvents(node, "weather");  // environment_node's reader too
+    // environment_node's reader, on the section as the node will read it (agents above).
+    typed = terrain::rosparamTyped(node, true, "weather");
+    events = environment::parseWeatherEvents(typed, "weather");
   }
   catch (const std::exception& e)
   {
@@ -506,7 +515,7 @@ YAML::Node readWeather(const Context& ctx, const YAML::Node& node)
   {
     throw ScenarioError(ctx.file() + ": " + e.what());
   }
-  return YAML::Clone(node);
+  return typed;
 }
 
 std::vector<std::string> knownModels(const std::string& dir)
@@ -638,7 +647,11 @@ std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& 
   source.transport = spec.transport;
   source.max_cells = spec.max_cells;
   const terrain::SoilLibrary soils = terrain::SoilLibrary::load(spec.soils_file);
-  terrain::LoadedSource loaded = terrain::loadTerrainSource(source, soils);
+  return footprintOf(terrain::loadTerrainSource(source, soils));
+}
+
+std::shared_ptr<const TerrainFootprint> footprintOf(terrain::LoadedSource loaded)
+{
   auto out = std::make_shared<TerrainFootprint>();
   const terrain::ElevationGrid& g = loaded.terrain->base();
   out->min_x = g.originX();
@@ -680,7 +693,9 @@ void readPlaceAndTime(const Context& ctx, MapReader& top, Scenario& s)
     {
       ctx.fail("time.start_utc", e.what());
     }
-    s.time_acceleration = readDouble(ctx, t, "acceleration", 1.0, 1e-6, 1e6, "world s per sim s");
+    s.time_acceleration =
+        readDouble(ctx, t, "acceleration", terrain::kTimeAcceleration.fallback, terrain::kTimeAcceleration.min,
+                   terrain::kTimeAcceleration.max, "world s per sim s");
     t.finish();
   }
 }
@@ -1136,8 +1151,10 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
 
     readMachines(ctx, top, s);
     readPartitions(ctx, top, options, s);
-    s.seed = static_cast<std::uint64_t>(toInt(ctx, top.required("seed"), "seed", 0, 2147483647));
-    s.duration = requiredDouble(ctx, top, "duration", 1e-3, 1e7, "s");
+    s.seed = static_cast<std::uint64_t>(toInt(ctx, top.required("seed"), "seed",
+                                              static_cast<long long>(terrain::kRunSeed.min),
+                                              static_cast<long long>(terrain::kRunSeed.max)));
+    s.duration = requiredDouble(ctx, top, "duration", terrain::kRunDuration.min, terrain::kRunDuration.max, "s");
     top.finish();
 
     checkAgainstTerrain(ctx, options, s, agent_specs);

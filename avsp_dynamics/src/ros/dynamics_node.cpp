@@ -519,14 +519,14 @@ private:
   {
     ad::WorldOptions options;
     options.step = boundedParam(pnh_, "step", 0.001, 1e-5, 0.01);
-    options.seed = static_cast<std::uint64_t>(avsp::node::boundedIntParam(pnh_, "seed", 0, 0, 2147483647));
+    options.seed = static_cast<std::uint64_t>(avsp::node::runIntParam(pnh_, avsp::terrain::kRunSeed));
     options.deform_terrain = avsp::node::boolParam(pnh_, "deform_terrain", true);
     command_timeout_ = boundedParam(pnh_, "command_timeout", 0.5, 0.0, 3600.0);
     hold_until_throttle_ = avsp::node::boolParam(pnh_, "hold_until_throttle", true);
     const double odom_rate = boundedParam(pnh_, "odometry_rate", 100.0, 1.0, 1.0 / options.step);
     const double clock_rate = boundedParam(pnh_, "clock_rate", 500.0, 1.0, 1.0 / options.step);
     const double ruts_rate = boundedParam(pnh_, "ruts_rate", 2.0, 0.0, 1.0 / options.step);
-    real_time_factor_ = boundedParam(pnh_, "real_time_factor", 0.0, 0.0, 1000.0);
+    real_time_factor_ = avsp::node::runNumberParam(pnh_, avsp::terrain::kRealTimeFactor);
     if (real_time_factor_ > 0.0)
       pacer_.emplace(real_time_factor_, kPaceMaxLag);
     publish_clock_ = avsp::node::boolParam(pnh_, "publish_clock", true);

@@ -68,7 +68,7 @@ public:
     const double interval = boundedParam(pnh, "sync_interval", 0.01, 1e-4, 10.0);
     timeout_ = boundedParam(pnh, "timeout", 10.0, 0.01, 3600.0);
     startup_timeout_ = boundedParam(pnh, "startup_timeout", 300.0, 0.01, 36000.0);
-    real_time_factor_ = boundedParam(pnh, "real_time_factor", 0.0, 0.0, 1000.0);
+    real_time_factor_ = avsp::node::runNumberParam(pnh, avsp::terrain::kRealTimeFactor);
     duration_ = boundedParam(pnh, "duration", 0.0, 0.0, 1e9);
     lookahead_ = static_cast<unsigned>(avsp::node::boundedIntParam(pnh, "lookahead", 5, 1, 1000));
     try

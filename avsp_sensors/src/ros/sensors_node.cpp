@@ -203,7 +203,7 @@ public:
       throw StartupError(
           "parameters ~world_frame and ~per_vehicle_odom_frames exclude each other (the latter puts "
           "each vehicle in <v>/odom)");
-    const int seed = boundedIntParam(pnh_, "seed", 0, 0, 2147483647);
+    const int seed = avsp::node::runIntParam(pnh_, avsp::terrain::kRunSeed);
     threads_ = static_cast<unsigned>(boundedIntParam(pnh_, "threads", 0, 0, 256));
     const double timeout = boundedParam(pnh_, "odometry_timeout", 1.0, 0.0, 3600.0);
     max_lag_ = boundedParam(pnh_, "max_lag", 1.0, 0.0, 3600.0);

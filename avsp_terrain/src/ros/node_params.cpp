@@ -6,9 +6,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <regex>
 
 #include <ros/names.h>
+
+#include "avsp_terrain/rosparam_yaml.hpp"
 
 namespace avsp
 {
@@ -219,36 +220,37 @@ std::vector<VehicleListEntry> vehicleListParam(const ParamSource& params, bool w
   return out;
 }
 
+double runNumberParam(const ParamSource& params, const terrain::RunNumber& n)
+{
+  return boundedParam(params, n.key, n.fallback, n.min, n.max);
+}
+
+int runIntParam(const ParamSource& params, const terrain::RunNumber& n)
+{
+  return boundedIntParam(params, n.key, static_cast<int>(n.fallback), static_cast<int>(n.min), static_cast<int>(n.max));
+}
+
 namespace
 {
-/// A plain scalar typed as PyYAML's safe_load (rosparam) types it.
+/// A plain scalar typed as PyYAML's safe_load (rosparam) types it (rosparam_yaml.hpp).
 XmlRpc::XmlRpcValue plainScalar(const std::string& text)
 {
-  static const std::regex kTrue("true|True|TRUE|yes|Yes|YES|on|On|ON");
-  static const std::regex kFalse("false|False|FALSE|no|No|NO|off|Off|OFF");
-  static const std::regex kInt("[-+]?(0|[1-9][0-9_]*)");
-  static const std::regex kFloat("[-+]?([0-9][0-9_]*)?\\.[0-9_]*([eE][-+][0-9]+)?|[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+");
-  static const std::regex kInf("[-+]?\\.(inf|Inf|INF)");
-  static const std::regex kNan("\\.(nan|NaN|NAN)");
-  if (std::regex_match(text, kTrue))
-    return XmlRpc::XmlRpcValue(true);
-  if (std::regex_match(text, kFalse))
-    return XmlRpc::XmlRpcValue(false);
-  if (std::regex_match(text, kInt))
+  const terrain::RosparamScalar s = terrain::rosparamScalar(text);
+  switch (s.kind)
   {
-    errno = 0;
-    const long long v = std::strtoll(text.c_str(), nullptr, 10);
-    if (errno == 0 && v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max())
-      return XmlRpc::XmlRpcValue(static_cast<int>(v));
-    return XmlRpc::XmlRpcValue(std::strtod(text.c_str(), nullptr));  // XML-RPC ints are 32-bit
+    case terrain::RosparamScalar::Kind::kBool:
+      return XmlRpc::XmlRpcValue(s.boolean);
+    case terrain::RosparamScalar::Kind::kInt:
+      if (s.integer >= std::numeric_limits<int>::min() && s.integer <= std::numeric_limits<int>::max())
+        return XmlRpc::XmlRpcValue(static_cast<int>(s.integer));
+      return XmlRpc::XmlRpcValue(s.real);  // XML-RPC ints are 32-bit
+    case terrain::RosparamScalar::Kind::kDouble:
+      return XmlRpc::XmlRpcValue(s.real);
+    case terrain::RosparamScalar::Kind::kNull:
+      throw std::invalid_argument("a null value (rosparam cannot set it)");
+    case terrain::RosparamScalar::Kind::kString:
+      break;
   }
-  if (std::regex_match(text, kFloat))
-    return XmlRpc::XmlRpcValue(std::strtod(text.c_str(), nullptr));
-  if (std::regex_match(text, kInf))
-    return XmlRpc::XmlRpcValue(text[0] == '-' ? -std::numeric_limits<double>::infinity()
-                                              : std::numeric_limits<double>::infinity());
-  if (std::regex_match(text, kNan))
-    return XmlRpc::XmlRpcValue(std::numeric_limits<double>::quiet_NaN());
   return XmlRpc::XmlRpcValue(text);
 }
 }  // namespace

@@ -12,7 +12,7 @@ namespace terrain
 {
 namespace node
 {
-TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
+TerrainSource terrainSourceFromParams(const avsp::node::ParamSource& pnh)
 {
   using avsp::node::boolParam;
   using avsp::node::boundedIntParam;
@@ -33,7 +33,7 @@ TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
     s.png.origin_x = numberParam(pnh, "png_origin_x", 0.0);
     s.png.origin_y = numberParam(pnh, "png_origin_y", 0.0);
     s.png.z_offset = numberParam(pnh, "png_z_offset", 0.0);
-    if (!pnh.hasParam("png_cell_size") || !pnh.hasParam("png_z_scale"))
+    if (!pnh.has("png_cell_size") || !pnh.has("png_z_scale"))
       throw StartupError("~dem_file " + s.dem_file +
                          " is a PNG: parameters ~png_cell_size and ~png_z_scale are required");
     s.png.cell_size = numberParam(pnh, "png_cell_size", 0.0);
@@ -53,7 +53,7 @@ TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh)
   return s;
 }
 
-LoadedSource loadTerrainFromParams(const ros::NodeHandle& pnh, const SoilLibrary& soils)
+LoadedSource loadTerrainFromParams(const avsp::node::ParamSource& pnh, const SoilLibrary& soils)
 {
   const TerrainSource source = terrainSourceFromParams(pnh);
   try

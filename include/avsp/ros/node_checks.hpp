@@ -47,6 +47,16 @@ std::vector<scenario::VehicleDisplays> checkSensorsAsTheNodeWill(const scenario:
 void checkControllersAsTheNodeWill(const scenario::Scenario& s, const std::string& vehicles_dir);
 
 /**
+ * @brief The scenario's terrain loaded as every node that holds it will load it: the node's
+ *        reader (terrainSourceFromParams) on the parameters the generated launch file gives
+ *        them (TerrainSpec::nodeParams), then loadTerrainSource with the ~soils_file given. For
+ *        LoadOptions::terrain_loader.
+ * @throw std::exception with the node's message (a value it refuses, a file it cannot load);
+ *        std::logic_error for a generated parameter no node reads
+ */
+std::shared_ptr<const scenario::TerrainFootprint> loadTerrainAsTheNodesWill(const scenario::TerrainSpec& spec);
+
+/**
  * @brief A node's private parameters as a tree (what ParamSource reads), from the launch
  *        file's `<param>` (str, double, int, bool) and `<rosparam>` ("yaml") entries.
  * @throw std::invalid_argument for a value its type cannot hold

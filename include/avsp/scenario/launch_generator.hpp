@@ -43,14 +43,16 @@ std::string generateLaunch(const Scenario& scenario, const LaunchOptions& option
 std::vector<NodeParam> controllerNodeParams(const Scenario& s, const VehicleSpec& v, const std::string& vehicles_dir);
 
 /**
- * @brief Emits a YAML node in flow style on one line, for a `<rosparam>` body.
- * @param force_double numbers (not booleans, not quoted strings) are written as floating
- *        point (`50` becomes `50.0`) so that nodes reading doubles from XML-RPC get doubles
+ * @brief Emits a YAML node in flow style on one line, for a `<rosparam>` body: each scalar with
+ *        rosparam's type for it (terrain::rosparamFlow), so that the node reads what the scenario
+ *        check read.
+ * @param force_double integers are written as floating point (`50` becomes `50.0`) so that
+ *        nodes reading doubles from XML-RPC get doubles
  */
 std::string flowYaml(const YAML::Node& node, bool force_double);
 
-/// Shortest decimal text that reads back as exactly `v`, always with a '.' or an exponent
-/// (YAML's `.inf`, `-.inf`, `.nan` for the others).
+/// Shortest decimal text that reads back as exactly `v` in yaml-cpp and PyYAML, always with a
+/// '.' (terrain::rosparamDouble; YAML's `.inf`, `-.inf`, `.nan` for the others).
 std::string yamlDouble(double v);
 
 /// The command line of scenario_launch / scenario_node (README.md, "scenario_launch").

@@ -26,6 +26,7 @@
 #include <avsp/control/leader_follower.hpp>
 #include <avsp_terrain/dem_io.hpp>
 #include <avsp_terrain/terrain_objects.hpp>
+#include <avsp_terrain/terrain_source.hpp>
 
 namespace avsp
 {
@@ -192,8 +193,13 @@ struct TerrainFootprint
 /// Loads the terrain a spec describes (throws std::exception with the reason on failure).
 using TerrainLoader = std::function<std::shared_ptr<const TerrainFootprint>(const TerrainSpec&)>;
 
-/// The footprint through avsp_terrain's loadTerrainSource() with the spec's soils file.
+/// The footprint through avsp_terrain's loadTerrainSource() with the spec's soils file (the
+/// scenario's own reading of the spec; `scenario_launch --check` loads it instead as the nodes
+/// read the generated parameters, node_checks.hpp).
 std::shared_ptr<const TerrainFootprint> loadTerrainFootprint(const TerrainSpec& spec);
+
+/// The footprint of a loaded terrain source.
+std::shared_ptr<const TerrainFootprint> footprintOf(terrain::LoadedSource loaded);
 
 struct LoadOptions
 {

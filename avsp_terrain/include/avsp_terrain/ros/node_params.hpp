@@ -20,6 +20,8 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <yaml-cpp/yaml.h>
 
+#include "avsp_terrain/run_numbers.hpp"
+
 namespace avsp
 {
 namespace node
@@ -87,6 +89,12 @@ bool isWholeInt(double d);
  */
 int boundedIntParam(const ParamSource& params, const std::string& key, int fallback, int min, int max);
 
+/// A number of the run (run_numbers.hpp) as a private parameter: boundedParam with its key,
+/// default and range, the same as the launcher and the scenario check apply.
+double runNumberParam(const ParamSource& params, const terrain::RunNumber& n);
+/// The same for an integer number (the seed).
+int runIntParam(const ParamSource& params, const terrain::RunNumber& n);
+
 /**
  * @brief A private boolean parameter (default `fallback`).
  * @throw StartupError for a value of another type (a string, a number)
@@ -131,9 +139,9 @@ std::vector<VehicleListEntry> vehicleListParam(const ParamSource& params, bool w
                                                const std::vector<std::string>& allowed, const std::string& what);
 
 /**
- * @brief A YAML node as rosparam loads it: plain scalars typed as YAML 1.1 does (true/false/yes/
- *        no/on/off, integers, floats, .inf/.nan), quoted ones strings, sequences arrays, maps
- *        structs.
+ * @brief A YAML node as rosparam loads it: plain scalars typed as PyYAML's safe_load does
+ *        (avsp_terrain/rosparam_yaml.hpp: yes/no/on/off booleans, 0x1f and 010 integers, 1e3 a
+ *        string), quoted ones strings, sequences arrays, maps structs.
  * @throw std::invalid_argument for a null or a non-string map key (rosparam cannot set those)
  */
 XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);

@@ -16,13 +16,14 @@ namespace terrain
 {
 namespace node
 {
-/// Reads ~terrain_file, ~dem_file, ~png_*, ~soil, ~flat_*, ~course_*, ~transport, ~max_cells.
-/// @throw avsp::node::StartupError naming the parameter
-TerrainSource terrainSourceFromParams(const ros::NodeHandle& pnh);
+/// Reads ~terrain_file, ~dem_file, ~png_*, ~soil, ~flat_*, ~course_*, ~transport, ~max_cells,
+/// from the master or from the tree a launch file would set (`scenario_launch --check` reads the
+/// generated terrain parameters with it). @throw avsp::node::StartupError naming the parameter
+TerrainSource terrainSourceFromParams(const avsp::node::ParamSource& pnh);
 
 /// terrainSourceFromParams() then loadTerrainSource(). @throw avsp::node::StartupError naming
 /// the parameter or the file
-LoadedSource loadTerrainFromParams(const ros::NodeHandle& pnh, const SoilLibrary& soils);
+LoadedSource loadTerrainFromParams(const avsp::node::ParamSource& pnh, const SoilLibrary& soils);
 
 }  // namespace node
 }  // namespace terrain
