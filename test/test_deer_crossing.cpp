@@ -151,8 +151,7 @@ TEST(DeerCrossing, DeerInTheLidarCloudWhereAndWhenTheAgentIs)
       seen_sweeps, in_front_sweeps, before_sweeps, after_sweeps);
 
   // agents_node: states on the 20 Hz grid of sim time, each the core's state at its stamp.
-  spinUntil([] { return false; }, 0.3);
-  ASSERT_GE(states.messages.size(), 50u);
+  ASSERT_TRUE(spinUntil([&] { return states.messages.size() >= 50u; }, 30.0)) << states.messages.size() << " states";
   for (const avsp_msgs::AgentStateArray& m : states.messages)
   {
     const double t = m.header.stamp.toSec();

@@ -20,6 +20,7 @@
 #include <rosgraph_msgs/Clock.h>
 
 #include <avsp_terrain/ros/run_command.hpp>
+#include <avsp_terrain/ros/test_clock.hpp>
 
 #include "avsp/environment/environment_model.hpp"
 
@@ -29,54 +30,19 @@ namespace
 {
 constexpr double kStep = 0.01;  // s of sim time per /clock message
 
-/// The test's world: the /clock it publishes and the /environment messages it received.
+/// The test's world: the /clock it drives and the /environment messages it received.
 struct World
 {
   ros::NodeHandle nh;
-  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  ros::Subscriber env_sub;
-  std::vector<avsp_msgs::Environment> received;
-  long steps = 0;
+  avsp::node::TestClock clock{ kStep };
+  avsp::node::TopicRecorder<avsp_msgs::Environment> environment{ "/environment" };
+  const std::vector<avsp_msgs::Environment>& received = environment.messages();
 
-  World()
-  {
-    env_sub = nh.subscribe<avsp_msgs::Environment>(
-        "/environment", 1000, [this](const avsp_msgs::Environment::ConstPtr& m) { received.push_back(*m); });
-  }
-
-  double now() const { return steps * kStep; }
-
-  void publishClock()
-  {
-    rosgraph_msgs::Clock c;
-    c.clock = ros::Time(now());
-    clock_pub.publish(c);
-  }
-
+  double now() const { return clock.now(); }
   /// Steps the clock to sim time `t`, giving the node 1 ms of wall time per step.
-  void advanceTo(double t)
-  {
-    while (now() < t - 1e-9 && ros::ok())
-    {
-      ++steps;
-      publishClock();
-      ros::WallDuration(0.001).sleep();
-      ros::spinOnce();
-    }
-  }
-
+  void advanceTo(double t) { clock.advanceTo(t, 0.001); }
   /// Keeps the clock where it is and spins until `done` or `timeout` wall seconds.
-  bool waitFor(const std::function<bool()>& done, double timeout = 10.0)
-  {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-    while (ros::ok() && !done() && ros::WallTime::now() < deadline)
-    {
-      publishClock();
-      ros::WallDuration(0.005).sleep();
-      ros::spinOnce();
-    }
-    return done();
-  }
+  bool waitFor(const std::function<bool()>& done, double timeout = 10.0) { return clock.waitFor(done, timeout, 0.005); }
 
   /// The first message stamped at or after sim time t (nullptr if none).
   const avsp_msgs::Environment* at(double t) const
@@ -102,18 +68,21 @@ ae::EnvironmentModel referenceModel()
 TEST(EnvironmentNode, RateAndContentOnSimTime)
 {
   World& w = *world;
-  ASSERT_TRUE(w.waitFor([&] { return w.clock_pub.getNumSubscribers() > 0 && w.env_sub.getNumPublishers() > 0; }))
+  ASSERT_TRUE(w.waitFor([&] { return w.clock.subscribers() > 0 && w.environment.connected(); }))
       << "environment_node did not connect";
   w.advanceTo(45.0);
   ASSERT_TRUE(w.waitFor([&] { return !w.received.empty() && w.received.back().header.stamp.toSec() >= 44.9; }))
       << "no /environment message up to sim time 45 s";
 
-  // Rate: 2 Hz on sim time, +-10 %, over [5, 45) s.
-  int count = 0;
+  // Rate: one message per multiple of 0.5 s the clock reached (2 Hz on sim time), stamped with
+  // it: exactly 80 over [5, 45) s, none skipped, none twice.
+  std::vector<double> stamps;
   for (const auto& m : w.received)
     if (m.header.stamp.toSec() >= 5.0 && m.header.stamp.toSec() < 45.0)
-      ++count;
-  EXPECT_NEAR(count / 40.0, 2.0, 0.2) << count << " messages in 40 s of sim time";
+      stamps.push_back(m.header.stamp.toSec());
+  ASSERT_EQ(stamps.size(), 80u) << "messages in 40 s of sim time at 2 Hz";
+  for (std::size_t k = 0; k < stamps.size(); ++k)
+    EXPECT_NEAR(stamps[k], 5.0 + 0.5 * static_cast<double>(k), 1e-9) << "message " << k;
 
   // Content: world time is start + 60 x sim time; Sun and Moon as the core computes them.
   const ae::EnvironmentModel model = referenceModel();

@@ -19,9 +19,9 @@
 
 #include <avsp_msgs/VehicleState.h>
 #include <avsp_terrain/ros/run_command.hpp>
+#include <avsp_terrain/ros/test_clock.hpp>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
-#include <rosgraph_msgs/Clock.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "avsp/v2v/radio.hpp"
@@ -37,26 +37,7 @@ struct Received
   double arrival;  ///< the test's sim clock when it arrived
 };
 
-struct Clock
-{
-  ros::NodeHandle nh;
-  ros::Publisher pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  long ticks = 0;  // in ms
-  double now() const { return ticks * 1e-3; }
-  void publish()
-  {
-    rosgraph_msgs::Clock c;
-    c.clock = ros::Time(now());
-    pub.publish(c);
-  }
-  void step(long ms)
-  {
-    ticks += ms;
-    publish();
-  }
-};
-
-Clock* sim = nullptr;
+avsp::node::TestClock* sim = nullptr;  // ticks of 1 ms
 
 /// The test's side of a radio: publishers on <ns><v>/v2v/out, subscribers on <ns><v>/v2v/in.
 struct Fleet
@@ -122,14 +103,7 @@ std::function<bool(const Received&)> from_sender_after(const std::string& sender
 /// Spins (republishing the clock) until `done` or `timeout` wall seconds.
 bool waitFor(const std::function<bool()>& done, double timeout = 10.0)
 {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && !done() && ros::WallTime::now() < deadline)
-  {
-    sim->publish();
-    ros::WallDuration(0.002).sleep();
-    ros::spinOnce();
-  }
-  return done();
+  return sim->waitFor(done, timeout);
 }
 
 TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
@@ -138,7 +112,7 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   std::vector<visualization_msgs::MarkerArray> markers;
   ros::Subscriber marker_sub = fleet.nh.subscribe<visualization_msgs::MarkerArray>(
       "/v2v/fleet_markers", 10, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { markers.push_back(*m); });
-  ASSERT_TRUE(waitFor([&] { return fleet.connected() && sim->pub.getNumSubscribers() >= 2; }))
+  ASSERT_TRUE(waitFor([&] { return fleet.connected() && sim->subscribers() >= 2; }))
       << "v2v_radio_node did not connect";
 
   // alpha at the origin, bravo 250 m east (in range of alpha), charlie 400 m north (out of
@@ -150,7 +124,7 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   auto bravo_x = [](long ticks) { return ticks < 20000 ? 250.0 : 350.0; };
   auto broadcastAll = [&] {
     fleet.broadcast(0, 0.0, 0.0);
-    fleet.broadcast(1, bravo_x(sim->ticks), 0.0);
+    fleet.broadcast(1, bravo_x(sim->ticks()), 0.0);
     fleet.broadcast(2, 0.0, charlie_y);
     fleet.broadcast(3, delta_x, 0.0);
   };
@@ -174,14 +148,14 @@ TEST(V2vRadioNode, InRangeAt10HzOutOfRangeNeverLatencyExact)
   auto window = [](double lo, double hi) {
     return [lo, hi](const Received& r) { return r.stamp >= lo - 1e-9 && r.stamp <= hi + 1e-9; };
   };
-  while (sim->ticks < end_ms)
+  while (sim->ticks() < end_ms)
   {
     sim->step(10);
-    if (sim->ticks % 100 == 0)  // 10 Hz
+    if (sim->ticks() % 100 == 0)  // 10 Hz
       broadcastAll();
     // Owed by now (whole milliseconds: 0.15 - 0.05 is below 0.1 in doubles): states stamped
     // from 0.1 s to now - latency, alpha <-> bravo until 19.9 s, bravo <-> delta throughout.
-    const long due_ms = sim->ticks - 50;
+    const long due_ms = sim->ticks() - 50;
     auto owedUpTo = [&](long last_ms) {
       const long last = std::min(due_ms, last_ms);
       return last < 100 ? std::size_t{ 0 } : static_cast<std::size_t>((last - 100) / 100 + 1);
@@ -412,7 +386,7 @@ int main(int argc, char** argv)
 {
   ::testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_v2v_radio_node");
-  Clock clock;
+  avsp::node::TestClock clock(1e-3);
   sim = &clock;
   return RUN_ALL_TESTS();
 }

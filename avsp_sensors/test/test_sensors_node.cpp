@@ -1191,15 +1191,22 @@ TEST(WithDynamics, SensorsFollowTheDynamicsClockAndSeeTheSettledVehicles)
       },
       90.0))
       << "IMU samples: ego " << imu.messages.size() << ", mule " << mule_imu.messages.size();
-  spinUntil([] { return false; }, 0.5);
+  // Every sensor has sensed up to `until` (they publish in their own order within an instant).
+  const auto reached = [&](const auto& topic) {
+    return !topic.messages.empty() && topic.messages.back().header.stamp.toSec() >= until - 1e-6;
+  };
+  ASSERT_TRUE(spinUntil([&] { return reached(cloud) && reached(targets) && reached(fixes); }, 30.0))
+      << "sweeps " << cloud.messages.size() << ", radar scans " << targets.messages.size() << ", fixes "
+      << fixes.messages.size();
 
-  // Rates per sim time over [1, 4): IMU 100 Hz, lidar, radar and GPS 10 Hz.
+  // Rates per sim time over [1, 4): IMU 100 Hz, lidar, radar and GPS 10 Hz, each sensor on its
+  // own grid of the sim clock: the exact counts, none skipped, none twice.
   const double from = 1.0, span = until - from;
-  EXPECT_NEAR(static_cast<double>(imu.countIn(from, until)), 100.0 * span, 10.0 * span);
-  EXPECT_NEAR(static_cast<double>(mule_imu.countIn(from, until)), 100.0 * span, 10.0 * span);
-  EXPECT_NEAR(static_cast<double>(cloud.countIn(from, until)), 10.0 * span, 1.0 * span);
-  EXPECT_NEAR(static_cast<double>(targets.countIn(from, until)), 10.0 * span, 1.0 * span);
-  EXPECT_NEAR(static_cast<double>(fixes.countIn(from, until)), 10.0 * span, 1.0 * span);
+  EXPECT_EQ(imu.countIn(from, until), static_cast<std::size_t>(std::lround(100.0 * span)));
+  EXPECT_EQ(mule_imu.countIn(from, until), static_cast<std::size_t>(std::lround(100.0 * span)));
+  EXPECT_EQ(cloud.countIn(from, until), static_cast<std::size_t>(std::lround(10.0 * span)));
+  EXPECT_EQ(targets.countIn(from, until), static_cast<std::size_t>(std::lround(10.0 * span)));
+  EXPECT_EQ(fixes.countIn(from, until), static_cast<std::size_t>(std::lround(10.0 * span)));
   std::printf(
       "[sensors_node test] behind dynamics_node over %.0f s of sim time: %zu + %zu IMU samples, %zu sweeps, "
       "%zu radar scans, %zu fixes\n",
