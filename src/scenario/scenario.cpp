@@ -40,22 +40,6 @@ std::string join(const std::vector<std::string>& items, const char* separator = 
   return out;
 }
 
-/// Shortest text that reads back as exactly v, with a '.' or an exponent (a double to roslaunch).
-std::string formatNumber(double v)
-{
-  char buf[64];
-  for (int precision = 15; precision <= 17; ++precision)
-  {
-    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v)
-      break;
-  }
-  std::string s = buf;
-  if (s.find_first_of(".eEn") == std::string::npos)
-    s += ".0";
-  return s;
-}
-
 /// Short human form of a number for messages.
 std::string shortNumber(double v)
 {
@@ -572,9 +556,9 @@ std::vector<NodeParam> TerrainSpec::nodeParams() const
   {
     case Kind::kDefaultCourse:
       p.push_back({ "course_seed", std::to_string(course_seed), "int" });
-      p.push_back({ "course_cell_size", formatNumber(course_cell_size), "double" });
-      p.push_back({ "course_length_x", formatNumber(course_length_x), "double" });
-      p.push_back({ "course_length_y", formatNumber(course_length_y), "double" });
+      p.push_back({ "course_cell_size", terrain::rosparamDouble(course_cell_size), "double" });
+      p.push_back({ "course_length_x", terrain::rosparamDouble(course_length_x), "double" });
+      p.push_back({ "course_length_y", terrain::rosparamDouble(course_length_y), "double" });
       break;
     case Kind::kFile:
       if (terrain::fileExtension(file) == ".avspterrain")
@@ -585,18 +569,18 @@ std::vector<NodeParam> TerrainSpec::nodeParams() const
         p.push_back({ "soil", soil, "str" });
         if (has_png)
         {
-          p.push_back({ "png_cell_size", formatNumber(png_cell_size), "double" });
-          p.push_back({ "png_z_scale", formatNumber(png_z_scale), "double" });
-          p.push_back({ "png_origin_x", formatNumber(png_origin_x), "double" });
-          p.push_back({ "png_origin_y", formatNumber(png_origin_y), "double" });
-          p.push_back({ "png_z_offset", formatNumber(png_z_offset), "double" });
+          p.push_back({ "png_cell_size", terrain::rosparamDouble(png_cell_size), "double" });
+          p.push_back({ "png_z_scale", terrain::rosparamDouble(png_z_scale), "double" });
+          p.push_back({ "png_origin_x", terrain::rosparamDouble(png_origin_x), "double" });
+          p.push_back({ "png_origin_y", terrain::rosparamDouble(png_origin_y), "double" });
+          p.push_back({ "png_z_offset", terrain::rosparamDouble(png_z_offset), "double" });
         }
       }
       break;
     case Kind::kFlat:
       p.push_back({ "flat_soil", flat_soil, "str" });
-      p.push_back({ "flat_size", formatNumber(flat_size), "double" });
-      p.push_back({ "flat_cell_size", formatNumber(flat_cell_size), "double" });
+      p.push_back({ "flat_size", terrain::rosparamDouble(flat_size), "double" });
+      p.push_back({ "flat_cell_size", terrain::rosparamDouble(flat_cell_size), "double" });
       break;
   }
   p.push_back({ "transport", transport ? "true" : "false", "bool" });
