@@ -10,6 +10,9 @@ camera, IMU and GPS topics in both. Checks, one test case each:
   (the header's seq aside, which counts per connection): the clock waits for the sensors
   (dynamics_node ~clock_followers), the sensors for /environment and for each rut instant's
   end-of-patches marker, so no weather change or rut reaches a different sweep under load.
+- threads: a third run, idle, with sensors_node on one thread (~threads 1, in the generated
+  launch file) gives the same messages as the first (all cores: the vehicles, the lidar's
+  columns and the cameras' rows over threads), byte for byte.
 
 usage: run_sensor_determinism.py SCENARIO LAUNCH_FILE RESULT_XML [DURATION_S] [WALL_LIMIT_S]
 """
@@ -39,7 +42,22 @@ def wait_master(env, limit):
     return False
 
 
-def run(name, scenario, launch_file, tmp, duration, limit, hog):
+def one_thread_launch(scenario, tmp, duration, name):
+    """The scenario's generated launch file with sensors_node on one thread."""
+    out = os.path.join(tmp, name + ".launch")
+    subprocess.run(["rosrun", "avsp", "scenario_launch", scenario, "--duration", "%g" % duration,
+                    "--real-time-factor", "0", "--output-dir", os.path.join(tmp, name + "_results"),
+                    "--out", out], check=True, stdout=subprocess.DEVNULL)
+    text = open(out).read()
+    tag = '<node pkg="avsp_sensors" type="sensors_node"'
+    start = text.index(tag)
+    end = text.index(">", start) + 1
+    text = text[:end] + '\n    <param name="threads" type="int" value="1"/>' + text[end:]
+    open(out, "w").write(text)
+    return out
+
+
+def run(name, scenario, launch_file, tmp, duration, limit, hog, one_thread=False):
     """One run on its own master; returns (bag path, [problems])."""
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1")
@@ -57,17 +75,20 @@ def run(name, scenario, launch_file, tmp, duration, limit, hog):
         time.sleep(2.0)  # the recorder registers its subscriptions before any publisher exists
         if hog:
             hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
-        launch = subprocess.Popen(["roslaunch", "-p", str(port), launch_file, "scenario:=" + scenario,
-                                   "duration:=%g" % duration, "real_time_factor:=0",
-                                   "output_dir:=" + os.path.join(tmp, name + "_results")],
-                                  env=env, preexec_fn=os.setsid, stdout=log, stderr=subprocess.STDOUT)
+        if one_thread:
+            command = ["roslaunch", "-p", str(port), one_thread_launch(scenario, tmp, duration, name)]
+        else:
+            command = ["roslaunch", "-p", str(port), launch_file, "scenario:=" + scenario, "duration:=%g" % duration,
+                       "real_time_factor:=0", "output_dir:=" + os.path.join(tmp, name + "_results")]
+        launch = subprocess.Popen(command, env=env, preexec_fn=os.setsid, stdout=log, stderr=subprocess.STDOUT)
         start = time.time()
         try:
             rc = launch.wait(timeout=limit)
         except subprocess.TimeoutExpired:
             return bag, ["%s: the run did not end within %g s (wall)" % (name, limit)]
-        print("run_sensor_determinism: %s run (%s) ended with %d after %.1f s wall"
-              % (name, "two busy processes" if hog else "idle", rc, time.time() - start))
+        print("run_sensor_determinism: %s run (%s%s) ended with %d after %.1f s wall"
+              % (name, "two busy processes" if hog else "idle", ", sensors_node on one thread" if one_thread else "",
+                 rc, time.time() - start))
         return bag, ([] if rc == 0 else ["%s: roslaunch exited with %d (log %s)" % (name, rc, log.name)])
     finally:
         for h in hogs:
@@ -95,6 +116,35 @@ def messages(bag_path):
     return out
 
 
+def compare(a, b, window, names):
+    """(problems with what was recorded, differences, messages compared) between two runs."""
+    recorded, identical = [], []
+    total = 0
+    for topic in TOPICS:
+        ka = {k for k in a[topic] if k[0] + 1e-9 * k[1] <= window}
+        kb = {k for k in b[topic] if k[0] + 1e-9 * k[1] <= window}
+        if not ka or not kb:
+            recorded.append("%s: no message (%s %d, %s %d)" % (topic, names[0], len(ka), names[1], len(kb)))
+            continue
+        first = max(min(ka), min(kb))
+        if first[0] + 1e-9 * first[1] > 1.0:
+            recorded.append("%s: first message in both runs only at %.3f s" % (topic, first[0] + 1e-9 * first[1]))
+        ka = {k for k in ka if k >= first}
+        kb = {k for k in kb if k >= first}
+        if ka != kb:
+            identical.append("%s: %d stamps only in the %s run, %d only in the %s one"
+                             % (topic, len(ka - kb), names[0], len(kb - ka), names[1]))
+        differ = sorted(k for k in ka & kb if a[topic][k] != b[topic][k])
+        if differ:
+            identical.append("%s: %d of %d messages differ, the first stamped %.3f s"
+                             % (topic, len(differ), len(ka & kb), differ[0][0] + 1e-9 * differ[0][1]))
+        total += len(ka & kb)
+        print("run_sensor_determinism: %s / %s %-28s %5d messages in both runs from %.3f s, %d differ"
+              % (names[0], names[1], topic, len(ka & kb), first[0] + 1e-9 * first[1], len(differ)))
+    print("run_sensor_determinism: %s / %s: %d messages compared" % (names[0], names[1], total))
+    return recorded, identical
+
+
 def main(argv):
     if len(argv) < 4:
         sys.stderr.write(__doc__)
@@ -107,36 +157,16 @@ def main(argv):
     try:
         bag_a, problems_a = run("idle", scenario, launch_file, tmp, duration, limit, False)
         bag_b, problems_b = run("loaded", scenario, launch_file, tmp, duration, limit, True)
-        if problems_a or problems_b:
-            cases += [("recorded", problems_a + problems_b), ("identical", ["no comparison: a run failed"])]
+        bag_c, problems_c = run("one_thread", scenario, launch_file, tmp, duration, limit, False, one_thread=True)
+        if problems_a or problems_b or problems_c:
+            cases += [("recorded", problems_a + problems_b + problems_c),
+                      ("identical", ["no comparison: a run failed"]), ("threads", ["no comparison: a run failed"])]
             return write_junit(result, "sensor_determinism", cases)
-        a, b = messages(bag_a), messages(bag_b)
-        recorded, identical = [], []
+        a, b, c = messages(bag_a), messages(bag_b), messages(bag_c)
         window = duration - 0.5
-        total = 0
-        for topic in TOPICS:
-            ka = {k for k in a[topic] if k[0] + 1e-9 * k[1] <= window}
-            kb = {k for k in b[topic] if k[0] + 1e-9 * k[1] <= window}
-            if not ka or not kb:
-                recorded.append("%s: no message (idle %d, loaded %d)" % (topic, len(ka), len(kb)))
-                continue
-            first = max(min(ka), min(kb))
-            if first[0] + 1e-9 * first[1] > 1.0:
-                recorded.append("%s: first message in both runs only at %.3f s" % (topic, first[0] + 1e-9 * first[1]))
-            ka = {k for k in ka if k >= first}
-            kb = {k for k in kb if k >= first}
-            if ka != kb:
-                identical.append("%s: %d stamps only in the idle run, %d only in the loaded one"
-                                 % (topic, len(ka - kb), len(kb - ka)))
-            differ = sorted(k for k in ka & kb if a[topic][k] != b[topic][k])
-            if differ:
-                identical.append("%s: %d of %d messages differ, the first stamped %.3f s"
-                                 % (topic, len(differ), len(ka & kb), differ[0][0] + 1e-9 * differ[0][1]))
-            total += len(ka & kb)
-            print("run_sensor_determinism: %-28s %5d messages in both runs from %.3f s, %d differ"
-                  % (topic, len(ka & kb), first[0] + 1e-9 * first[1], len(differ)))
-        print("run_sensor_determinism: %d messages compared" % total)
-        cases += [("recorded", recorded), ("identical", identical)]
+        recorded, identical = compare(a, b, window, ("idle", "loaded"))
+        recorded_c, threads = compare(a, c, window, ("idle", "one_thread"))
+        cases += [("recorded", recorded + recorded_c), ("identical", identical), ("threads", threads)]
         return write_junit(result, "sensor_determinism", cases)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -59,6 +59,7 @@
 #include <avsp_terrain/ros/terrain_source_params.hpp>
 
 #include "avsp_sensors/camera_rig.hpp"
+#include "avsp_sensors/parallel.hpp"
 #include "avsp_sensors/agent_bodies.hpp"
 #include "avsp_sensors/random.hpp"
 #include "avsp_sensors/ros/camera_conversions.hpp"
@@ -958,10 +959,18 @@ public:
         }
       appendAgentBodies(bodies, batch->time);
       scene_->setBodies(std::move(bodies));
+      // The vehicles' sensors and cameras over the threads (each vehicle's outputs depend on its
+      // own state and the scene alone, both fixed for this time: any split gives the same
+      // outputs), then published in the vehicles' order from this thread.
+      std::vector<Sensed> sensed(batch->vehicles.size());
+      as::parallelForDynamic(batch->vehicles.size(), threads_, 1, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t k = begin; k < end; ++k)
+          sensed[k] = compute(*vehicles_[batch->vehicles[k]], batch->states[k]);
+      });
       for (std::size_t k = 0; k < batch->vehicles.size(); ++k)
       {
         VehicleIo& v = *vehicles_[batch->vehicles[k]];
-        sense(v, batch->states[k]);
+        publish(v, batch->states[k], sensed[k]);
         v.sensed = batch->states[k].time;
         ++v.states_sensed;
       }
@@ -1014,18 +1023,46 @@ private:
       reportDone();
   }
 
-  void sense(VehicleIo& v, const as::VehicleState& state)
+  /// What one vehicle's sensors and cameras made of one state (compute(), on any thread).
+  struct Sensed
   {
     as::SuiteOutput out;
+    std::vector<as::CameraOutput> frames;
+    std::string suite_error, camera_error;  ///< the core's refusal of the state, if any
+  };
+
+  /// The vehicle's sensors and cameras at `state` (no ROS call: run on a worker thread).
+  Sensed compute(VehicleIo& v, const as::VehicleState& state)
+  {
+    Sensed s;
     try
     {
-      out = v.sensors->update(state, *scene_, weather_, threads_);
+      s.out = v.sensors->update(state, *scene_, weather_, threads_);
     }
     catch (const std::invalid_argument& e)
     {
-      warnThrottled(2.0, "sensors_node: %s at %.6f s: %s", v.name.c_str(), state.time, e.what());
+      s.suite_error = e.what();
+    }
+    if (v.camera_rig)
+      try
+      {
+        s.frames = v.camera_rig->update(state, *scene_, camera_materials_, camera_env_, threads_);
+      }
+      catch (const std::invalid_argument& e)
+      {
+        s.camera_error = e.what();
+      }
+    return s;
+  }
+
+  void publish(VehicleIo& v, const as::VehicleState& state, const Sensed& sensed)
+  {
+    if (!sensed.suite_error.empty())
+    {
+      warnThrottled(2.0, "sensors_node: %s at %.6f s: %s", v.name.c_str(), state.time, sensed.suite_error.c_str());
       return;
     }
+    const as::SuiteOutput& out = sensed.out;
     std_msgs::Header header;
     header.stamp = asn::toStamp(out.time);
     auto with = [&header](const std::string& frame) {
@@ -1081,7 +1118,7 @@ private:
       ++costs.maps;
       costs.map_products += (ros::WallTime::now() - start).toSec();
     }
-    senseCameras(v, state);
+    publishCameras(v, state, sensed);
   }
 
   // ---- lidar clustering (issue 23) -------------------------------------------------------
@@ -1127,22 +1164,18 @@ private:
     v.costs.clustering += (ros::WallTime::now() - start).toSec();
   }
 
-  /// Renders and publishes the cameras due at this state (stamped with its time).
-  void senseCameras(VehicleIo& v, const as::VehicleState& state)
+  /// Publishes the camera frames rendered at this state (stamped with its time).
+  void publishCameras(VehicleIo& v, const as::VehicleState& state, const Sensed& sensed)
   {
     if (!v.camera_rig)
       return;
-    std::vector<as::CameraOutput> frames;
-    try
+    if (!sensed.camera_error.empty())
     {
-      frames = v.camera_rig->update(state, *scene_, camera_materials_, camera_env_, threads_);
-    }
-    catch (const std::invalid_argument& e)
-    {
-      warnThrottled(2.0, "sensors_node: %s cameras at %.6f s: %s", v.name.c_str(), state.time, e.what());
+      warnThrottled(2.0, "sensors_node: %s cameras at %.6f s: %s", v.name.c_str(), state.time,
+                    sensed.camera_error.c_str());
       return;
     }
-    for (const as::CameraOutput& o : frames)
+    for (const as::CameraOutput& o : sensed.frames)
     {
       const ros::WallTime start = ros::WallTime::now();
       const as::Camera& camera = v.camera_rig->cameras()[o.index];
