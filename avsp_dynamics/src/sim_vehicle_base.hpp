@@ -19,6 +19,7 @@
 
 #include <avsp_terrain/deformable_terrain.hpp>
 
+#include "avsp_dynamics/external_wheel_soil.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
 #include "obstacle_collision.hpp"
@@ -53,6 +54,13 @@ public:
   virtual VehicleBodies collisionBodies() const = 0;
   /// What obstacles and other vehicles did over the last step, into state().
   virtual void setCollisionReport(const CollisionReport& report) = 0;
+  /// An external soil for the wheels from the next step on (null: the terrain alone).
+  /// @throw std::invalid_argument for a vehicle without wheels (tracked)
+  virtual void setExternalWheelSoil(std::shared_ptr<ExternalWheelSoil> soil)
+  {
+    if (soil)
+      throw std::invalid_argument("vehicle '" + state().name + "' has tracks: an external wheel soil needs wheels");
+  }
   /// Warnings raised since the last call (a contact's fault once per contact), oldest first.
   std::vector<std::string> takeWarnings()
   {

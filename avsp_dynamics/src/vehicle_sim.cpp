@@ -77,6 +77,7 @@ public:
     state_.obstacle_rigid_contacts = r.rigid_contacts;
     state_.obstacle_impulse = r.impulse;
   }
+  void setExternalWheelSoil(std::shared_ptr<ExternalWheelSoil> soil) override { external_ = std::move(soil); }
 
 private:
   struct Wheel
@@ -98,6 +99,7 @@ private:
     ResistanceMotor resistance;                       ///< the ground's resistance at the wheel centre
     Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< m, where the contact acts this step
     bool fault_reported = false;                      ///< a non-finite contact force was reported once
+    ExternalWheelLoad external;                       ///< the external soil's part this step (share 0: none)
   };
 
   /// Two wheels a locked differential turns at the same speed: an ODE angular motor between
@@ -119,13 +121,21 @@ private:
   void updateDrivetrain();
   void updateCouplings();
   void updateSuspension();
-  void soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times);
+  /// The terrain's contact of wheel w, its forces and stiffnesses times `share` (1: the whole).
+  void soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times,
+                   double share);
+  /// The external soil's loads on the wheels for this step (external_ set), checked.
+  void externalLoads();
   void couple(const std::string& key, const std::vector<std::pair<std::size_t, std::size_t>>& pairs);
   void buildWheel(std::size_t i, const Body& body, const Eigen::Isometry3d& pose);
   void lockDifferentials();
 
   VehicleModel model_;
   WorldOptions options_;
+  std::shared_ptr<ExternalWheelSoil> external_;  ///< null: the terrain alone
+  std::vector<WheelKinematics> kinematics_;      ///< scratch of externalLoads()
+  std::vector<ExternalWheelLoad> loads_;         ///< the external soil's answer this step
+  double now_ = 0.0;                             ///< s, world time after the last afterStep
   dWorldID world_;
   dBodyID chassis_ = nullptr;
   Eigen::Vector3d chassis_com_;  ///< m, lumped centre of mass in base_link
@@ -508,7 +518,8 @@ void SimVehicle::updateSuspension()
   }
 }
 
-void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times)
+void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJointGroupID contacts, StepTimes* times,
+                             double share)
 {
   const double h = options_.step;
   w.contact = false;
@@ -556,6 +567,16 @@ void SimVehicle::soilContact(Wheel& w, terrain::DeformableTerrain& terrain, dJoi
   w.soil = terrain.wheelContact(patch, h, options_.deform_terrain);
   if (times)
     times->contact += seconds(start, Clock::now());
+  if (share < 1.0)
+  {
+    // The external soil carries the rest of the wheel: the terrain's share of each force and
+    // of each stiffness (sinkage, slip and lengths are the terrain's own).
+    terrain::ContactForces& f = w.soil;
+    for (double* x : { &f.normal_force, &f.longitudinal_force, &f.lateral_force, &f.resistance_force,
+                       &f.grass_resistance, &f.shear_strength, &f.shear_slope, &f.shear_cap_slope,
+                       &f.shear_elastic_slope, &f.normal_stiffness, &f.unload_stiffness })
+      *x *= share;
+  }
 
   // Rigid ground under part of the footprint: the tyre's deflection against the ground plane.
   const FirmContact firm = firmContact(terrain, w.soil, centre, w.spec->radius, frame.normal);
@@ -575,13 +596,72 @@ void SimVehicle::beforeStep(terrain::DeformableTerrain& terrain, dJointGroupID c
   updateSteering();
   updateDrivetrain();
   updateSuspension();
-  for (Wheel& w : wheels_)
-    soilContact(w, terrain, contacts, times);
+  if (external_)
+    externalLoads();
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+  {
+    Wheel& w = wheels_[i];
+    w.external = external_ ? loads_[i] : ExternalWheelLoad();
+    const double share = w.external.share;
+    if (share < 1.0)
+      soilContact(w, terrain, contacts, times, 1.0 - share);
+    else
+    {
+      // The external soil carries the whole wheel: no terrain contact, its shear forgotten.
+      w.contact = false;
+      w.soil = terrain::ContactForces();
+      w.ground.reset();
+      w.resistance.off();
+      const Eigen::Vector3d axle = rotationOf(w.body).col(1);
+      const Eigen::Vector3d forward = axle.cross(Eigen::Vector3d::UnitZ());
+      w.normal = Eigen::Vector3d::UnitZ();
+      w.t1 = forward.norm() > 1e-9 ? forward.normalized() : Eigen::Vector3d::UnitX();
+      w.t2 = w.normal.cross(w.t1);
+    }
+    if (share > 0.0)
+    {
+      const Eigen::Vector3d& f = w.external.force;
+      const Eigen::Vector3d& t = w.external.torque;
+      dBodyAddForce(w.body, f.x(), f.y(), f.z());
+      dBodyAddTorque(w.body, t.x(), t.y(), t.z());
+    }
+  }
   hull_->beforeStep(world_, contacts, chassis_, terrain, options_, times, warnings_, state_.name);
+}
+
+void SimVehicle::externalLoads()
+{
+  kinematics_.resize(wheels_.size());
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+  {
+    const Wheel& w = wheels_[i];
+    WheelKinematics& k = kinematics_[i];
+    k.name = w.spec->name;
+    k.centre = vec(dBodyGetPosition(w.body));
+    k.velocity = vec(dBodyGetLinearVel(w.body));
+    k.angular_velocity = vec(dBodyGetAngularVel(w.body));
+    k.axle = rotationOf(w.body).col(1);
+    k.radius = w.spec->radius;
+    k.width = w.spec->width;
+  }
+  loads_.assign(wheels_.size(), ExternalWheelLoad());
+  external_->advance(now_, options_.step, kinematics_, loads_);
+  if (loads_.size() != wheels_.size())
+    throw std::runtime_error("vehicle '" + state_.name + "': the external wheel soil answered for " +
+                             std::to_string(loads_.size()) + " wheels of " + std::to_string(wheels_.size()));
+  for (std::size_t i = 0; i < wheels_.size(); ++i)
+  {
+    const ExternalWheelLoad& l = loads_[i];
+    if (!(l.share >= 0.0 && l.share <= 1.0) || !l.force.allFinite() || !l.torque.allFinite() ||
+        !std::isfinite(l.sinkage) || !std::isfinite(l.slip))
+      throw std::runtime_error("vehicle '" + state_.name + "', wheel '" + wheels_[i].spec->name +
+                               "': the external wheel soil gave a share outside [0, 1] or a non-finite load");
+  }
 }
 
 void SimVehicle::afterStep(double time, bool stepped)
 {
+  now_ = time;
   const Eigen::Vector3d p = vec(dBodyGetPosition(chassis_));
   const Eigen::Matrix3d r = rotationOf(chassis_);
   const Eigen::Vector3d v = vec(dBodyGetLinearVel(chassis_));
@@ -627,6 +707,22 @@ void SimVehicle::afterStep(double time, bool stepped)
     // What the rows applied (feedback), the soil's force as it acted on the vehicle.
     s.traction_force = w.contact ? vec(w.feedback.f1).dot(w.t1) : 0.0;
     s.lateral_force = w.contact ? vec(w.feedback.f1).dot(w.t2) : 0.0;
+    if (w.external.share > 0.0)
+    {
+      // The external soil's part adds to the terrain's; where it carries most of the wheel,
+      // its sinkage and slip are the wheel's.
+      const Eigen::Vector3d& f = w.external.force;
+      s.in_contact = s.in_contact || f.dot(w.normal) > 0.0;
+      s.normal_force += f.dot(w.normal);
+      s.applied_normal_force += f.dot(w.normal);
+      s.traction_force += f.dot(w.t1);
+      s.lateral_force += f.dot(w.t2);
+      if (w.external.share >= 0.5)
+      {
+        s.sinkage = w.external.sinkage;
+        s.slip = w.external.slip;
+      }
+    }
     s.resistance_force = w.contact ? w.ground.resistance() : 0.0;
     s.applied_resistance_force = w.resistance.applied(w.t1);
     s.contact_points = w.soil.contact_points;
@@ -1058,6 +1154,14 @@ void World::setCommand(std::size_t vehicle, const DriveCommand& command)
     throw std::out_of_range("World::setCommand: no vehicle " + std::to_string(vehicle) + " (have " +
                             std::to_string(vehicles_.size()) + ")");
   vehicles_[vehicle]->setCommand(clampedCommand(command));
+}
+
+void World::setExternalWheelSoil(std::size_t vehicle, std::shared_ptr<ExternalWheelSoil> soil)
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::setExternalWheelSoil: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  vehicles_[vehicle]->setExternalWheelSoil(std::move(soil));
 }
 
 void World::step()

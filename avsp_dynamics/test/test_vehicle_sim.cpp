@@ -1062,3 +1062,88 @@ TEST(VehicleSim, NonFiniteContactIsLeftOutAndNamedOnce)
   EXPECT_TRUE(s.body_velocity.allFinite());
   EXPECT_TRUE(s.angular_velocity.allFinite());
 }
+
+namespace
+{
+/// An external soil for the tests: a level spring-damper ground at z = 0 (k N/m per metre of
+/// rim below it, damping c N s/m on the wheel centre's vertical speed), taking `share` of every
+/// wheel; it records what it was given.
+class SpringGround : public ExternalWheelSoil
+{
+public:
+  SpringGround(double share, double k, double c) : share_(share), k_(k), c_(c) {}
+  void advance(double time, double step, const std::vector<WheelKinematics>& wheels,
+               std::vector<ExternalWheelLoad>& loads) override
+  {
+    last_time = time;
+    last_step = step;
+    names.clear();
+    for (std::size_t i = 0; i < wheels.size(); ++i)
+    {
+      const WheelKinematics& w = wheels[i];
+      names.push_back(w.name);
+      const double depth = std::max(0.0, w.radius - w.centre.z());
+      loads[i].share = share_;
+      loads[i].force = Eigen::Vector3d(0.0, 0.0, depth > 0.0 ? k_ * depth - c_ * w.velocity.z() : 0.0);
+      loads[i].sinkage = depth;
+    }
+  }
+  double last_time = -1.0, last_step = 0.0;
+  std::vector<std::string> names;
+
+private:
+  double share_, k_, c_;
+};
+}  // namespace
+
+// World::setExternalWheelSoil (the DEM moving patch's way in): a soil that takes a wheel's whole
+// contact carries the vehicle alone (the terrain is not touched); half of it, the terrain the
+// other half; none, the terrain alone, bit for bit as without it.
+TEST(VehicleSim, AnExternalSoilCarriesItsShareOfTheWheels)
+{
+  const VehicleModel mrzr = vehicle("mrzr");
+  auto run = [&](double share, bool attach, double& chassis_z, double& external_force, std::size_t& deformed) {
+    auto ground = makeTerrain(soils().get("sandy_loam"), 20.0, 20.0, 0.05);
+    World world(*ground);
+    const std::size_t v = world.addVehicle(mrzr, world.restingPose(mrzr, 0.0, 0.0, 0.0, 0.02), "m");
+    auto spring = std::make_shared<SpringGround>(share, 4e5, 4e3);
+    if (attach)
+      world.setExternalWheelSoil(v, spring);
+    world.advance(3.0);
+    chassis_z = world.state(v).pose.translation().z();
+    external_force = 0.0;
+    for (const WheelState& w : world.state(v).wheels)
+      external_force += w.normal_force;
+    deformed = ground->deformedPoints();
+    if (attach)
+    {
+      EXPECT_NEAR(spring->last_time, 3.0 - world.options().step, 1e-9);  // the world's time at the step's start
+      EXPECT_EQ(spring->names.size(), mrzr.wheels.size());
+    }
+    return world.state(v);
+  };
+  double z_full, f_full, z_half, f_half, z_none, f_none, z_plain, f_plain;
+  std::size_t d_full, d_half, d_none, d_plain;
+  run(1.0, true, z_full, f_full, d_full);
+  run(0.5, true, z_half, f_half, d_half);
+  const VehicleState none = run(0.0, true, z_none, f_none, d_none);
+  const VehicleState plain = run(0.0, false, z_plain, f_plain, d_plain);
+  const double weight = mrzr.total_mass * kG;
+  // The spring alone: the sum of its forces is the weight, the terrain has no rut.
+  EXPECT_NEAR(f_full, weight, 0.01 * weight);
+  EXPECT_EQ(d_full, 0u);
+  // Half and half: both carry, the terrain deforms, the sum is still the weight.
+  EXPECT_NEAR(f_half, weight, 0.02 * weight);
+  EXPECT_GT(d_half, 0u);
+  // A share of 0 is no external soil at all: the same state to the bit.
+  EXPECT_EQ(z_none, z_plain);
+  EXPECT_EQ(none.pose.matrix(), plain.pose.matrix());
+  EXPECT_EQ(d_none, d_plain);
+  // A tracked vehicle has no wheels to give.
+  auto ground = makeTerrain(soils().get("gravel"), 20.0, 20.0, 0.1);
+  World world(*ground);
+  const VehicleModel m113 = vehicle("m113");
+  const std::size_t t = world.addVehicle(m113, world.restingPose(m113, 0.0, 0.0, 0.0, 0.02), "t");
+  EXPECT_THROW(world.setExternalWheelSoil(t, std::make_shared<SpringGround>(1.0, 1e5, 1e3)), std::invalid_argument);
+  EXPECT_THROW(world.setExternalWheelSoil(7, nullptr), std::out_of_range);
+}

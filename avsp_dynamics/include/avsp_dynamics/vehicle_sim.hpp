@@ -69,6 +69,7 @@
 #include <avsp_terrain/deformable_terrain.hpp>
 
 #include "avsp_dynamics/drivetrain.hpp"
+#include "avsp_dynamics/external_wheel_soil.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 
 namespace avsp
@@ -371,6 +372,13 @@ public:
   std::size_t proxyCount() const { return proxies_.size(); }
   /// Proxy k's base_link pose now (map), where its body is. @throw std::out_of_range
   Eigen::Isometry3d proxyPose(std::size_t proxy) const;
+
+  /**
+   * @brief A soil outside the terrain's for vehicle k's wheels from the next step on
+   *        (external_wheel_soil.hpp: the DEM moving patch); null: the terrain alone again.
+   * @throw std::out_of_range for an unknown vehicle; std::invalid_argument for a tracked one
+   */
+  void setExternalWheelSoil(std::size_t vehicle, std::shared_ptr<ExternalWheelSoil> soil);
 
   /// One physics step of options().step seconds.
   void step();
