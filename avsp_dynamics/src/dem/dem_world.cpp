@@ -581,7 +581,15 @@ int DemWorld::addBody(const std::vector<Triangle>& mesh, const Eigen::Vector3d& 
   const std::string& id = body.id;
   l.command("fix %s all mesh/surface/stress file %s type %d reference_point %.17g %.17g %.17g", id.c_str(), stl.c_str(),
             wallType(params_), reference.x(), reference.y(), reference.z());
-  l.command("fix %s_wall all wall/gran %s mesh n_meshes 1 meshes %s", id.c_str(), contactModel().c_str(), id.c_str());
+  // LIGGGHTS takes one mesh wall/gran fix: every body's mesh is in it (made again with each body).
+  if (!impl_->bodies.empty())
+    l.command("unfix body_walls");
+  std::string meshes;
+  for (const auto& b : impl_->bodies)
+    meshes += b.id + " ";
+  meshes += id;
+  l.command("fix body_walls all wall/gran %s mesh n_meshes %d meshes %s", contactModel().c_str(),
+            static_cast<int>(impl_->bodies.size()) + 1, meshes.c_str());
   for (const char* c : { "vx", "vy", "vz", "w" })
     l.command("variable %s_%s equal 0", id.c_str(), c);
   // The translation first, the spin second: a second fix move/mesh moves with the first, so the

@@ -33,6 +33,10 @@ MovingPatch::MovingPatch(const BedTemplate& bed, terrain::DeformableTerrain& ter
     fail("front_margin", "must be in (0, length)");
   if (!(spec.clearance > 0.0))
     fail("clearance", "must be > 0");
+  if (!(spec.domain_before >= 0.0 && std::isfinite(spec.domain_before)))
+    fail("domain_before", "must be a finite number >= 0");
+  if (!(spec.domain_after >= 0.0 && std::isfinite(spec.domain_after)))
+    fail("domain_after", "must be a finite number >= 0");
   // The floor lies the template's depth below the highest ground along the strip; the lowest
   // ground must leave two largest radii of bed above it.
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
@@ -51,7 +55,12 @@ MovingPatch::MovingPatch(const BedTemplate& bed, terrain::DeformableTerrain& ter
     fail("ground", "relief of " + std::to_string(hi - lo) +
                        " m along the strip leaves less than two particle radii of bed "
                        "over the floor: settle a deeper template");
-  const DemDomain d{ spec.x_start, spec.x_end, spec.y_min, spec.y_min + bed.width(), floor, hi + spec.clearance };
+  const DemDomain d{ spec.x_start - spec.domain_before,
+                     spec.x_end + spec.domain_after,
+                     spec.y_min,
+                     spec.y_min + bed.width(),
+                     floor,
+                     hi + spec.clearance };
   world_ = std::make_unique<DemWorld>(bed.parameters(), d, bed);
   const auto ground = [this](double x, double y) { return *terrain_.height(x, y); };
   world_->addBed(rear_, front(), ground, true, true);
@@ -89,7 +98,7 @@ void MovingPatch::writeBack(double x0, double x1)
 bool MovingPatch::follow(double x)
 {
   const double L = bed_.length();
-  if (x < front() - spec_.front_margin || front() + L > spec_.x_end + 1e-9)
+  if (finished_ || x < front() - spec_.front_margin || front() + L > spec_.x_end + 1e-9)
     return false;
   writeBack(rear_, rear_ + L);
   world_->removeParticles(rear_, rear_ + L);
@@ -99,6 +108,15 @@ bool MovingPatch::follow(double x)
   world_->setBedEnds(rear_, front());
   ++relocations_;
   return true;
+}
+
+void MovingPatch::finish()
+{
+  if (finished_)
+    return;
+  writeBack(rear_, front());
+  world_->removeParticles(rear_, front());
+  finished_ = true;
 }
 
 }  // namespace dem

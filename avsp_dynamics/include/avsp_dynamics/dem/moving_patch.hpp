@@ -28,13 +28,17 @@ struct PatchSpec
   double length = 2.0;         ///< m, a whole number of template lengths
   double front_margin = 0.75;  ///< m: the patch moves on when what it follows is nearer its front
   double clearance = 0.6;      ///< m of domain above the highest ground (room for the wheels)
+  /// m of domain before x_start and after x_end, no bed there: room for wheels that roll on
+  /// and off the bed (a wheel's mesh must stay in the domain while the patch lives), >= 0
+  double domain_before = 0.0, domain_after = 0.0;
 };
 
 /**
  * @brief A DemWorld whose bed follows a point (a wheel's centre) along +x over a terrain.
  *
- * Its domain covers the whole segment [x_start, x_end] (LIGGGHTS' bins scale with it, a few
- * bytes per (2 largest radii)^3; the particles are bounded by the patch).
+ * Its domain covers the whole segment [x_start, x_end] and the margins before and after it
+ * (LIGGGHTS' bins scale with it, a few bytes per (2 largest radii)^3; the particles are
+ * bounded by the patch).
  */
 class MovingPatch
 {
@@ -42,7 +46,7 @@ public:
   /**
    * @param terrain read for the ground heights, written where blocks are retired
    * @throw DemParameterError naming the key: length not whole blocks or longer than the segment,
-   *        front_margin not in (0, length), the ground's relief along the strip deeper than the
+   *        front_margin not in (0, length), a domain margin < 0, the ground's relief along the strip deeper than the
    *        template allows ("ground"), the memory budget
    */
   MovingPatch(const BedTemplate& bed, terrain::DeformableTerrain& terrain, const PatchSpec& spec);
@@ -57,6 +61,13 @@ public:
    * @return true when it moved
    */
   bool follow(double x);
+
+  /**
+   * @brief Ends the patch: the whole bed's surface written into the terrain, its particles
+   *        removed (the segment's crossing is over). Idempotent; follow() does nothing after.
+   */
+  void finish();
+  bool finished() const { return finished_; }
 
   double rear() const { return rear_; }
   double front() const { return rear_ + spec_.length; }
@@ -75,6 +86,7 @@ private:
   double rear_ = 0.0;
   int relocations_ = 0;
   std::size_t points_written_ = 0;
+  bool finished_ = false;
 };
 
 }  // namespace dem
