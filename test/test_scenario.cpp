@@ -12,6 +12,7 @@
 #include <avsp/scenario/launch_generator.hpp>
 #include <avsp/scenario/rviz_config.hpp>
 #include <avsp/scenario/scenario.hpp>
+#include <avsp_dynamics/dem/dem_soil_config.hpp>
 
 namespace as = avsp::scenario;
 
@@ -967,4 +968,70 @@ TEST(RvizConfig, FollowsTheLeadAndNeedsEveryVehicle)
   o.rviz = true;
   o.rviz_config = "/tmp/out/run.rviz";
   EXPECT_NE(as::generateLaunch(s, o).find("args=\"-d '/tmp/out/run.rviz'\""), std::string::npos);
+}
+
+// terramechanics: dem and the `dem:` section (issue 25, items 1 and 5): read as dynamics_node
+// reads ~dem, passed to it with ~dem_vehicles; refused where the node would refuse it.
+TEST(Scenario, TheDemContactModeIsCheckedAndReachesDynamicsNode)
+{
+  const char* const kDem =
+      "{segment: {x_min: 10.0, x_max: 11.8}, patch: {length: 1.2, front_margin: 0.3}, "
+      "template: {length: 0.12, width: 0.3, depth: 0.1}, "
+      "particles: [{radius: 0.018, mass_fraction: 0.5}, {radius: 0.022, mass_fraction: 0.5}], "
+      "youngs_modulus: 2.0e7, timestep: 2.0e-4, seed: 3}";
+  YAML::Node n = base();
+  n["vehicles"][2]["terramechanics"] = "dem";  // third: the tracer_x
+  n["dem"] = YAML::Load(kDem);
+  const as::Scenario s = as::parseScenario(dump(n), "/some/dir/base.yaml", fakeTerrain(false));
+  EXPECT_TRUE(s.vehicles[2].dem);
+  EXPECT_FALSE(s.vehicles[0].dem);
+  // The text the node gets reads back to the section's values.
+  const auto spec = avsp::dynamics::dem::parseDemSoilSpec(s.dem, "~dem");
+  EXPECT_EQ(spec.segment.x_max, 11.8);
+  EXPECT_EQ(spec.parameters.timestep, 2.0e-4);
+  EXPECT_EQ(spec.parameters.seed, 3u);
+  as::LaunchOptions o;
+  o.output_dir = "/tmp/results/base";
+  o.vehicles_dir = kConfig + "/vehicles";
+  const std::string xml = as::generateLaunch(s, o);
+  const YAML::Node names = rosparamOf(xml, "dynamics", "dem_vehicles");
+  ASSERT_EQ(names.size(), 1u);
+  EXPECT_EQ(names[0].as<std::string>(), "third");
+  std::string text = paramOf(xml, "dynamics", "dem");
+  for (std::size_t k; (k = text.find("&quot;")) != std::string::npos;)
+    text.replace(k, 6, "\"");
+  EXPECT_EQ(text, s.dem);
+  EXPECT_EQ(avsp::dynamics::dem::parseDemSoilSpec(text, "~dem").segment.x_min, 10.0);
+
+  // Without it, no DEM parameter at all.
+  const std::string plain = as::generateLaunch(as::parseScenario(kBase, "/some/dir/base.yaml", fakeTerrain(false)), o);
+  EXPECT_EQ(plain.find("dem_vehicles"), std::string::npos);
+
+  YAML::Node bad = YAML::Clone(n);
+  bad["vehicles"][2]["terramechanics"] = "sph";
+  EXPECT_ERROR(errorOf(bad), "vehicles[2].terramechanics", "'sph' is not a contact mode");
+  bad = YAML::Clone(n);
+  bad["vehicles"][3]["terramechanics"] = "dem";  // ext: the m113
+  EXPECT_ERROR(errorOf(bad), "vehicles[3].terramechanics", "has tracks");
+  bad = YAML::Clone(n);
+  bad.remove("dem");
+  EXPECT_ERROR(errorOf(bad), "dem: required", "'third'");
+  bad = YAML::Clone(n);
+  bad["vehicles"][2].remove("terramechanics");
+  EXPECT_ERROR(errorOf(bad), "dem: no vehicle has terramechanics: dem");
+  bad = YAML::Clone(n);
+  bad["partitions"] = 2;
+  EXPECT_ERROR(errorOf(bad), "dem: the DEM contact mode runs in one dynamics_node");
+  bad = YAML::Clone(n);
+  bad["dem"]["timestep"] = 5.0e-4;  // above the 18 mm particles' stability limit
+  EXPECT_ERROR(errorOf(bad), "dem.timestep");
+  bad = YAML::Clone(n);
+  bad["dem"]["particles"][0]["radius"] = -0.01;
+  EXPECT_ERROR(errorOf(bad), "dem.particles[0]");
+  bad = YAML::Clone(n);
+  bad["dem"]["memory_budget"] = 1.0e6;
+  EXPECT_ERROR(errorOf(bad), "dem.memory_budget");
+  bad = YAML::Clone(n);
+  bad["dem"]["patch"]["lenght"] = 1.2;
+  EXPECT_ERROR(errorOf(bad), "dem.patch.lenght: unknown key");
 }

@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include <avsp_msgs/DemCrossing.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/TerrainPatch.h>
 #include <avsp_msgs/VehicleTelemetry.h>
@@ -223,6 +224,8 @@ struct Vehicle
   ar::GapTracker* follows = nullptr;
   std::string odom_topic, telemetry_topic;
   ros::Subscriber odom_sub, telemetry_sub;
+  ros::Subscriber dem_sub;                    ///< <v>/dem_crossing (terramechanics: dem)
+  std::optional<avsp_msgs::DemCrossing> dem;  ///< the crossing, once it is over
   /// A message stamped after the duration arrived: everything up to it has (FIFO per topic).
   bool odom_done = false, telemetry_done = false;
 };
@@ -303,6 +306,8 @@ public:
       v->telemetry_sub = nh_.subscribe<avsp_msgs::VehicleTelemetry>(
           s.name + "/telemetry", 10000,
           [this, raw](const avsp_msgs::VehicleTelemetry::ConstPtr& m) { onTelemetry(*raw, *m); });
+      v->dem_sub = nh_.subscribe<avsp_msgs::DemCrossing>(
+          s.name + "/dem_crossing", 1, [raw](const avsp_msgs::DemCrossing::ConstPtr& m) { raw->dem = *m; });
       v->odom_topic = v->odom_sub.getTopic();
       v->telemetry_topic = v->telemetry_sub.getTopic();
       if (s.max_speed > 0.0)
@@ -731,6 +736,21 @@ private:
     j.set("max_slip", r.maxSlip());
     j.set("time_stuck", r.telemetryCount() > 0 ? ar::Json(r.timeStuck()) : ar::Json());
     j.set("collisions", r.collisions());
+    if (v.dem)
+    {
+      // The DEM segment's crossing (terramechanics: dem), as dynamics_node reported it.
+      ar::Json d = ar::Json::object();
+      d.set("entered", v.dem->entered);
+      d.set("left", v.dem->left);
+      d.set("patch_moves", static_cast<double>(v.dem->patch_moves));
+      d.set("peak_particles", static_cast<double>(v.dem->peak_particles));
+      d.set("mean_sinkage", v.dem->mean_sinkage);
+      d.set("max_sinkage", v.dem->max_sinkage);
+      d.set("mean_slip", v.dem->mean_slip);
+      d.set("energy", v.dem->energy);
+      d.set("points_written", static_cast<double>(v.dem->points_written));
+      j.set("dem", d);
+    }
     const std::optional<ar::GapStats> gap = v.follows ? v.follows->stats() : std::nullopt;
     j.set("gap_min", gap ? ar::Json(gap->min) : ar::Json());
     j.set("gap_mean", gap ? ar::Json(gap->mean) : ar::Json());
@@ -783,6 +803,10 @@ private:
     u.set("max_slip", "longitudinal slip of the driven wheels/track segments on the ground, + = driving");
     u.set("time_stuck", "s of sim time with the stuck flag");
     u.set("collisions", "rigid contacts begun with obstacles or other vehicles");
+    u.set("dem",
+          "only for terramechanics: dem vehicles that crossed the DEM segment: entered, left (s of sim "
+          "time), patch_moves, peak_particles, mean_sinkage, max_sinkage (m, wheels wholly on the DEM), "
+          "mean_slip, energy (J the wheels did on the DEM soil), points_written (terrain grid points)");
     u.set("gap_min", "m along the leader's path, null without a leader");
     u.set("duration", "s of sim time");
     u.set("wall_time", "s from the first /clock tick to the end");

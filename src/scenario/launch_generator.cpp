@@ -258,6 +258,16 @@ void writeDynamics(std::ostream& o, const LaunchInputs& in)
       w.rosparam("lockstep_vehicles", "[" + names + "]");
       w.param("lockstep_period", kLockstepPeriod);
     }
+    // terramechanics dem: those vehicles' wheels on the DEM moving patch (one dynamics_node).
+    std::string dem_names;
+    for (const VehicleSpec& v : part.vehicles)
+      if (v.dem)
+        dem_names += (dem_names.empty() ? "" : ", ") + quoted(v.name);
+    if (!dem_names.empty())
+    {
+      w.rosparam("dem_vehicles", "[" + dem_names + "]");
+      w.param("dem", s.dem);
+    }
     if (has_agents)
       w.rosparam("agents", agents);
     w.close();

@@ -13,6 +13,7 @@
 #include <avsp/environment/astronomy.hpp>
 #include <avsp/environment/weather.hpp>
 #include <avsp_terrain/geodetic_reference.hpp>
+#include <avsp_dynamics/dem/dem_soil_config.hpp>
 #include <avsp_dynamics/vehicle_model.hpp>
 #include <avsp_terrain/agents.hpp>
 #include <avsp_terrain/rosparam_yaml.hpp>
@@ -700,6 +701,37 @@ void readPaths(const Context& ctx, MapReader& top, Scenario& s)
   }
 }
 
+/// dem: the DEM soil's section, read as dynamics_node will read it (its flow YAML through
+/// parseDemSoilSpec); only with vehicles on `terramechanics: dem`, and in one dynamics_node.
+void readDem(const Context& ctx, MapReader& top, Scenario& s)
+{
+  const YAML::Node dem = top.get("dem");
+  std::vector<std::string> names;
+  for (const VehicleSpec& v : s.vehicles)
+    if (v.dem)
+      names.push_back(v.name);
+  if (!present(dem))
+  {
+    if (!names.empty())
+      ctx.fail("dem", "required: vehicle '" + names.front() +
+                          "' has terramechanics: dem (the section gives the segment and the DEM soil)");
+    return;
+  }
+  if (names.empty())
+    ctx.fail("dem", "no vehicle has terramechanics: dem");
+  if (!s.partitions.empty())
+    ctx.fail("dem", "the DEM contact mode runs in one dynamics_node: not with partitions");
+  try
+  {
+    s.dem = terrain::rosparamFlow(dem);
+    dynamics::dem::parseDemSoilSpec(s.dem, "dem");
+  }
+  catch (const std::invalid_argument& e)  // DemParameterError, or a value rosparam cannot hold
+  {
+    throw ScenarioError(ctx.file() + ": " + e.what());
+  }
+}
+
 /// vehicles: each checked against its model's files (as dynamics_node will read them) and the
 /// paths. Returns the YAML list (the formation checks what each vehicle's controller sets).
 YAML::Node readVehicles(const Context& ctx, MapReader& top, const LoadOptions& options, Scenario& s)
@@ -711,6 +743,7 @@ YAML::Node readVehicles(const Context& ctx, MapReader& top, const LoadOptions& o
   struct ModelLimits
   {
     double max_speed = 0.0, rest_height = 0.0, wheel_radius = 0.0;
+    bool tracked = false;
   };
   std::map<std::string, ModelLimits> loaded_models;
   const std::vector<std::string> models = knownModels(options.vehicles_dir);
@@ -752,6 +785,7 @@ YAML::Node readVehicles(const Context& ctx, MapReader& top, const LoadOptions& o
           for (const dynamics::RoadWheelSpec& r : t.road_wheels)
             consider(r.rest_position, r.radius);
         limits.rest_height = -lowest;
+        limits.tracked = !model.tracks.empty();
         loaded_models[v.model] = limits;
       }
       catch (const std::exception& e)
@@ -772,6 +806,19 @@ YAML::Node readVehicles(const Context& ctx, MapReader& top, const LoadOptions& o
     const YAML::Node vs = m.get("sensors");
     if (present(vs))
       v.sensors = readSensors(ctx, vs, m.key("sensors"));
+    const YAML::Node tm = m.get("terramechanics");
+    if (present(tm))
+    {
+      const std::string mode = toString(ctx, tm, m.key("terramechanics"));
+      if (mode != "soil" && mode != "dem")
+        ctx.fail(
+            m.key("terramechanics"),
+            "'" + mode +
+                "' is not a contact mode (soil: the terrain's model; dem: the DEM moving patch over `dem:`'s segment)");
+      v.dem = mode == "dem";
+      if (v.dem && loaded_models[v.model].tracked)
+        ctx.fail(m.key("terramechanics"), "model '" + v.model + "' has tracks: the DEM contact mode needs wheels");
+    }
     v.controller = readController(ctx, m.required("controller"), m.key("controller"));
     if (v.controller.type == ControllerType::kWaypoints && !s.paths.count(v.controller.path))
     {
@@ -1135,6 +1182,7 @@ Scenario parseScenario(const std::string& text, const std::string& path, const L
 
     readMachines(ctx, top, s);
     readPartitions(ctx, top, options, s);
+    readDem(ctx, top, s);
     s.seed = static_cast<std::uint64_t>(toInt(ctx, top.required("seed"), "seed",
                                               static_cast<long long>(terrain::kRunSeed.min),
                                               static_cast<long long>(terrain::kRunSeed.max)));

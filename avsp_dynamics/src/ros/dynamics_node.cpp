@@ -55,6 +55,7 @@
 #include <vector>
 
 #include <avsp_msgs/AddSensedVehicle.h>
+#include <avsp_msgs/DemCrossing.h>
 #include <avsp_msgs/DriveCommand.h>
 #include <avsp_msgs/ObjectToppled.h>
 #include <avsp_msgs/RemoveSensedVehicle.h>
@@ -89,6 +90,8 @@
 
 #include "avsp_dynamics/clock_followers.hpp"
 #include "avsp_dynamics/collision_counter.hpp"
+#include "avsp_dynamics/dem/dem_soil_config.hpp"
+#include "avsp_dynamics/dem/dem_vehicle_soil.hpp"
 #include "avsp_dynamics/partition_reach.hpp"
 #include "avsp_dynamics/partition_runner.hpp"
 #include "avsp_dynamics/real_time_factor.hpp"
@@ -202,7 +205,12 @@ struct VehicleIo
   std::uint64_t commands = 0, refused = 0, clamped = 0, superseded = 0;
   std::uint64_t refused_reported = 0;  ///< `refused` at the last diagnostics publication
   ad::CollisionCounter collisions;     ///< VehicleTelemetry.collisions
-  sensor_msgs::JointState joints;      ///< names fixed at start-up, values per publication
+  /// terramechanics dem (~dem_vehicles): its wheels on the DEM moving patch over ~dem's segment
+  std::shared_ptr<ad::dem::DemVehicleSoil> dem;
+  int dem_moves = 0;  ///< patch moves and finished sides seen (the terrain written back since)
+  bool dem_reported = false;
+  ros::Publisher dem_pub;          ///< <v>/dem_crossing, latched
+  sensor_msgs::JointState joints;  ///< names fixed at start-up, values per publication
   // Area the wheels ran over since the last rut publication (map x, y, m).
   double min_x = 0, min_y = 0, max_x = 0, max_y = 0;
   bool ran = false;
@@ -229,6 +237,7 @@ public:
     std::set<std::string> lockstep_names;
     const ad::WorldOptions options = readOptions(specs, lockstep_names);
     loadWorld(options);
+    readDem(specs);
     for (const VehicleSpec& s : specs)
       addVehicle(s, lockstep_names.count(s.name) > 0);
     transforms_.resize(vehicles_.size());
@@ -591,6 +600,39 @@ private:
     loadAgents();
   }
 
+  /// ~dem_vehicles and ~dem (terramechanics dem): the DEM soil's spec checked, its bed template
+  /// settled once (the patches are tiled from it). Not with ~partition (a vehicle's patch is
+  /// its own partition's; not yet exchanged).
+  void readDem(const std::vector<VehicleSpec>& specs)
+  {
+    const auto names = avsp::node::plainNamesParam(pnh_, "dem_vehicles", "vehicle names (terramechanics dem)");
+    if (names.empty())
+      return;
+    for (const std::string& n : names)
+      if (std::none_of(specs.begin(), specs.end(), [&](const VehicleSpec& v) { return v.name == n; }))
+        throw StartupError("parameter ~dem_vehicles: there is no vehicle '" + n + "' in ~vehicles");
+    if (!partition_.empty())
+      throw StartupError(
+          "parameter ~dem_vehicles: the DEM contact mode runs in one dynamics_node (not with ~partition)");
+    try
+    {
+      dem_spec_ = ad::dem::parseDemSoilSpec(avsp::node::stringParam(pnh_, "dem", ""), "~dem");
+      const ros::WallTime start = ros::WallTime::now();
+      dem_bed_ = std::make_unique<ad::dem::BedTemplate>(ad::dem::BedTemplate::settle(
+          dem_spec_->parameters, dem_spec_->template_length, dem_spec_->template_width, dem_spec_->template_depth));
+      ROS_INFO(
+          "dynamics_node: DEM bed template %zu particles, settled in %.2f s (%.1f s wall); %zu vehicle(s) on "
+          "the DEM over x in [%g, %g] m",
+          dem_bed_->particles().size(), dem_bed_->settleTime(), (ros::WallTime::now() - start).toSec(), names.size(),
+          dem_spec_->segment.x_min, dem_spec_->segment.x_max);
+    }
+    catch (const ad::dem::DemParameterError& e)
+    {
+      throw StartupError(e.what());
+    }
+    dem_vehicles_.insert(names.begin(), names.end());
+  }
+
   /// A vehicle of ~vehicles: its model in the world at its resting pose, its joints, its topics.
   void addVehicle(const VehicleSpec& s, bool lockstep)
   {
@@ -608,6 +650,19 @@ private:
     {
       throw StartupError("vehicle '" + s.name + "' (model '" + s.model + "', ~vehicles, ~config_dir " + config_dir_ +
                          "): " + e.what());
+    }
+    if (dem_vehicles_.count(s.name))
+    {
+      try
+      {
+        v->dem = std::make_shared<ad::dem::DemVehicleSoil>(*dem_bed_, *terrain_, dem_spec_->segment);
+        world_->setExternalWheelSoil(v->id, v->dem);
+        v->dem_pub = nh_.advertise<avsp_msgs::DemCrossing>(s.name + "/dem_crossing", 1, true);
+      }
+      catch (const std::exception& e)
+      {
+        throw StartupError("vehicle '" + s.name + "' (~dem_vehicles): " + e.what());
+      }
     }
     v->model_name = s.model;
     v->wheel_odom = ad::WheelOdometry(world_->state(v->id).pose);
@@ -1507,7 +1562,15 @@ private:
       }
       world_->setCommand(v->id, cmd);
     }
-    world_->step();
+    try
+    {
+      world_->step();
+    }
+    catch (const ad::dem::DemParameterError& e)
+    {
+      fatal(std::string("the DEM contact mode: ") + e.what());  // named by DemVehicleSoil
+      return;
+    }
     // A contact that produced a non-finite force was clamped out of the step; the World names
     // the vehicle and wheel once.
     for (const std::string& w : world_->takeWarnings())
@@ -1525,6 +1588,8 @@ private:
         if (s.wheels[w].in_contact && ruts_every_ > 0)
           coverWheel(*v, s.pose * v->model.wheels[w].rest_position);
       }
+      if (v->dem)
+        demProgress(*v, s);
       for (std::size_t t = 0; t < s.tracks.size() && ruts_every_ > 0; ++t)
         for (std::size_t k = 0; k < s.tracks[t].segments.size(); ++k)
           if (s.tracks[t].segments[k].in_contact)
@@ -1538,6 +1603,52 @@ private:
     }
     if (ruts_every_ > 0 && n % ruts_every_ == 0 && ruts_pub_.getNumSubscribers() > 0)
       publishRuts();
+  }
+
+  /// A DEM vehicle's patches wrote soil back behind it: the segment across its wheels goes out
+  /// with the next ruts; the crossing's figures are logged once when it is over.
+  void demProgress(VehicleIo& v, const ad::VehicleState& s)
+  {
+    const ad::dem::DemSoilReport& r = v.dem->report();
+    const int moves = r.relocations + (r.crossed ? 1 : 0);
+    if (moves != v.dem_moves && ruts_every_ > 0)
+    {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (const ad::WheelSpec& w : v.model.wheels)
+      {
+        const double y = (s.pose * w.rest_position).y();
+        lo = std::min(lo, y);
+        hi = std::max(hi, y);
+      }
+      const double half = 0.5 * v.dem->bed().width();
+      coverWheel(v, Eigen::Vector3d(dem_spec_->segment.x_min, lo - half, 0.0));
+      coverWheel(v, Eigen::Vector3d(dem_spec_->segment.x_max, hi + half, 0.0));
+    }
+    v.dem_moves = moves;
+    if (r.crossed && !v.dem_reported)
+    {
+      v.dem_reported = true;
+      avsp_msgs::DemCrossing m;
+      m.header.stamp = stamp();
+      m.header.frame_id = "map";
+      m.vehicle = v.name;
+      m.entered = r.entered;
+      m.left = r.left;
+      m.patch_moves = r.relocations;
+      m.peak_particles = static_cast<std::uint32_t>(r.peak_particles);
+      m.coupling_intervals = r.coupling_intervals;
+      m.mean_sinkage = r.mean_sinkage;
+      m.max_sinkage = r.max_sinkage;
+      m.mean_slip = r.mean_slip;
+      m.energy = r.energy;
+      m.points_written = r.points_written;
+      v.dem_pub.publish(m);
+      ROS_INFO(
+          "dynamics_node: vehicle '%s' crossed the DEM segment (t %.3f..%.3f s): %d patch moves, peak %zu "
+          "particles, sinkage mean %.4f max %.4f m, slip mean %.3f, %.1f J into the soil",
+          v.name.c_str(), r.entered, r.left, r.relocations, r.peak_particles, r.mean_sinkage, r.max_sinkage,
+          r.mean_slip, r.energy);
+    }
   }
 
   void coverWheel(VehicleIo& v, const Eigen::Vector3d& c)
@@ -1898,7 +2009,10 @@ private:
   std::vector<geometry_msgs::TransformStamped> transforms_;  ///< odom -> base_link per vehicle
   std::string source_;
   double command_timeout_ = 0.5;
-  bool hold_until_throttle_ = true;  ///< ~hold_until_throttle: the parking brake
+  bool hold_until_throttle_ = true;                ///< ~hold_until_throttle: the parking brake
+  std::set<std::string> dem_vehicles_;             ///< ~dem_vehicles
+  std::optional<ad::dem::DemSoilSpec> dem_spec_;   ///< ~dem, when ~dem_vehicles names any
+  std::unique_ptr<ad::dem::BedTemplate> dem_bed_;  ///< settled at start-up from dem_spec_
   double real_time_factor_ = 0.0;
   bool publish_clock_ = true;
   bool publish_odom_tf_ = true;           ///< ~publish_odom_tf: broadcast odom -> <v>/base_link

@@ -111,6 +111,9 @@ struct VehicleSpec
   double x = 0.0, y = 0.0, yaw = 0.0;  ///< start pose in map: m, m, rad
   YAML::Node sensors;                  ///< sections replacing Scenario::sensors' (may be null)
   ControllerSpec controller;
+  /// terramechanics: false = soil (the terrain's own model, simple or Bekker per soil), true =
+  /// dem (its wheels on the DEM moving patch over the scenario's `dem:` segment)
+  bool dem = false;
   // From the model's files (for run_recorder's anomaly counts):
   double max_speed = 0.0;     ///< m/s, governed
   double rest_height = 0.0;   ///< m, base_link above flat ground at rest (lowest wheel centre + radius)
@@ -169,6 +172,9 @@ struct Scenario
   FormationSpec formation;
   V2VSpec v2v;
   YAML::Node agents;  ///< agents_node's ~agents list (validated); may be null
+  /// dynamics_node's ~dem: the `dem:` section as flow YAML, read back by the node's own reader
+  /// (parseDemSoilSpec) at load; empty without one
+  std::string dem;
   /// Dynamics partitions (`partitions:` N or an explicit list); empty = one dynamics_node
   /// that is its own clock. Each vehicle is in exactly one.
   std::vector<PartitionSpec> partitions;
