@@ -1571,6 +1571,11 @@ private:
       fatal(std::string("the DEM contact mode: ") + e.what());  // named by DemVehicleSoil
       return;
     }
+    catch (const std::exception& e)
+    {
+      fatal(std::string("the physics step at t = ") + std::to_string(world_->time()) + " s: " + e.what());
+      return;
+    }
     // A contact that produced a non-finite force was clamped out of the step; the World names
     // the vehicle and wheel once.
     for (const std::string& w : world_->takeWarnings())
