@@ -298,6 +298,11 @@ TEST(DemVehicle, TheDemSectionIsReadAndCheckedKeyByKey)
   // A bed larger than the memory budget: two 1.2 m patches of 18-22 mm particles in 1 MB.
   refused(base + "timestep: 2.0e-4\nmemory_budget: 1.0e6\n", "dem.memory_budget");
   refused(base + "timestep: 2.0e-4\ntemplate: {length: 0.05}\n", "dem.template.length");
+  // Faces round a rim outside [12, 100000]: refused, not clamped.
+  refused(
+      "segment: {x_min: 1.0, x_max: 2.8}\npatch: {length: 1.2, front_margin: 0.3, facets: 2000000}\n"
+      "particles: [{radius: 0.018, mass_fraction: 1.0}]\ntimestep: 2.0e-4\n",
+      "patch.facets: must be in [12, 100000]");
   refused("segment: {x_min: 1.0, x_max: 2.85}\n" + base.substr(base.find('\n') + 1) + "timestep: 2.0e-4\n",
           "dem.segment.x_max");
   refused("segment: [1, 2]\n", "segment: must be a mapping");

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <functional>
 #include <map>
-#include <set>
 
 #include <yaml-cpp/yaml.h>
+
+#include "parameter_error.hpp"
 
 namespace avsp
 {
@@ -23,17 +23,8 @@ bool wholeBlocks(double length, double block)
   return n >= 1.0 - 1e-9 && std::abs(n - std::round(n)) < 1e-6;
 }
 
-std::string str(double v)
-{
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
-}
-
-[[noreturn]] void fail(const std::string& key, const std::string& why)
-{
-  throw DemParameterError("dem." + key + ": " + why);
-}
+using detail::fail;
+using detail::str;
 
 struct Reader
 {
@@ -127,8 +118,10 @@ DemSoilSpec parseDemSoilSpec(const std::string& yaml_text, const std::string& wh
                               { "settle_time", num(s.segment.settle_time) },
                               { "max_yaw_deg", num(s.segment.max_yaw_deg) },
                               { "facets", [&](const YAML::Node& v, const std::string& kk) {
-                                 s.segment.facets =
-                                     static_cast<int>(std::max(-1LL, std::min(1000000LL, r.integer(v, kk))));
+                                 const long long f = r.integer(v, kk);
+                                 if (f < 12 || f > 100000)
+                                   r.fail(kk, "must be in [12, 100000] flat faces round a rim");
+                                 s.segment.facets = static_cast<int>(f);
                                } } });
                 } },
               { "template",

@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-#include <cstdio>
 #include <limits>
 #include <string>
 
 #include <Eigen/Geometry>
+
+#include "parameter_error.hpp"
 
 namespace avsp
 {
@@ -17,17 +18,8 @@ namespace dem
 {
 namespace
 {
-[[noreturn]] void fail(const std::string& key, const std::string& why)
-{
-  throw DemParameterError("dem." + key + ": " + why);
-}
-
-std::string str(double v)
-{
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
-}
+using detail::fail;
+using detail::str;
 
 /// A patch is made when its side's front wheel is this far (m) from touching the segment.
 constexpr double kLead = 0.05;
@@ -232,7 +224,6 @@ void DemVehicleSoil::advance(double time, double step, const std::vector<WheelKi
 {
   if (!sides_built_)
     buildSides(wheels);
-  bool any_alive = false;
   for (auto& side : sides_)
   {
     Side& s = *side;
@@ -256,14 +247,13 @@ void DemVehicleSoil::advance(double time, double step, const std::vector<WheelKi
       continue;
     }
     runSide(s, step, wheels, loads);
-    any_alive = true;
     for (std::size_t i : s.wheels)
       if (loads[i].share > 0.0 && report_.entered < 0.0)
         report_.entered = time;
   }
   report_.peak_particles = std::max(report_.peak_particles, particleCount());
   report_.crossed = !sides_.empty() && std::all_of(sides_.begin(), sides_.end(), [](const auto& s) { return s->done; });
-  if (report_.crossed && report_.left < 0.0 && !any_alive)
+  if (report_.crossed && report_.left < 0.0)
     report_.left = time;
   if (carried_ > 0)
   {

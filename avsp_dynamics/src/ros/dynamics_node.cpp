@@ -1566,12 +1566,7 @@ private:
     {
       world_->step();
     }
-    catch (const ad::dem::DemParameterError& e)
-    {
-      fatal(std::string("the DEM contact mode: ") + e.what());  // named by DemVehicleSoil
-      return;
-    }
-    catch (const std::exception& e)
+    catch (const std::exception& e)  // e.g. the DEM contact mode's, which names the key and the wheel
     {
       fatal(std::string("the physics step at t = ") + std::to_string(world_->time()) + " s: " + e.what());
       return;
