@@ -229,7 +229,11 @@ TEST(Scenario, UnknownModelControllerFormationAndPathAreNamed)
 {
   YAML::Node n = base();
   n["vehicles"][0]["model"] = "rover7";
-  EXPECT_ERROR(errorOf(n), "vehicles[0].model: unknown model 'rover7'", "fed_alpha, m113, mrzr, tracer_x");
+  EXPECT_ERROR(errorOf(n), "vehicles[0].model: unknown model 'rover7'", "fed_alpha, m113, mrzr, quadruped, tracer_x");
+  // A legged model loads (config/vehicles/quadruped.yaml) but cannot run in a scenario yet.
+  n = base();
+  n["vehicles"][0]["model"] = "quadruped";
+  EXPECT_ERROR(errorOf(n), "vehicles[0].model: model 'quadruped' is legged", "scenarios cannot run them");
   n = base();
   n["vehicles"][2]["controller"]["type"] = "foo";
   EXPECT_ERROR(errorOf(n), "vehicles[2].controller.type: unknown 'foo' (waypoints, leader_follower, external)");

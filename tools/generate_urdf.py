@@ -158,6 +158,40 @@ def tracked(name, colour, header, hull_mass, hull_size, hull_centre, gauge, road
     return u.text(header)
 
 
+def legged(name, colour, header, trunk_mass, trunk_size, hips, hip_offset, hip_mass, thigh, shank, foot,
+           limits, sensors):
+    """A legged robot: per leg an abduction joint (about x) at the hip, a flexion joint (about y)
+    hip_offset outboard of it, a knee (about y) at the thigh's end, the foot's sphere fixed at the
+    shank's end. All joints at 0: legs straight down (the dynamics sets the robot down in its
+    stance). Leg links carry no <collision>: the feet's spheres meet the ground through the soil
+    model, the trunk's box collides with obstacles."""
+    u = Urdf(name, colour)
+    u.chassis(trunk_mass, trunk_size, (0.0, 0.0, 0.0), header)
+    thigh_length, thigh_mass, thigh_width = thigh
+    shank_length, shank_mass, shank_width = shank
+    foot_radius, foot_mass = foot
+    for leg, (x, y) in hips.items():
+        side = 1.0 if y > 0 else -1.0
+        u.small_body(leg + "_hip", hip_mass, (0.08, 0.08, 0.08))
+        u.joint(leg + "_hip_abduction", "revolute", "base_link", leg + "_hip", (x, y, 0.0), (1, 0, 0),
+                limits["abduction"])
+        u.link(leg + "_thigh", thigh_mass, box_inertia(thigh_mass, thigh_width, thigh_width, thigh_length),
+               '<box size="%s %s %s"/>' % (fmt(thigh_width), fmt(thigh_width), fmt(thigh_length)),
+               "%s_paint" % name, xyz="0 0 %s" % fmt(-thigh_length / 2.0), collision=False)
+        u.joint(leg + "_hip_flexion", "revolute", leg + "_hip", leg + "_thigh", (0.0, side * hip_offset, 0.0),
+                (0, 1, 0), limits["flexion"])
+        u.link(leg + "_shank", shank_mass, box_inertia(shank_mass, shank_width, shank_width, shank_length),
+               '<box size="%s %s %s"/>' % (fmt(shank_width), fmt(shank_width), fmt(shank_length)),
+               "%s_paint" % name, xyz="0 0 %s" % fmt(-shank_length / 2.0), collision=False)
+        u.joint(leg + "_knee", "revolute", leg + "_thigh", leg + "_shank", (0.0, 0.0, -thigh_length), (0, 1, 0),
+                limits["knee"])
+        r = foot_radius
+        u.link(leg + "_foot", foot_mass, (0.4 * foot_mass * r * r,) * 3, '<sphere radius="%s"/>' % fmt(r), "rubber")
+        u.joint(leg + "_foot_mount", "fixed", leg + "_shank", leg + "_foot", (0.0, 0.0, -shank_length))
+    u.sensors(sensors)
+    return u.text(header)
+
+
 def main():
     files = {}
     # FED-Alpha-class 4x4 light tactical vehicle: 365/80R20 tyres (D = 1.092 m), wheelbase
@@ -200,6 +234,19 @@ def main():
         idler=(-1.95, 0.15, 0.25, 60.0), track_mass=1150.0, shoe_width=0.38,
         sensors={"lidar": (0.9, 0.0, 2.10), "radar": (2.45, 0.0, 0.90), "gps": (-1.0, 0.0, 2.00),
                  "imu": (0.0, 0.0, 0.60)})
+    # ANYmal-class quadruped (ANYbotics' ANYmal C, public figures rounded: about 50 kg, 0.93 m x
+    # 0.53 m, thigh and shank about 0.3 m each, joint actuators of about 80 N m peak torque and
+    # 8 rad/s): 12 actuated joints. Limits (lower, upper, effort, velocity) in rad, N m, rad/s.
+    files["quadruped.urdf"] = legged(
+        "quadruped", (0.85, 0.35, 0.10), "ANYmal-class quadruped: 49.4 kg, thigh 0.30 m, shank 0.30 m, 12 joints",
+        trunk_mass=30.0, trunk_size=(0.60, 0.30, 0.18),
+        hips={"front_left": (0.28, 0.12), "front_right": (0.28, -0.12), "rear_left": (-0.28, 0.12),
+              "rear_right": (-0.28, -0.12)},
+        hip_offset=0.08, hip_mass=1.5, thigh=(0.30, 2.5, 0.06), shank=(0.30, 0.7, 0.04), foot=(0.03, 0.15),
+        limits={"abduction": (-0.6, 0.6, 80.0, 8.0), "flexion": (-1.6, 1.6, 80.0, 8.0),
+                "knee": (-2.7, 0.0, 80.0, 8.0)},
+        sensors={"lidar": (0.22, 0.0, 0.14), "radar": (0.31, 0.0, 0.0), "gps": (-0.15, 0.0, 0.12),
+                 "imu": (0.0, 0.0, 0.0)})
     os.makedirs(OUT, exist_ok=True)
     for name, text in files.items():
         with open(os.path.join(OUT, name), "w") as f:

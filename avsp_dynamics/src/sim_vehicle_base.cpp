@@ -359,7 +359,7 @@ HullContact::HullContact(const VehicleModel& model, const Eigen::Vector3d& chass
     for (int a = 0; a < along; ++a)
       for (int b = 0; b < 2; ++b)
       {
-        Plate p;
+        BellyPlate p;
         p.length = box.size.x() / along;
         p.width = 0.5 * box.size.y();
         p.along = r.col(0);
@@ -386,11 +386,10 @@ void HullContact::beforeStep(dWorldID world, dJointGroupID contacts, dBodyID cha
                              std::vector<std::string>& warnings, const std::string& vehicle)
 {
   normal_ = 0.0;
-  const double h = options.step;
   const Eigen::Matrix3d r = rotationOf(chassis);
   const Eigen::Vector3d x = vec(dBodyGetPosition(chassis));
   const Eigen::Vector3d base = x - r * chassis_com_;  // base_link origin
-  for (Plate& p : plates_)
+  for (BellyPlate& p : plates_)
   {
     p.contact = false;
     const Eigen::Vector3d centre = base + r * p.centre;
@@ -414,48 +413,19 @@ void HullContact::beforeStep(dWorldID world, dJointGroupID contacts, dBodyID cha
       p.ground.reset();
       continue;
     }
-    dVector3 pv;
-    dBodyGetPointVel(chassis, centre.x(), centre.y(), centre.z(), pv);
-    const Eigen::Vector3d velocity = vec(pv);
-    Eigen::Vector3d forward(along.x(), along.y(), 0.0);
-    if (forward.norm() < 1e-6)
-      continue;
-    forward.normalize();
-    ContactFrame frame;
-    frame.normal = groundNormal(terrain, centre, forward, 0.5 * p.length, 0.5 * p.width);
-    frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
-    frame.t2 = frame.normal.cross(frame.t1);
-    frame.point = centre;
-    frame.point_velocity = velocity;
-    terrain::TrackPatch patch;
-    patch.centre = centre;
-    patch.heading = std::atan2(forward.y(), forward.x());
-    patch.length = p.length;
-    patch.width = p.width;
-    patch.sprocket_pitch = 1.0;  // no sprocket: a plate sliding over the ground
-    patch.sprocket_teeth = 1;
-    patch.sprocket_spin_rate = 0.0;
-    patch.velocity = velocity;
-    patch.normal = up;
-    patch.shear_slip = p.ground.prepare(velocity.dot(frame.t1), 0.0, h);
-    patch.shear_slip_given = true;
-    patch.shear_cap = p.ground.shearCap();
-    patch.travel = p.ground.travel();
-    const auto start = times ? Clock::now() : Clock::time_point();
-    const terrain::ContactForces soil = terrain.trackContact(patch, h, options.deform_terrain);
-    if (times)
-      times->contact += seconds(start, Clock::now());
-    FirmContact firm;
-    if (soil.rigid_soil >= 0 && soil.rigid_share > 0.0)
-    {
-      firm.surface = &steel_;
-      firm.share = soil.rigid_share;
-      if (const auto g = terrain.height(centre.x(), centre.y()))
-        firm.depth = (*g - centre.z()) * frame.normal.z();
-    }
+    Plate plate;
+    plate.centre = centre;
+    plate.along = along;
+    plate.face_normal = up;
+    plate.length = p.length;
+    plate.width = p.width;
+    plate.body_mass = total_mass_;
+    plate.mass_share = total_mass_ / plates_.size();
+    plate.resisted_mass = total_mass_;
+    plate.firm_surface = &steel_;
     bool fault = false;
-    p.contact = p.ground.addJoint(world, contacts, chassis, total_mass_, total_mass_ / plates_.size(), frame, soil,
-                                  firm, firm_, options, &p.feedback, fault);
+    p.contact =
+        plateContact(world, contacts, chassis, plate, firm_, terrain, options, times, p.ground, &p.feedback, fault);
     if (fault && !p.fault_reported)
     {
       p.fault_reported = true;
@@ -467,19 +437,80 @@ void HullContact::beforeStep(dWorldID world, dJointGroupID contacts, dBodyID cha
       continue;
     p.point = centre;
     normal_ += p.ground.normalForce();
-    // Compaction and bulldozing ahead of the plate, where it acts (the belly, not the centre of mass).
-    const double fade = std::max(kResistanceFadeSpeed, h * p.ground.resistance() / total_mass_);
-    const double push = -p.ground.resistance() * std::clamp(velocity.dot(frame.t1) / fade, -1.0, 1.0);
-    dBodyAddForceAtPos(chassis, push * frame.t1.x(), push * frame.t1.y(), push * frame.t1.z(), centre.x(), centre.y(),
-                       centre.z());
   }
+}
+
+bool plateContact(dWorldID world, dJointGroupID contacts, dBodyID body, const Plate& plate,
+                  const FirmGroundSpec& firm_spec, terrain::DeformableTerrain& terrain, const WorldOptions& options,
+                  StepTimes* times, GroundContact& ground, dJointFeedback* feedback, bool& fault,
+                  terrain::ContactForces* soil_out)
+{
+  const double h = options.step;
+  const Eigen::Vector3d& centre = plate.centre;
+  dVector3 pv;
+  dBodyGetPointVel(body, centre.x(), centre.y(), centre.z(), pv);
+  const Eigen::Vector3d velocity = vec(pv);
+  Eigen::Vector3d forward(plate.along.x(), plate.along.y(), 0.0);
+  if (forward.norm() < 1e-6)
+    return false;
+  forward.normalize();
+  ContactFrame frame;
+  frame.normal = groundNormal(terrain, centre, forward, 0.5 * plate.length, 0.5 * plate.width);
+  frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
+  frame.t2 = frame.normal.cross(frame.t1);
+  frame.point = centre;
+  frame.point_velocity = velocity;
+  terrain::TrackPatch patch;
+  patch.centre = centre;
+  patch.heading = std::atan2(forward.y(), forward.x());
+  patch.length = plate.length;
+  patch.width = plate.width;
+  patch.sprocket_pitch = 1.0;  // no sprocket: a plate sliding over the ground
+  patch.sprocket_teeth = 1;
+  patch.sprocket_spin_rate = 0.0;
+  patch.velocity = velocity;
+  patch.normal = plate.face_normal ? *plate.face_normal : frame.normal;
+  patch.shear_slip = ground.prepare(velocity.dot(frame.t1), 0.0, h);
+  patch.shear_slip_given = true;
+  patch.shear_cap = ground.shearCap();
+  patch.travel = ground.travel();
+  const auto start = times ? Clock::now() : Clock::time_point();
+  const terrain::ContactForces soil = terrain.trackContact(patch, h, options.deform_terrain);
+  if (times)
+    times->contact += seconds(start, Clock::now());
+  if (soil_out)
+    *soil_out = soil;
+  FirmContact firm;
+  if (plate.firm_surface)
+  {
+    if (soil.rigid_soil >= 0 && soil.rigid_share > 0.0)
+    {
+      firm.surface = plate.firm_surface;
+      firm.share = soil.rigid_share;
+      if (const auto g = terrain.height(centre.x(), centre.y()))
+        firm.depth = (*g - centre.z()) * frame.normal.z();
+    }
+  }
+  else
+  {
+    firm = firmContact(terrain, soil, centre + plate.firm_radius * frame.normal, plate.firm_radius, frame.normal);
+  }
+  if (!ground.addJoint(world, contacts, body, plate.body_mass, plate.mass_share, frame, soil, firm, firm_spec, options,
+                       feedback, fault))
+    return false;
+  // Compaction and bulldozing ahead of the plate, where it acts (not at the centre of mass).
+  const double fade = std::max(kResistanceFadeSpeed, h * ground.resistance() / plate.resisted_mass);
+  const double push = -ground.resistance() * std::clamp(velocity.dot(frame.t1) / fade, -1.0, 1.0);
+  dBodyAddForceAtPos(body, push * frame.t1.x(), push * frame.t1.y(), push * frame.t1.z(), centre.x(), centre.y(),
+                     centre.z());
+  return true;
 }
 
 void HullContact::afterStep(dBodyID chassis, bool stepped)
 {
   if (!stepped)
     return;
-  for (Plate& p : plates_)
+  for (BellyPlate& p : plates_)
   {
     if (!p.contact)
       continue;

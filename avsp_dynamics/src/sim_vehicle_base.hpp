@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,14 @@ protected:
 std::unique_ptr<SimVehicleBase> makeTrackedVehicle(dWorldID world, const VehicleModel& model,
                                                    const Eigen::Isometry3d& pose, const std::string& name,
                                                    const WorldOptions& options);
+
+/**
+ * @brief Builds a legged vehicle (legged_vehicle.cpp), standing in its stance at `pose`.
+ * @throw ConfigError naming the model's YAML when it cannot be simulated
+ */
+std::unique_ptr<SimVehicleBase> makeLeggedVehicle(dWorldID world, const VehicleModel& model,
+                                                  const Eigen::Isometry3d& pose, const std::string& name,
+                                                  const WorldOptions& options);
 
 namespace sim
 {
@@ -317,6 +326,38 @@ struct BrushForce
 BrushForce brushForce(const Eigen::Vector2d& u, double normal, const FirmGroundSpec& spec, double friction_peak,
                       double friction_sliding);
 
+/// A flat plate on a body pressed into the ground this step (plateContact): a hull plate, a foot's pad.
+struct Plate
+{
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< m, world: the middle of its ground face
+  Eigen::Vector3d along = Eigen::Vector3d::UnitX();  ///< unit, world: its length's direction
+  /// unit, world: its face's normal (up, out of the ground); none: it lies on the ground (a pad
+  /// under a foot's sphere turns with the ground, not with the body).
+  std::optional<Eigen::Vector3d> face_normal;
+  double length = 0.0, width = 0.0;  ///< m
+  double body_mass = 0.0;            ///< kg, of the body it is on (its normal row's damping)
+  double mass_share = 0.0;           ///< kg, of the vehicle it holds tangentially
+  double resisted_mass = 0.0;        ///< kg, that its compaction resistance slows (the fade's)
+  /// The rigid surface it meets on rigid ground (a steel belly on pavement); nullptr: the
+  /// terrain's own rigid soil under a sphere of `firm_radius` (a rubber foot).
+  const terrain::SoilParameters* firm_surface = nullptr;
+  double firm_radius = 0.0;  ///< m
+};
+
+/**
+ * @brief One plate's soil contact this step through its GroundContact: the terrain's sliding
+ *        plate (terrain.trackContact with no sprocket: Bekker pressure or the simple model's,
+ *        Mohr-Coulomb shear, ruts), on rigid ground `firm_spec`'s stiff contact, handed to ODE as
+ *        a joint on `body` (feedback into `feedback`); its compaction and bulldozing applied at
+ *        the plate against its travel.
+ * @param soil_out if given, the terrain's forces this step
+ * @return false (no joint) when nothing carries it or a force came out non-finite (`fault` set)
+ */
+bool plateContact(dWorldID world, dJointGroupID contacts, dBodyID body, const Plate& plate,
+                  const FirmGroundSpec& firm_spec, terrain::DeformableTerrain& terrain, const WorldOptions& options,
+                  StepTimes* times, GroundContact& ground, dJointFeedback* feedback, bool& fault,
+                  terrain::ContactForces* soil_out = nullptr);
+
 /**
  * @brief The hull's underside against the ground: the bottom face of every chassis collision box
  *        (URDF <collision>, model.collision_boxes), split into plates about 1 m long and half the
@@ -342,12 +383,12 @@ public:
   /// Every plate's shear displacement forgotten (SimVehicleBase::forgetContacts).
   void forgetContacts()
   {
-    for (Plate& p : plates_)
+    for (BellyPlate& p : plates_)
       p.ground.reset();
   }
 
 private:
-  struct Plate
+  struct BellyPlate
   {
     Eigen::Vector3d centre;            ///< m, on the box's bottom face, base_link at rest
     Eigen::Vector3d along;             ///< unit, the box's x in base_link
@@ -360,7 +401,7 @@ private:
     Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< m, world, where the contact acts this step
     dJointFeedback feedback{};
   };
-  std::vector<Plate> plates_;
+  std::vector<BellyPlate> plates_;
   Eigen::Vector3d chassis_com_;
   double total_mass_ = 0.0;
   double normal_ = 0.0;

@@ -1,5 +1,7 @@
 #include "avsp_dynamics/vehicle_model.hpp"
 
+#include "avsp_dynamics/leg_kinematics.hpp"
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -201,6 +203,18 @@ Eigen::Isometry3d toIsometry(const urdf::Pose& p)
   t.rotate(Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z));
   return t;
 }
+
+/// joints.*.max_torque of a legged vehicle: a toy servo's 1 mN m up to 10 kN m (a heavy
+/// hydraulic leg's knee); joints.*.max_speed 0.1 to 100 rad/s.
+constexpr Range kJointTorque{ 1e-3, 1e4, " N m" };
+constexpr Range kJointSpeed{ 0.1, 100.0, " rad/s" };
+/// joints.*.stiffness and damping (the joint PD): the explicit step must stay stable on a toy's
+/// link as on a heavy one; the loader checks the ratio to the leg's inertia at build time too.
+constexpr Range kJointStiffness{ 1e-3, 1e6, " N m/rad" };
+constexpr Range kJointDamping{ 0.0, 1e4, " N m s/rad" };
+/// stance.height: a toy's 5 cm up to 5 m; feet.pad_size 5 mm to 1 m.
+constexpr Range kStanceHeight{ 0.05, 5.0, " m" };
+constexpr Range kPadSize{ 0.005, 1.0, " m" };
 
 /// Reads and checks the URDF: root, masses, inertias, sensor mounts.
 class UrdfChecker
@@ -569,9 +583,9 @@ void readFirmGround(const Section& root, VehicleModel& m)
   g.vertical_stiffness = f.positive("vertical_stiffness");
   // Below what holds a quarter of the vehicle with 0.2 m of deflection, a "tyre" is a spring
   // nobody drives on (a typo's 1e3 for 1e6); above 1e9 N/m the contact is stiffer than steel.
-  const double weight_share =
-      m.total_mass * 9.81 /
-      std::max<std::size_t>(1, m.wheels.size() + 2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
+  const double weight_share = m.total_mass * 9.81 /
+                              std::max<std::size_t>(1, m.wheels.size() + m.legs.size() +
+                                                           2 * (m.tracks.empty() ? 0 : m.tracks[0].road_wheels.size()));
   if (g.vertical_stiffness < weight_share / 0.2 || g.vertical_stiffness > 1e9)
     f.fail("vertical_stiffness", format(g.vertical_stiffness) + " N/m must be between " + format(weight_share / 0.2) +
                                      " N/m (0.2 m of deflection under its share of the weight) and 1e9 N/m");
@@ -622,6 +636,8 @@ const char* toString(DriveType type)
       return "skid_steer";
     case DriveType::kTracked:
       return "tracked";
+    case DriveType::kLegged:
+      return "legged";
   }
   return "?";
 }
@@ -638,8 +654,27 @@ double TrackParameters::effectiveSprocketRadius() const
   return pitch * sprocket_teeth / (2.0 * M_PI);
 }
 
+namespace
+{
+/// m, max minus min of the legs' hip flexion joints along base axis `axis` (their feet's at stance).
+double hipSpread(const std::vector<LegSpec>& legs, int axis)
+{
+  if (legs.empty())
+    return 0.0;
+  double lo = legs.front().anchors[1](axis), hi = lo;
+  for (const LegSpec& l : legs)
+  {
+    lo = std::min(lo, l.anchors[1](axis));
+    hi = std::max(hi, l.anchors[1](axis));
+  }
+  return hi - lo;
+}
+}  // namespace
+
 double VehicleModel::wheelbase() const
 {
+  if (drive_type == DriveType::kLegged)
+    return hipSpread(legs, 0);
   if (drive_type == DriveType::kTracked)
     return tracks.empty() ? 0.0 : tracks.front().contactLength();
   return wheelSpread(wheels, 0);
@@ -647,6 +682,8 @@ double VehicleModel::wheelbase() const
 
 double VehicleModel::trackWidth() const
 {
+  if (drive_type == DriveType::kLegged)
+    return hipSpread(legs, 1);
   if (drive_type == DriveType::kTracked)
   {
     if (tracks.size() != 2)
@@ -679,10 +716,121 @@ void readDriveType(const Section& root, VehicleModel& m)
     root.allowOnly(
         { "model", "urdf", "drive_type", "tracks", "track", "suspension", "drivetrain", "brakes", "firm_ground" });
   }
+  else if (drive == "legged")
+  {
+    m.drive_type = DriveType::kLegged;
+    root.allowOnly({ "model", "urdf", "drive_type", "legs", "joints", "stance", "feet", "firm_ground" });
+  }
   else
   {
-    root.fail("drive_type", "must be ackermann, skid_steer or tracked, got '" + drive + "'");
+    root.fail("drive_type", "must be ackermann, skid_steer, tracked or legged, got '" + drive + "'");
   }
+}
+
+/// One joint kind's YAML entry (joints.<kind>), its limits within every leg's URDF joint of
+/// that kind.
+LegJointSpec readLegJoint(const Section& joints, const char* kind)
+{
+  const Section j = joints.map(kind);
+  j.allowOnly({ "lower", "upper", "max_torque", "max_speed", "stiffness", "damping" });
+  LegJointSpec out;
+  out.lower = j.number("lower");
+  out.upper = j.number("upper");
+  if (!(out.lower < out.upper) || out.lower < -M_PI || out.upper > M_PI)
+    j.fail("upper", "the range [lower, upper] must have lower < upper within [-pi, pi] rad, got [" + format(out.lower) +
+                        ", " + format(out.upper) + "]");
+  out.max_torque = plausible(j, "max_torque", j.positive("max_torque"), kJointTorque, "the actuator's peak");
+  out.max_speed = plausible(j, "max_speed", j.positive("max_speed"), kJointSpeed);
+  out.stiffness = plausible(j, "stiffness", j.positive("stiffness"), kJointStiffness, "the joint PD's gain");
+  out.damping = plausible(j, "damping", j.nonNegative("damping"), kJointDamping, "the joint PD's gain");
+  return out;
+}
+
+/// The legs (legs, joints, stance, feet), checked against the URDF: each leg a chain base_link
+/// -> abduction (about x) -> hip flexion (about y, beside it) -> knee (about y, below it) -> the
+/// foot's sphere (below the knee), the shape leg_kinematics.hpp solves.
+void readLeggedRunningGear(const Section& root, const UrdfChecker& urdf, VehicleModel& m)
+{
+  static const char* const kKinds[3] = { "abduction", "flexion", "knee" };
+  static const char* const kKeys[3] = { "abduction_joint", "flexion_joint", "knee_joint" };
+  const Section js = root.map("joints");
+  js.allowOnly({ "abduction", "flexion", "knee" });
+  for (int k = 0; k < 3; ++k)
+    m.legged.joints[k] = readLegJoint(js, kKinds[k]);
+  const Eigen::Vector3d axes[3] = { Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitY() };
+  std::set<std::string> names;
+  for (const Section& l : root.sequence("legs"))
+  {
+    l.allowOnly({ "name", "abduction_joint", "flexion_joint", "knee_joint", "foot_link" });
+    LegSpec leg;
+    leg.name = l.string("name");
+    if (!names.insert(leg.name).second)
+      l.fail("name", "leg '" + leg.name + "' is named twice");
+    std::string parent = "base_link";
+    for (int k = 0; k < 3; ++k)
+    {
+      const auto j = urdf.joint(l, kKeys[k], urdf::Joint::REVOLUTE, "revolute", axes[k]);
+      if (j->parent_link_name != parent)
+        l.fail(kKeys[k], "joint '" + j->name + "' must hang from link '" + parent + "' (a leg is a chain)");
+      const LegJointSpec& spec = m.legged.joints[k];
+      if (!j->limits || spec.lower < j->limits->lower - 1e-9 || spec.upper > j->limits->upper + 1e-9)
+        l.fail(kKeys[k], "joint '" + j->name + "': joints." + kKinds[k] + " [" + format(spec.lower) + ", " +
+                             format(spec.upper) + "] rad must lie within its URDF limits in " + m.urdf_path);
+      leg.joints[k] = j->name;
+      leg.links[k] = j->child_link_name;
+      const Eigen::Isometry3d pose = urdf.restPose(leg.links[k]);
+      leg.anchors[k] = pose.translation();
+      leg.axes[k] = (pose.linear() * Eigen::Vector3d(j->axis.x, j->axis.y, j->axis.z)).normalized();
+      parent = leg.links[k];
+    }
+    leg.foot_link = l.string("foot_link");
+    const urdf::LinkConstSharedPtr foot = urdf.model().getLink(leg.foot_link);
+    if (!foot || !foot->parent_joint || foot->parent_joint->type != urdf::Joint::FIXED ||
+        foot->parent_joint->parent_link_name != parent)
+      l.fail("foot_link",
+             "link '" + leg.foot_link + "' must hang from '" + parent + "' by a fixed joint in " + m.urdf_path);
+    if (!foot->collision || !foot->collision->geometry || foot->collision->geometry->type != urdf::Geometry::SPHERE)
+      l.fail("foot_link", "link '" + leg.foot_link + "' needs a <collision> sphere (the foot) in " + m.urdf_path);
+    leg.foot_radius = static_cast<const urdf::Sphere*>(foot->collision->geometry.get())->radius;
+    if (!kGearRadius.contains(leg.foot_radius))
+      l.fail("foot_link", outside("foot sphere radius", leg.foot_radius, kGearRadius));
+    leg.foot_centre = (urdf.restPose(leg.foot_link) * toIsometry(foot->collision->origin)).translation();
+    // The shape leg_kinematics.hpp solves: the flexion joint beside the abduction joint (only
+    // y apart), the knee straight below the flexion joint, the foot straight below the knee.
+    const auto apart = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b, int free_axis) {
+      Eigen::Vector3d d = a - b;
+      d(free_axis) = 0.0;
+      return d.norm() > 1e-6;
+    };
+    if (apart(leg.anchors[1], leg.anchors[0], 1))
+      l.fail("flexion_joint", "joint '" + leg.joints[1] + "' must sit beside '" + leg.joints[0] +
+                                  "' (the same x and z in base_link at rest)");
+    if (apart(leg.anchors[2], leg.anchors[1], 2) || !(leg.anchors[2].z() < leg.anchors[1].z()))
+      l.fail("knee_joint", "joint '" + leg.joints[2] + "' must sit straight below '" + leg.joints[1] + "' at rest");
+    if (apart(leg.foot_centre, leg.anchors[2], 2) || !(leg.foot_centre.z() < leg.anchors[2].z()))
+      l.fail("foot_link", "link '" + leg.foot_link + "' must sit straight below '" + leg.joints[2] + "' at rest");
+    m.legs.push_back(leg);
+  }
+  if (m.legs.empty())
+    root.fail("legs", "a legged vehicle needs at least one leg");
+  const Section st = root.map("stance");
+  st.allowOnly({ "height", "knees" });
+  m.legged.stance_height = plausible(st, "height", st.positive("height"), kStanceHeight);
+  const std::string knees = st.string("knees");
+  if (knees != "backward" && knees != "forward")
+    st.fail("knees", "must be backward or forward, got '" + knees + "'");
+  m.legged.knees_backward = knees == "backward";
+  for (const LegSpec& leg : m.legs)
+  {
+    const double reach = (leg.anchors[1] - leg.anchors[2]).norm() + (leg.anchors[2] - leg.foot_centre).norm();
+    const double need = m.legged.stance_height - leg.foot_radius + leg.anchors[1].z();
+    if (!(need < 0.98 * reach) || !(need > 0.2 * reach))
+      st.fail("height", format(m.legged.stance_height) + " m puts leg '" + leg.name +
+                            "' outside 20-98 % of its reach (" + format(reach) + " m from hip to foot centre)");
+  }
+  const Section f = root.map("feet");
+  f.allowOnly({ "pad_size" });
+  m.legged.pad_size = plausible(f, "pad_size", f.positive("pad_size"), kPadSize);
 }
 
 /// A tracked vehicle's tracks and torsion-bar suspension.
@@ -751,6 +899,8 @@ std::vector<CollisionBox> chassisCollisionBoxes(const UrdfChecker& urdf, const V
   std::set<std::string> running_gear;
   for (const WheelSpec& w : m.wheels)
     running_gear.insert(w.link);
+  for (const LegSpec& l : m.legs)
+    running_gear.insert(l.foot_link);
   for (const TrackSpec& t : m.tracks)
   {
     running_gear.insert(urdf.model().getJoint(t.sprocket_joint)->child_link_name);
@@ -800,13 +950,16 @@ VehicleModel loadVehicleModel(const std::string& yaml_path)
 
     if (m.drive_type == DriveType::kTracked)
       readTrackedRunningGear(root, urdf, m);
+    else if (m.drive_type == DriveType::kLegged)
+      readLeggedRunningGear(root, urdf, m);
     else
       readWheeledRunningGear(root, urdf, m);
 
     m.collision_boxes = chassisCollisionBoxes(urdf, m);
-
-    readDrivetrain(root, m);
     readFirmGround(root, m);
+    if (m.drive_type == DriveType::kLegged)
+      return m;  // no drivetrain or brakes: the joints' actuators
+    readDrivetrain(root, m);
     const Section b = root.map("brakes");
     b.allowOnly({ "max_torque" });
     m.brakes.max_torque = plausible(b, "max_torque", b.positive("max_torque"), kBrakeTorque, "per wheel or sprocket");
@@ -827,6 +980,8 @@ std::vector<std::pair<Eigen::Vector3d, double>> runningGear(const VehicleModel& 
   for (const TrackSpec& t : model.tracks)
     for (const RoadWheelSpec& w : t.road_wheels)
       out.emplace_back(w.rest_position, w.radius);
+  for (const LegSpec& l : model.legs)
+    out.emplace_back(stanceFoot(model, l), l.foot_radius);
   return out;
 }
 

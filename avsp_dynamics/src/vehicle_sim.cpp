@@ -783,6 +783,8 @@ std::size_t World::addVehicle(const VehicleModel& model, const Eigen::Isometry3d
   const std::string vehicle_name = name.empty() ? model.model : name;
   if (model.drive_type == DriveType::kTracked)
     vehicles_.push_back(makeTrackedVehicle(ode_->world, model, pose, vehicle_name, options_));
+  else if (model.drive_type == DriveType::kLegged)
+    vehicles_.push_back(makeLeggedVehicle(ode_->world, model, pose, vehicle_name, options_));
   else
     vehicles_.push_back(std::make_unique<SimVehicle>(ode_->world, model, pose, vehicle_name, options_));
   try
@@ -829,6 +831,9 @@ void World::removeVehicle(std::size_t vehicle)
     throw std::out_of_range("World::removeVehicle: no vehicle " + std::to_string(vehicle) + " (have " +
                             std::to_string(vehicles_.size()) + ")");
   const auto at = static_cast<std::ptrdiff_t>(vehicle);
+  const dBodyID chassis = vehicles_[vehicle]->collisionBodies().chassis;
+  pushes_.erase(std::remove_if(pushes_.begin(), pushes_.end(), [&](const Push& p) { return p.body == chassis; }),
+                pushes_.end());
   collision_->removeVehicle(vehicle);  // geoms before the bodies they ride on
   vehicles_.erase(vehicles_.begin() + at);
   ode_->vehicle_bodies.erase(ode_->vehicle_bodies.begin() + at);
@@ -863,6 +868,18 @@ void World::setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity)
     dBodySetAngularVel(w.body, omega.x(), omega.y(), omega.z());
   }
   vehicles_[vehicle]->afterStep(time(), false);
+}
+
+void World::push(std::size_t vehicle, const Eigen::Vector3d& force, double duration)
+{
+  if (vehicle >= vehicles_.size())
+    throw std::out_of_range("World::push: no vehicle " + std::to_string(vehicle) + " (have " +
+                            std::to_string(vehicles_.size()) + ")");
+  if (!force.allFinite() || !std::isfinite(duration) || !(duration >= 0.0))
+    throw std::invalid_argument("World::push: the force on '" + vehicles_[vehicle]->state().name +
+                                "' must be finite and its duration finite and >= 0");
+  const auto steps = static_cast<std::uint64_t>(std::llround(duration / options_.step));
+  pushes_.push_back(Push{ vehicles_[vehicle]->collisionBodies().chassis, force, steps_ + steps });
 }
 
 void World::setPose(std::size_t vehicle, const Eigen::Isometry3d& pose)
@@ -1173,6 +1190,12 @@ void World::step()
     v->beforeStep(terrain_, ode_->contacts, times);
   driveAgents();
   driveProxies();
+  for (const Push& p : pushes_)
+    if (steps_ < p.until_step)
+      dBodyAddForce(p.body, p.force.x(), p.force.y(), p.force.z());
+  pushes_.erase(
+      std::remove_if(pushes_.begin(), pushes_.end(), [&](const Push& p) { return steps_ + 1 >= p.until_step; }),
+      pushes_.end());
   const auto tc = times ? Clock::now() : Clock::time_point();
   collision_->collide(ode_->world, ode_->contacts);
   const auto t1 = times ? Clock::now() : Clock::time_point();

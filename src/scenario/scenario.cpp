@@ -768,6 +768,10 @@ YAML::Node readVehicles(const Context& ctx, MapReader& top, const LoadOptions& o
       try
       {
         const dynamics::VehicleModel model = dynamics::loadVehicleModel(options.vehicles_dir + "/" + v.model + ".yaml");
+        if (model.drive_type == dynamics::DriveType::kLegged)
+          ctx.fail(m.key("model"), "model '" + v.model +
+                                       "' is legged: legged vehicles stand in avsp_dynamics' World but have no gait "
+                                       "controller, cmd_vel or node support yet, so scenarios cannot run them");
         // The lowest running-gear point sets the rest height of base_link (suspension at 0).
         ModelLimits limits;
         limits.max_speed = model.drivetrain.max_speed;

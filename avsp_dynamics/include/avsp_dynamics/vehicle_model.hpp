@@ -31,7 +31,8 @@ enum class DriveType
 {
   kAckermann,  ///< steered front wheels (steering joints), driven axles
   kSkidSteer,  ///< no steering joints; steering becomes a left/right speed difference
-  kTracked     ///< two tracks; steering becomes a left/right sprocket speed difference
+  kTracked,    ///< two tracks; steering becomes a left/right sprocket speed difference
+  kLegged      ///< legs of three revolute joints each (abduction, hip flexion, knee), feet on the soil
 };
 
 enum class Differential
@@ -121,6 +122,39 @@ struct TrackParameters
   double effectiveSprocketRadius() const;
 };
 
+/// One actuated joint kind of a legged vehicle (every leg's joint of that kind alike).
+struct LegJointSpec
+{
+  double lower = 0.0;       ///< rad, the simulated range (within the URDF joint's limits)
+  double upper = 0.0;       ///< rad
+  double max_torque = 0.0;  ///< N m, the actuator's peak
+  double max_speed = 0.0;   ///< rad/s: the available torque falls linearly to 0 at it, driving faster
+  double stiffness = 0.0;   ///< N m/rad, the joint PD's proportional gain
+  double damping = 0.0;     ///< N m s/rad, its derivative gain
+};
+
+/// A leg: three revolute joints in a chain from base_link, the foot fixed at its end.
+struct LegSpec
+{
+  std::string name;             ///< e.g. front_left
+  std::string joints[3];        ///< abduction (about base x), hip flexion, knee (about y)
+  std::string links[3];         ///< their child links: hip, thigh, shank
+  std::string foot_link;        ///< fixed to the shank; its <collision> sphere is the foot
+  Eigen::Vector3d anchors[3];   ///< m, each joint's origin in base_link with all joints at 0
+  Eigen::Vector3d axes[3];      ///< unit, each joint's axis in base_link with all joints at 0
+  Eigen::Vector3d foot_centre;  ///< m, the foot sphere's centre in base_link with all joints at 0
+  double foot_radius = 0.0;     ///< m
+};
+
+/// What the URDF cannot say about a legged vehicle.
+struct LeggedSpec
+{
+  LegJointSpec joints[3];      ///< abduction, flexion, knee
+  double stance_height = 0.0;  ///< m, base_link above the soles standing
+  bool knees_backward = true;  ///< the knee points backwards (its angle < 0 with +y axes)
+  double pad_size = 0.0;       ///< m, side of the square pad under each foot (the soil's footprint)
+};
+
 struct SuspensionSpec  ///< wheeled: linear spring-damper per wheel
 {
   double stiffness = 0.0;           ///< N/m
@@ -178,6 +212,8 @@ struct VehicleModel
   double total_mass = 0.0;        ///< kg, sum of bodies
   std::vector<WheelSpec> wheels;  ///< wheeled vehicles
   std::vector<TrackSpec> tracks;  ///< tracked vehicles: left then right
+  std::vector<LegSpec> legs;      ///< legged vehicles, in the YAML's order
+  LeggedSpec legged;              ///< legged vehicles
   TrackParameters track;
   SuspensionSpec suspension;
   TorsionSuspensionSpec torsion;
@@ -190,9 +226,10 @@ struct VehicleModel
   /// sprockets, idlers: their cylinders are the running gear's), at least one.
   std::vector<CollisionBox> collision_boxes;
 
-  /// m, front-axle x minus rear-axle x (wheeled), or track contact length (tracked).
+  /// m, front-axle x minus rear-axle x (wheeled), track contact length (tracked), or the hip
+  /// flexion joints' spread along x (legged: the feet's at stance).
   double wheelbase() const;
-  /// m, left-right distance between wheel (or track) centres.
+  /// m, left-right distance between wheel (or track) centres, or the feet's at stance (legged).
   double trackWidth() const;
 };
 
@@ -211,8 +248,9 @@ constexpr std::uint64_t kMaxVehicleFileBytes = 16u << 20;  // 16 MiB
  */
 VehicleModel loadVehicleModel(const std::string& yaml_path);
 
-/// The running gear that meets the ground, wheels then road wheels (left track, then right):
-/// each one's centre in base_link at rest and its radius (m).
+/// The running gear that meets the ground, wheels then road wheels (left track, then right), or
+/// a legged vehicle's feet where its stance puts them: each one's centre in base_link at rest
+/// and its radius (m).
 std::vector<std::pair<Eigen::Vector3d, double>> runningGear(const VehicleModel& model);
 
 const char* toString(DriveType type);

@@ -72,6 +72,8 @@
 #include "avsp_dynamics/external_wheel_soil.hpp"
 #include "avsp_dynamics/vehicle_model.hpp"
 
+struct dxBody;  // ODE's body (ode/ode.h's dBodyID points to one), opaque here
+
 namespace avsp
 {
 namespace dynamics
@@ -181,6 +183,29 @@ struct TrackState
   std::vector<TrackSegmentState> segments;  ///< one per road wheel, the same order
 };
 
+/// One actuated joint of a legged vehicle after the last step (URDF convention, for joint_states).
+struct LegJointState
+{
+  std::string name;       ///< the URDF joint, e.g. front_left_knee
+  double position = 0.0;  ///< rad
+  double velocity = 0.0;  ///< rad/s
+  double effort = 0.0;    ///< N m the actuator applied over the last step (after its limits)
+};
+
+/// One foot of a legged vehicle: its pad's soil contact over the last step. SI units.
+struct FootState
+{
+  std::string leg;  ///< e.g. front_left
+  bool in_contact = false;
+  double normal_force = 0.0;                           ///< N, the soil's (or a rigid surface's) normal reaction
+  double applied_normal_force = 0.0;                   ///< N, vertical force ODE's contact applied over the last step
+  double sinkage = 0.0;                                ///< m, the pad's deepest point below the undeformed surface
+  double pressure = 0.0;                               ///< Pa, normal force over the pad's area
+  double slip_velocity = 0.0;                          ///< m/s, the pad's speed over the ground (in its plane)
+  int contact_points = 0;                              ///< terrain grid points under the pad
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< m, the foot sphere's centre, map
+};
+
 /// A vehicle's state after the last step.
 struct VehicleState
 {
@@ -198,6 +223,12 @@ struct VehicleState
   DriveCommand command;            ///< the command in force (clamped)
   std::vector<WheelState> wheels;  ///< wheeled vehicles, in model.wheels order; empty if tracked
   std::vector<TrackState> tracks;  ///< tracked vehicles: left, then right; empty if wheeled
+  std::vector<LegJointState>
+      joints;                   ///< legged vehicles: each leg's abduction, flexion, knee, legs in the model's order
+  std::vector<FootState> feet;  ///< legged vehicles: one per leg, the model's order
+  /// Legged vehicles: the trunk tipped more than 60 degrees from upright or down within 35 % of
+  /// its stance height of the ground; stays set (a fallen robot does not get up by itself).
+  bool fallen = false;
   /// Contact points with obstacles and other vehicles over the last step (0 = touching nothing).
   int obstacle_contacts = 0;
   /// Of those, the points with rigid obstacles (strength +inf) and other vehicles: what
@@ -283,6 +314,15 @@ public:
    * @throw std::invalid_argument when the velocity is not finite
    */
   void setVelocity(std::size_t vehicle, const Eigen::Vector3d& velocity);
+
+  /**
+   * @brief Pushes vehicle k's chassis (a legged vehicle's trunk) at its centre of mass with
+   *        `force` (N, map) over the next `duration` s (rounded to whole steps): a disturbance
+   *        (a shove, a gust) for tests and scripted runs. Pushes add up.
+   * @throw std::out_of_range for an unknown vehicle; std::invalid_argument for a force that is
+   *        not finite or a duration that is not finite and >= 0
+   */
+  void push(std::size_t vehicle, const Eigen::Vector3d& force, double duration);
 
   /**
    * @brief Sets a vehicle down again at `pose` (base_link), as addVehicle() did: every body
@@ -426,7 +466,15 @@ private:
   /// Hands the agents' and proxies' bodies to the collision (agents first).
   void updateKinematicGeoms();
   std::vector<Proxy> proxies_;  ///< their bodies are in Ode (same order)
-  struct Ode;                   // ODE handles
+  /// A push() in force: on `body` until (not including) step `until_step`.
+  struct Push
+  {
+    ::dxBody* body;  ///< its chassis
+    Eigen::Vector3d force;
+    std::uint64_t until_step;
+  };
+  std::vector<Push> pushes_;
+  struct Ode;  // ODE handles
   terrain::DeformableTerrain& terrain_;
   WorldOptions options_;
   std::unique_ptr<Ode> ode_;
