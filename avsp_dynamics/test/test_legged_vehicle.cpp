@@ -18,6 +18,7 @@
 
 #include "avsp_dynamics/leg_kinematics.hpp"
 #include "avsp_dynamics/vehicle_sim.hpp"
+#include "soil_settling.hpp"
 
 using namespace avsp::dynamics;
 namespace terrain = avsp::terrain;
@@ -177,16 +178,7 @@ TEST(LeggedVehicle, OnDrySandTheFeetCarryTheWeightAndTheHeavierSinkDeeper)
   auto ground = flat(sand, 4.0, 0.01);
   World world(*ground);
   const std::size_t id = world.addVehicle(m, world.restingPose(m, 0.0, 0.0, 0.0));
-  const double soften = 4.0;
-  while (world.time() < soften + 2.0)
-  {
-    terrain::SoilParameters stiff = sand;
-    const double factor = std::pow(20.0, std::max(0.0, 1.0 - world.time() / soften));
-    stiff.k_c *= factor;
-    stiff.k_phi *= factor;
-    ground->setSoil(0, stiff);
-    world.step();
-  }
+  test::settleOnSoftening(world, *ground, sand, 4.0, 6.0);
   const double b = m.legged.pad_size, modulus = sand.k_c / b + sand.k_phi;
   std::vector<double> sinkage(4, 0.0), force(4, 0.0), applied(4, 0.0);
   const int samples = 200;

@@ -20,6 +20,7 @@
 #include <avsp_terrain/terramechanics.hpp>
 
 #include "avsp_dynamics/vehicle_sim.hpp"
+#include "soil_settling.hpp"
 
 using namespace avsp::dynamics;
 namespace terrain = avsp::terrain;
@@ -218,16 +219,7 @@ TEST(TrackedVehicle, SinkageOnBekkerSoilMatchesFlatPlateAndBeatsTheFourByFour)
     auto ground = makeTerrain("dry_sand", 12, 6, res);
     World world(*ground);
     const std::size_t id = world.addVehicle(m, world.restingPose(m, 0, 0, 0, 0.0));
-    const double soften = 4.0;
-    while (world.time() < soften + 1.0)
-    {
-      terrain::SoilParameters stiff = sand;
-      const double factor = std::pow(20.0, std::max(0.0, 1.0 - world.time() / soften));
-      stiff.k_c *= factor;
-      stiff.k_phi *= factor;
-      ground->setSoil(0, stiff);
-      world.step();
-    }
+    test::settleOnSoftening(world, *ground, sand, 4.0, 5.0);
     double area = 0.0;
     int samples = 0;
     for (; samples < 200; ++samples)
