@@ -455,7 +455,10 @@ bool plateContact(dWorldID world, dJointGroupID contacts, dBodyID body, const Pl
     return false;
   forward.normalize();
   ContactFrame frame;
-  frame.normal = groundNormal(terrain, centre, forward, 0.5 * plate.length, 0.5 * plate.width);
+  // A pad lying on the ground takes the ground's slope from beyond its own rut (its walls
+  // would tilt it); a hull plate from its edges, as before.
+  const double margin = plate.face_normal ? 0.0 : plate.firm_radius;
+  frame.normal = groundNormal(terrain, centre, forward, 0.5 * plate.length + margin, 0.5 * plate.width + margin);
   frame.t1 = (forward - forward.dot(frame.normal) * frame.normal).normalized();
   frame.t2 = frame.normal.cross(frame.t1);
   frame.point = centre;
