@@ -1,11 +1,10 @@
 // A legged vehicle in ODE (issue 24, first stage: it stands): every leg link a body, each joint
 // an ODE hinge driven by an explicit PD with the actuator's torque and speed limits, the feet on
 // the soil through the same plate contact as a hull's belly (terrain.trackContact, no sprocket),
-// the trunk's box corners on the ground when it has fallen. README.md ("Legged vehicles") says why.
+// the trunk's box corners on the ground when it has fallen. docs/design/legged.md says why.
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -104,7 +103,6 @@ private:
   std::vector<Eigen::Vector3d> corners_;                 ///< m, the trunk's box corners in the trunk body's frame
   std::vector<Leg> legs_;
   VehicleState state_;
-  DriveCommand command_;
 };
 
 LumpedBody lumpOf(const VehicleModel& model, const std::vector<std::string>& links)
@@ -117,10 +115,8 @@ LumpedBody lumpOf(const VehicleModel& model, const std::vector<std::string>& lin
 }
 
 dBodyID makeBody(dWorldID world, const LumpedBody& lumped, const Eigen::Isometry3d& motion,
-                 const Eigen::Isometry3d& pose, const std::string& what, const std::string& yaml)
+                 const Eigen::Isometry3d& pose)
 {
-  if (!(lumped.mass > 0.0))
-    throw ConfigError(yaml + ": " + what + " has no mass in the URDF (every leg link needs an <inertial>)");
   dBodyID body = dBodyCreate(world);
   // The body's axes are base_link's at rest moved with the link: its inertia about its centre
   // of mass in them is the rest pose's in base_link axes.
@@ -135,18 +131,37 @@ LeggedVehicle::LeggedVehicle(dWorldID world, const VehicleModel& model, const Ei
                              const std::string& name, const WorldOptions& options)
   : world_(world), model_(model), name_(name), options_(options)
 {
+  // Everything that can refuse the model first: nothing is in the world when it throws.
   std::vector<std::string> leg_links;
   for (const LegSpec& l : model_.legs)
-  {
     leg_links.insert(leg_links.end(), { l.links[0], l.links[1], l.links[2], l.foot_link });
-  }
   std::vector<std::string> trunk_links;
   for (const Body& b : model_.bodies)
     if (std::find(leg_links.begin(), leg_links.end(), b.link) == leg_links.end())
       trunk_links.push_back(b.link);
   const LumpedBody trunk = lumpOf(model_, trunk_links);
+  std::vector<std::array<LumpedBody, 3>> parts;
+  std::vector<LegAngles> stances;
+  for (const LegSpec& spec : model_.legs)
+  {
+    stances.push_back(stanceAngles(model_, spec));
+    const std::vector<std::string> links[3] = { { spec.links[0] },
+                                                { spec.links[1] },
+                                                { spec.links[2], spec.foot_link } };
+    parts.emplace_back();
+    for (int k = 0; k < 3; ++k)
+    {
+      parts.back()[k] = lumpOf(model_, links[k]);
+      if (!(parts.back()[k].mass > 0.0))
+        throw ConfigError(model_.yaml_path + ": leg '" + spec.name + "' link '" + spec.links[k] +
+                          "' has no mass in the URDF (every leg link needs an <inertial>)");
+    }
+  }
+  if (!(trunk.mass > 0.0))
+    throw ConfigError(model_.yaml_path + ": the trunk has no mass in the URDF");
+
   trunk_com_ = trunk.com;
-  trunk_ = makeBody(world_, trunk, Eigen::Isometry3d::Identity(), pose, "the trunk", model_.yaml_path);
+  trunk_ = makeBody(world_, trunk, Eigen::Isometry3d::Identity(), pose);
   for (const CollisionBox& box : model_.collision_boxes)
     for (int c = 0; c < 8; ++c)
     {
@@ -154,23 +169,19 @@ LeggedVehicle::LeggedVehicle(dWorldID world, const VehicleModel& model, const Ei
       corners_.push_back(box.pose * corner.cwiseProduct(box.size) - trunk_com_);
     }
 
-  legs_.reserve(model_.legs.size());  // Foot holds a GroundContact: no moves after the bodies are made
-  for (const LegSpec& spec : model_.legs)
+  legs_.reserve(model_.legs.size());  // the feet's joint feedback is registered by address each step
+  for (std::size_t l = 0; l < model_.legs.size(); ++l)
   {
+    const LegSpec& spec = model_.legs[l];
     Leg leg;
     leg.spec = &spec;
-    leg.stance = stanceAngles(model_, spec);
+    leg.stance = stances[l];
     const LegPose at = legForward(spec, leg.stance);
-    const std::vector<std::string> parts[3] = { { spec.links[0] },
-                                                { spec.links[1] },
-                                                { spec.links[2], spec.foot_link } };
     dBodyID parent = trunk_;
     for (int k = 0; k < 3; ++k)
     {
-      const LumpedBody lumped = lumpOf(model_, parts[k]);
-      leg.masses[k] = lumped.mass;
-      leg.bodies[k] = makeBody(world_, lumped, at.motion[k], pose,
-                               "leg '" + spec.name + "' link '" + spec.links[k] + "'", model_.yaml_path);
+      leg.masses[k] = parts[l][k].mass;
+      leg.bodies[k] = makeBody(world_, parts[l][k], at.motion[k], pose);
       // The joint rides on its parent: its anchor and axis where the parent's motion puts them.
       const Eigen::Isometry3d parent_motion = k == 0 ? Eigen::Isometry3d::Identity() : at.motion[k - 1];
       const Eigen::Vector3d anchor = pose * (parent_motion * spec.anchors[k]);
@@ -189,6 +200,11 @@ LeggedVehicle::LeggedVehicle(dWorldID world, const VehicleModel& model, const Ei
     leg.foot.local = rotationOf(leg.bodies[2]).transpose() * (foot_world - shank);
     leg.q = leg.stance;
     legs_.push_back(std::move(leg));
+    for (int k = 0; k < 3; ++k)
+      state_.joints.push_back(LegJointState{ spec.joints[k] });
+    FootState foot;
+    foot.leg = spec.name;
+    state_.feet.push_back(foot);
   }
   state_.name = name_;
   afterStep(0.0, false);
@@ -211,7 +227,6 @@ void LeggedVehicle::setCommand(const DriveCommand& command)
     throw CommandError("vehicle '" + name_ +
                        "' is legged: it stands (a gait controller driven by cmd_vel is issue 24's next stage); "
                        "throttle and steering must be 0");
-  command_ = command;
   state_.command = command;
 }
 
@@ -337,30 +352,33 @@ void LeggedVehicle::afterStep(double time, bool stepped)
   dBodyGetMass(trunk_, &m);
   Eigen::Vector3d weighted = m.mass * x;
   double total = m.mass;
-  state_.joints.clear();
-  state_.feet.clear();
-  for (Leg& leg : legs_)
+  for (std::size_t l = 0; l < legs_.size(); ++l)
   {
+    Leg& leg = legs_[l];
     for (int k = 0; k < 3; ++k)
     {
       leg.q[k] = leg.stance[k] + dJointGetHingeAngle(leg.hinges[k]);
       leg.qd[k] = dJointGetHingeAngleRate(leg.hinges[k]);
-      state_.joints.push_back(LegJointState{ leg.spec->joints[k], leg.q[k], leg.qd[k], leg.torque[k] });
+      LegJointState& js = state_.joints[3 * l + k];
+      js.position = leg.q[k];
+      js.velocity = leg.qd[k];
+      js.effort = leg.torque[k];
       dBodyGetMass(leg.bodies[k], &m);
       weighted += m.mass * vec(dBodyGetPosition(leg.bodies[k]));
       total += m.mass;
     }
     Foot& f = leg.foot;
-    FootState fs;
-    fs.leg = leg.spec->name;
+    FootState& fs = state_.feet[l];
     fs.position = vec(dBodyGetPosition(leg.bodies[2])) + rotationOf(leg.bodies[2]) * f.local;
+    fs.in_contact = f.contact;
+    fs.normal_force = fs.applied_normal_force = fs.sinkage = fs.pressure = fs.slip_velocity = 0.0;
+    fs.contact_points = 0;
     if (f.contact)
     {
       dVector3 pv;
       dBodyGetPointVel(leg.bodies[2], f.point.x(), f.point.y(), f.point.z(), pv);
       if (stepped)
         f.ground.finish(vec(pv));
-      fs.in_contact = true;
       fs.normal_force = f.ground.normalForce();
       fs.applied_normal_force = stepped ? f.feedback.f1[2] : 0.0;
       fs.sinkage = f.soil.sinkage;
@@ -370,7 +388,6 @@ void LeggedVehicle::afterStep(double time, bool stepped)
       fs.slip_velocity = slide.norm();
       fs.contact_points = f.soil.contact_points;
     }
-    state_.feet.push_back(fs);
   }
   state_.centre_of_mass = weighted / total;
   if (!state_.fallen)

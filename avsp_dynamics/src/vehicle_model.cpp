@@ -208,8 +208,7 @@ Eigen::Isometry3d toIsometry(const urdf::Pose& p)
 /// hydraulic leg's knee); joints.*.max_speed 0.1 to 100 rad/s.
 constexpr Range kJointTorque{ 1e-3, 1e4, " N m" };
 constexpr Range kJointSpeed{ 0.1, 100.0, " rad/s" };
-/// joints.*.stiffness and damping (the joint PD): the explicit step must stay stable on a toy's
-/// link as on a heavy one; the loader checks the ratio to the leg's inertia at build time too.
+/// joints.*.stiffness and damping (the joint PD): a toy servo's up to a heavy hydraulic leg's.
 constexpr Range kJointStiffness{ 1e-3, 1e6, " N m/rad" };
 constexpr Range kJointDamping{ 0.0, 1e4, " N m s/rad" };
 /// stance.height: a toy's 5 cm up to 5 m; feet.pad_size 5 mm to 1 m.

@@ -28,11 +28,7 @@ namespace
 const std::string kConfigDir = AVSP_VEHICLE_CONFIG_DIR;
 constexpr double kG = 9.81;
 
-const terrain::SoilLibrary& soils()
-{
-  static const terrain::SoilLibrary lib = terrain::SoilLibrary::load(AVSP_SOILS_YAML);
-  return lib;
-}
+using test::soils;
 
 const VehicleModel& quadruped()
 {
