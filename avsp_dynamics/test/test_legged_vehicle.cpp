@@ -159,6 +159,48 @@ TEST(LeggedVehicle, StandsStillForSixtySecondsOnGravelAndAsphalt)
   }
 }
 
+// Where users put it: at 0.5, 1 and 2 ms physics steps, set down 5 cm above gravel (a drop), and
+// standing across and along a 10 degree gravel slope: it lands and stands parallel to the ground,
+// base_link its stance height from it (5 mm), within 1 cm of where it settled over 10 s.
+TEST(LeggedVehicle, StandsAtSeveralStepsAfterADropAndOnASlope)
+{
+  const VehicleModel& m = quadruped();
+  struct Case
+  {
+    double step, clearance, slope, yaw;
+  };
+  const double slope = std::tan(10.0 * M_PI / 180.0);
+  for (const Case& c : { Case{ 0.0005, 0.0, 0.0, 0.0 }, Case{ 0.002, 0.0, 0.0, 0.0 }, Case{ 0.001, 0.05, 0.0, 0.0 },
+                         Case{ 0.001, 0.0, slope, 0.0 }, Case{ 0.001, 0.0, slope, M_PI / 2.0 } })
+  {
+    const std::size_t n = 301;
+    const double res = 0.02;
+    std::vector<float> h(n * n);
+    for (std::size_t j = 0; j < n; ++j)
+      for (std::size_t i = 0; i < n; ++i)
+        h[j * n + i] = static_cast<float>(c.slope * (-3.0 + i * res));
+    terrain::DeformableTerrain ground(terrain::ElevationGrid(-3.0, -3.0, res, res, n, n, h), soils().get("gravel"),
+                                      terrain::DeformableTerrain::Options{ true });
+    WorldOptions options;
+    options.step = c.step;
+    World world(ground, options);
+    const std::size_t id = world.addVehicle(m, world.restingPose(m, 0.0, 0.0, c.yaw, c.clearance));
+    world.advance(2.0);
+    const Eigen::Vector3d settled = world.state(id).pose.translation();
+    world.advance(10.0);
+    const VehicleState& s = world.state(id);
+    const Eigen::Vector3d at = s.pose.translation();
+    const double above = at.z() - *ground.height(at.x(), at.y());
+    std::printf("step %.1f ms, dropped %.2f m, slope %.0f deg (yaw %.2f): height %.4f m, moved %.2f mm in 10 s\n",
+                1e3 * c.step, c.clearance, std::atan(c.slope) * 180.0 / M_PI, c.yaw, above,
+                1e3 * (at - settled).norm());
+    EXPECT_FALSE(s.fallen);
+    // Parallel to the ground: stance.height along the slope's normal, 1 / cos of it vertically.
+    EXPECT_NEAR(above, m.legged.stance_height * std::sqrt(1.0 + c.slope * c.slope), 0.005);
+    EXPECT_LT((at - settled).norm(), 0.01);
+  }
+}
+
 // On dry sand (Bekker) each foot's pad sinks as Bekker's flat plate of its side b at its own soil
 // pressure, z = (p / (k_c / b + k_phi))^(1 / n), within 15 % (issue 24); the feet carry the robot's
 // weight (what ODE applies, within 2 %) and the more heavily loaded rear feet (the legs' mass hangs
